@@ -1,0 +1,91 @@
+#include "assembly/pattern.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+
+#include <omp.h>
+
+namespace peristat {
+
+TangentPattern build_pattern(const Model& model) {
+  const Index n = model.particles.size();
+  const Bonds& bonds = model.bonds;
+  const Constraints& cons = model.constraints;
+  TangentPattern pat;
+
+  // Rows of column particle p: {p} + families of p and of each neighbour of p.
+  std::vector<std::vector<Index>> rows(n);
+#pragma omp parallel
+  {
+    std::vector<char> seen(n, 0);
+#pragma omp for schedule(dynamic, 256)
+    for (Index p = 0; p < n; ++p) {
+      std::vector<Index>& r = rows[p];
+      auto add = [&](Index q) {
+        if (!seen[q]) { seen[q] = 1; r.push_back(q); }
+      };
+      add(p);
+      for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
+        const Index i = bonds.neighbour[b];
+        add(i);
+        for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c) add(bonds.neighbour[c]);
+      }
+      std::sort(r.begin(), r.end());
+      for (Index q : r) seen[q] = 0;
+    }
+  }
+
+  auto n_free_of = [&](Index q) {
+    return Index(cons.free_index[2 * q] >= 0) + Index(cons.free_index[2 * q + 1] >= 0);
+  };
+  pat.col_start.assign(n + 1, 0);
+  for (Index p = 0; p < n; ++p) pat.col_start[p + 1] = pat.col_start[p] + static_cast<Index>(rows[p].size());
+  pat.row_particle.resize(pat.col_start[n]);
+  pat.row_offset.resize(pat.col_start[n]);
+  std::vector<Index> col_nnz(n, 0);
+  int reach = 0;
+  for (Index p = 0; p < n; ++p) {
+    Index offset = 0;
+    for (std::size_t k = 0; k < rows[p].size(); ++k) {
+      const Index q = rows[p][k];
+      pat.row_particle[pat.col_start[p] + k] = q;
+      pat.row_offset[pat.col_start[p] + k] = offset;
+      offset += n_free_of(q);
+      for (int a = 0; a < 2; ++a)
+        reach = std::max(reach, std::abs(model.particles.lattice[q][a] - model.particles.lattice[p][a]));
+    }
+    col_nnz[p] = offset;
+    std::vector<Index>().swap(rows[p]);
+  }
+  pat.lattice_reach = reach;
+
+  // Free-dof matrix: the columns of particle p (one per free component) share p's rows.
+  const Index n_free = cons.n_free;
+  SparseMatrix& A = pat.matrix;
+  A.resize(n_free, n_free);
+  std::vector<Index> outer(n_free + 1, 0);
+  for (Index p = 0; p < n; ++p)
+    for (int c = 0; c < 2; ++c)
+      if (const Index col = cons.free_index[2 * p + c]; col >= 0) outer[col + 1] = col_nnz[p];
+  for (Index col = 0; col < n_free; ++col) outer[col + 1] += outer[col];
+  A.resizeNonZeros(outer[n_free]);
+  std::copy(outer.begin(), outer.end(), A.outerIndexPtr());
+  Index* inner = A.innerIndexPtr();
+#pragma omp parallel for schedule(dynamic, 256)
+  for (Index p = 0; p < n; ++p) {
+    for (int c = 0; c < 2; ++c) {
+      const Index col = cons.free_index[2 * p + c];
+      if (col < 0) continue;
+      Index pos = outer[col];
+      for (Index k = pat.col_start[p]; k < pat.col_start[p + 1]; ++k) {
+        const Index q = pat.row_particle[k];
+        for (int d = 0; d < 2; ++d)
+          if (const Index row = cons.free_index[2 * q + d]; row >= 0) inner[pos++] = row;
+      }
+    }
+  }
+  std::fill(A.valuePtr(), A.valuePtr() + A.nonZeros(), 0.0);
+  return pat;
+}
+
+}  // namespace peristat

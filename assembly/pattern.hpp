@@ -1,0 +1,29 @@
+// Sparsity pattern of the tangent, built once from the bond stencils.
+// Particle p couples to every particle within two horizons through the dilatation: the
+// rows of column particle p are the union of the families of p and of its neighbours.
+#pragma once
+
+#include <vector>
+
+#include "discretisation/model.hpp"
+
+namespace peristat {
+
+/// Particle-level column structure plus the map to the free-dof matrix.
+struct TangentPattern {
+  // Column particle p couples to row particles row_particle[col_start[p] .. col_start[p+1]-1],
+  // ascending. row_offset[k] is the position, within a free-dof column of p, of the first
+  // free dof of row particle row_particle[k].
+  std::vector<Index> col_start;
+  std::vector<Index> row_particle;
+  std::vector<Index> row_offset;
+  int lattice_reach = 0;  ///< max lattice offset between coupled particles
+
+  /// The free-dof matrix (values zero), column-major, rows ascending in each column.
+  SparseMatrix matrix;
+};
+
+/// Builds the pattern. Deterministic; O(N n^2) with n the family size.
+TangentPattern build_pattern(const Model& model);
+
+}  // namespace peristat

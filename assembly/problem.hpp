@@ -1,0 +1,42 @@
+// The small interface the solvers see (STYLE.md, seam 3): residual, tangent, load factor,
+// commit. Header-only and free of physics so solvers/ never includes materials or contact.
+#pragma once
+
+#include "core/types.hpp"
+
+namespace peristat {
+
+class Problem {
+ public:
+  virtual ~Problem() = default;
+
+  /// Number of unknowns (free displacement components).
+  virtual Index n_unknowns() const = 0;
+
+  /// Sets the trial load factor: prescribed components become lambda times their value.
+  virtual void set_load_factor(double lambda) = 0;
+  virtual double load_factor() const = 0;
+
+  /// Residual r(x) = dPi/dx over the unknowns and, if K is given, the tangent dr/dx
+  /// (K must come from make_tangent(); only its values are written).
+  virtual void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) = 0;
+
+  /// Force scale of the last evaluate(): the norm of the internal forces over every
+  /// component, prescribed ones (the reactions) included. The relative residual is
+  /// ||r|| / force_scale() (docs/theory/newton.md).
+  virtual double force_scale() const = 0;
+
+  /// A matrix with the tangent's sparsity pattern (built once) and zero values.
+  virtual SparseMatrix make_tangent() const = 0;
+
+  /// True when the tangent is symmetric (a Cholesky factorisation applies).
+  virtual bool tangent_symmetric() const = 0;
+
+  /// True when the tangent does not depend on x (linear problem: factorise once).
+  virtual bool tangent_constant() const = 0;
+
+  /// Accepts x as the converged state of the current load factor (history is committed).
+  virtual void commit(const VectorXd& x) = 0;
+};
+
+}  // namespace peristat

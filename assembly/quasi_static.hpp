@@ -1,0 +1,66 @@
+// The quasi-static peridynamic problem: total energy Pi(u) = sum_i V_i W_i over the bond
+// families, prescribed components eliminated. Residual and tangent are its first and second
+// derivatives, assembled in parallel by gathering per particle (deterministic, no atomics).
+#pragma once
+
+#include <vector>
+
+#include "assembly/pattern.hpp"
+#include "assembly/problem.hpp"
+#include "discretisation/model.hpp"
+#include "materials/osb.hpp"
+
+namespace peristat {
+
+class QuasiStaticProblem final : public Problem {
+ public:
+  QuasiStaticProblem(const Model& model, const Scene& scene);
+
+  Index n_unknowns() const override { return m_model.constraints.n_free; }
+  void set_load_factor(double lambda) override;
+  double load_factor() const override { return m_lambda; }
+  void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override;
+  double force_scale() const override { return m_force_scale; }
+  SparseMatrix make_tangent() const override { return m_pattern.matrix; }
+  bool tangent_symmetric() const override { return true; }
+  bool tangent_constant() const override { return m_linear; }
+  void commit(const VectorXd& x) override;
+
+  /// Full displacement (2N, interleaved) of x at the current load factor.
+  void expand(const VectorXd& x, VectorXd& u) const;
+  /// Internal force dPi/du of every component (2N) from the last evaluate; on prescribed
+  /// components these are the reactions.
+  const VectorXd& internal_force() const { return m_force; }
+  /// Total strain energy Pi [J] of the last evaluate.
+  double energy() const { return m_energy; }
+  const Model& model() const { return m_model; }
+  const TangentPattern& pattern() const { return m_pattern; }
+  /// Seconds spent in evaluate(): kernels + residual, and tangent assembly.
+  double seconds_residual() const { return m_seconds_residual; }
+  double seconds_tangent() const { return m_seconds_tangent; }
+
+ private:
+  void compute_families(bool want_tangent);
+  void gather_forces();
+  void gather_tangent(SparseMatrix& K) const;
+
+  const Model& m_model;
+  TangentPattern m_pattern;
+  std::vector<OsbConstants> m_body_constants;  ///< per body
+  std::vector<double> m_weighted_volume;       ///< m_i (eq 4), intact bonds at the start
+  bool m_linear = false;
+  double m_lambda = 0.0;
+
+  // State of the last evaluate.
+  VectorXd m_u, m_force;
+  double m_force_scale = 0.0, m_energy = 0.0;
+  std::vector<Vec2> m_eta, m_direction, m_s;   ///< per bond
+  std::vector<double> m_t;                     ///< per bond
+  std::vector<Sym2> m_kbond;                   ///< per bond
+  std::vector<Vec2> m_s_self;                  ///< per particle: -sum_b s_b
+  std::vector<double> m_beta_volume;           ///< per particle: beta_i V_i
+  std::vector<double> m_energy_density;        ///< per particle
+  double m_seconds_residual = 0.0, m_seconds_tangent = 0.0;
+};
+
+}  // namespace peristat

@@ -1,0 +1,46 @@
+// The linear-solver seam. Method names follow Eigen (analyzePattern, factorize, solve,
+// info) so Eigen's and SuiteSparse's solvers fit behind it; a distributed backend
+// (Trilinos) will be one more implementation. Nothing here knows about physics.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include <Eigen/SparseCore>
+
+#include "core/types.hpp"
+#include "scene/scene.hpp"
+
+namespace peristat {
+
+class LinearSolver {
+ public:
+  virtual ~LinearSolver() = default;
+
+  /// Symbolic analysis of A's pattern; done once while the pattern does not change.
+  virtual void analyzePattern(const SparseMatrix& A) = 0;
+  /// Numeric factorisation (direct) or preconditioner set-up (iterative) of A.
+  virtual void factorize(const SparseMatrix& A) = 0;
+  /// Solves A x = b with the last factorised A. For iterative solvers x holds the start
+  /// value on entry.
+  virtual void solve(const VectorXd& b, VectorXd& x) = 0;
+  /// Success of the last call (Eigen::Success, NumericalIssue, NoConvergence...).
+  virtual Eigen::ComputationInfo info() const = 0;
+
+  virtual std::string name() const = 0;
+  /// True if the method needs a symmetric (positive definite) matrix.
+  virtual bool needs_symmetric() const = 0;
+  /// Krylov iterations of the last solve (0 for direct solvers).
+  virtual int iterations() const { return 0; }
+  /// Estimated relative residual of the last solve (0 for direct solvers).
+  virtual double error() const { return 0.0; }
+};
+
+/// Creates the solver named by options.type (cholmod, umfpack, klu, ldlt, cg, bicgstab).
+/// Throws InputError for an unknown name or preconditioner.
+std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& options);
+
+/// A message for a failed LinearSolver::info().
+std::string describe(Eigen::ComputationInfo info);
+
+}  // namespace peristat

@@ -1,0 +1,79 @@
+#include "solvers/load_stepping.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace peristat {
+
+namespace {
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
+RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, const Loading& loading,
+                         const LoadSteppingCallbacks& cb) {
+  RunReport run;
+  const int n = loading.steps;
+  const double nominal = 1.0 / n;
+  double lambda = problem.load_factor();
+  VectorXd trial;
+  for (int k = 1; k <= n; ++k) {
+    const double start = now();
+    const double target = static_cast<double>(k) / n;
+    StepReport step;
+    step.step = k;
+    double increment = target - lambda;
+    int halvings = 0;  // current depth below the nominal increment
+    while (lambda < target - 1e-12 * nominal) {
+      const double next = std::min(lambda + increment, target);
+      problem.set_load_factor(next);
+      if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
+      trial = x;
+      const NewtonReport r = newton.solve(trial, cb.on_iteration);
+      step.newton_iterations += r.iterations;
+      step.linear_iterations += r.linear_iterations;
+      step.factorizations += r.factorizations;
+      step.seconds_evaluate += r.seconds_evaluate;
+      step.seconds_factorize += r.seconds_factorize;
+      step.seconds_solve += r.seconds_solve;
+      step.residuals.insert(step.residuals.end(), r.residuals.begin(), r.residuals.end());
+      if (r.converged) {
+        x.swap(trial);
+        lambda = next;
+        problem.commit(x);
+        ++step.substeps;
+        step.final_residual = r.residuals.back();
+        if (halvings > 0) {  // grow back towards the nominal increment
+          --halvings;
+          increment *= 2.0;
+        }
+        continue;
+      }
+      ++step.cutbacks;
+      ++halvings;
+      problem.set_load_factor(lambda);
+      if (halvings > loading.max_cutbacks) {
+        char buf[256];
+        std::snprintf(buf, sizeof buf,
+                      "load step %d/%d did not converge at load factor %.6g after %d cut-backs "
+                      "(last attempt: %s)",
+                      k, n, next, loading.max_cutbacks, r.reason.c_str());
+        run.message = buf;
+        return run;
+      }
+      increment *= 0.5;
+      if (cb.on_cutback) cb.on_cutback(r.reason, increment);
+    }
+    step.load_factor = lambda;
+    step.wall_seconds = now() - start;
+    run.steps_done = k;
+    if (cb.on_step) cb.on_step(step, x);
+  }
+  run.completed = true;
+  run.message = "completed";
+  return run;
+}
+
+}  // namespace peristat

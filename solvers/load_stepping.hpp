@@ -1,0 +1,50 @@
+// Load stepping: N equal steps to load factor 1; a failing step is halved (up to
+// Loading::max_cutbacks times) and grown back after success. Only converged states are
+// committed and reported.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "solvers/newton.hpp"
+
+namespace peristat {
+
+/// One nominal load step k/N, possibly reached through several sub-steps.
+struct StepReport {
+  int step = 0;
+  double load_factor = 0.0;
+  int substeps = 0;
+  int cutbacks = 0;
+  int newton_iterations = 0;          ///< summed over sub-steps
+  int linear_iterations = 0;
+  int factorizations = 0;
+  std::vector<double> residuals;      ///< relative residuals of all sub-steps, in order
+  double final_residual = 0.0;
+  double seconds_evaluate = 0.0, seconds_factorize = 0.0, seconds_solve = 0.0;
+  double wall_seconds = 0.0;
+};
+
+struct RunReport {
+  bool completed = false;
+  int steps_done = 0;
+  std::string message;
+};
+
+struct LoadSteppingCallbacks {
+  /// A nominal step converged; x is its state (unknowns).
+  std::function<void(const StepReport&, const VectorXd& x)> on_step;
+  /// Start of an attempt at load factor lambda (sub-step or retry) of nominal step k.
+  std::function<void(int step, int n_steps, double lambda, int cutbacks)> on_attempt;
+  /// Every Newton iterate.
+  NewtonMonitor on_iteration;
+  /// An attempt failed and the step is cut back.
+  std::function<void(const std::string& reason, double next_increment)> on_cutback;
+};
+
+/// Runs the load steps from the committed state x (normally zero at load factor 0).
+RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, const Loading& loading,
+                         const LoadSteppingCallbacks& callbacks);
+
+}  // namespace peristat

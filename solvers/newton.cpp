@@ -1,0 +1,110 @@
+#include "solvers/newton.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+namespace peristat {
+
+namespace {
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+constexpr double kTiny = std::numeric_limits<double>::min();
+}  // namespace
+
+NewtonSolver::NewtonSolver(Problem& problem, LinearSolver& linear, const NewtonOptions& options)
+    : m_problem(problem), m_linear(linear), m_options(options), m_K(problem.make_tangent()) {}
+
+bool NewtonSolver::reuse_factor() const {
+  return m_have_factor && (m_problem.tangent_constant() || m_options.tangent == TangentKind::initial);
+}
+
+void NewtonSolver::factorize(NewtonReport& report) {
+  const double t0 = now();
+  if (!m_analyzed) {
+    m_linear.analyzePattern(m_K);
+    m_analyzed = true;
+  }
+  m_linear.factorize(m_K);
+  m_have_factor = m_linear.info() == Eigen::Success;
+  ++report.factorizations;
+  report.seconds_factorize += now() - t0;
+}
+
+NewtonReport NewtonSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
+  NewtonReport report;
+  const NewtonOptions& o = m_options;
+  auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kTiny); };
+  auto converged = [&](double norm) { return norm <= std::max(o.rtol * m_problem.force_scale(), o.atol); };
+
+  double t0 = now();
+  m_problem.evaluate(x, m_r, reuse_factor() ? nullptr : &m_K);
+  report.seconds_evaluate += now() - t0;
+  double norm = m_r.norm();
+  report.residuals.push_back(relative(norm));
+  if (monitor) monitor(0, report.residuals.back(), 0.0);
+
+  for (int it = 1;; ++it) {
+    if (!std::isfinite(norm)) {
+      report.reason = "the residual is not finite";
+      return report;
+    }
+    const bool increment_ok = o.stol <= 0.0 || report.increments.empty() || report.increments.back() <= o.stol;
+    if (converged(norm) && increment_ok) {
+      report.converged = true;
+      report.reason = "converged";
+      return report;
+    }
+    if (it > o.max_iterations) {
+      report.reason = "no convergence in " + std::to_string(o.max_iterations) + " iterations";
+      return report;
+    }
+    if (!reuse_factor()) {
+      factorize(report);
+      if (!m_have_factor) {
+        report.reason = "factorisation failed: " + describe(m_linear.info());
+        return report;
+      }
+    }
+    t0 = now();
+    m_dx.setZero(m_r.size());
+    m_linear.solve(-m_r, m_dx);
+    report.seconds_solve += now() - t0;
+    report.linear_iterations += m_linear.iterations();
+    ++report.iterations;
+    if (m_linear.info() != Eigen::Success || !m_dx.allFinite()) {
+      report.reason = "linear solve failed: " + describe(m_linear.info());
+      return report;
+    }
+
+    // Backtracking: accept alpha when ||r(x + alpha dx)|| <= (1 - 1e-4 alpha) ||r(x)||.
+    double alpha = 1.0;
+    for (int ls = 0;; ++ls) {
+      m_trial = x + alpha * m_dx;
+      t0 = now();
+      m_problem.evaluate(m_trial, m_trial_r, reuse_factor() ? nullptr : &m_K);
+      report.seconds_evaluate += now() - t0;
+      const double trial_norm = m_trial_r.norm();
+      const bool accept = !o.line_search || converged(trial_norm) ||
+                          trial_norm <= (1.0 - 1e-4 * alpha) * norm;
+      if (accept && std::isfinite(trial_norm)) {
+        norm = trial_norm;
+        break;
+      }
+      if (ls >= o.line_search_max) {
+        report.reason = "line search failed to reduce the residual (relative " +
+                        std::to_string(relative(trial_norm)) + ")";
+        return report;
+      }
+      alpha *= 0.5;
+    }
+    x.swap(m_trial);
+    m_r.swap(m_trial_r);
+    report.increments.push_back(alpha * m_dx.norm() / std::max(x.norm(), kTiny));
+    report.residuals.push_back(relative(norm));
+    if (monitor) monitor(it, report.residuals.back(), alpha);
+  }
+}
+
+}  // namespace peristat

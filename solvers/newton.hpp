@@ -1,0 +1,57 @@
+// Newton's method with backtracking line search on a Problem (docs/theory/newton.md).
+// Keeps the tangent's pattern and the symbolic factorisation across iterations and load
+// steps; factorises once per run when the tangent is constant or `tangent: initial`.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "assembly/problem.hpp"
+#include "scene/scene.hpp"
+#include "solvers/linear/linear_solver.hpp"
+
+namespace peristat {
+
+/// Outcome of one Newton solve, like Eigen's info() but with the history.
+struct NewtonReport {
+  bool converged = false;
+  std::string reason;                 ///< why it stopped (converged, max iterations, ...)
+  int iterations = 0;                 ///< linear solves performed
+  std::vector<double> residuals;      ///< relative residual at every evaluated iterate
+  std::vector<double> increments;     ///< ||dx|| / max(||x||, tiny) of each accepted update
+  int factorizations = 0;
+  int linear_iterations = 0;          ///< Krylov iterations, summed
+  double seconds_evaluate = 0.0;      ///< residual + tangent assembly
+  double seconds_factorize = 0.0;
+  double seconds_solve = 0.0;
+};
+
+/// Called after every evaluated iterate: iteration, relative residual, step length used.
+using NewtonMonitor = std::function<void(int iteration, double relative_residual, double alpha)>;
+
+class NewtonSolver {
+ public:
+  NewtonSolver(Problem& problem, LinearSolver& linear, const NewtonOptions& options);
+
+  /// Solves r(x) = 0 at the problem's current load factor, starting from x.
+  /// On failure x holds the last iterate (the caller restores its converged state).
+  NewtonReport solve(VectorXd& x, const NewtonMonitor& monitor = {});
+
+  /// Forget the factorisation (e.g. after the pattern or the active set changed).
+  void invalidate_factorization() { m_have_factor = false; }
+
+ private:
+  bool reuse_factor() const;
+  void factorize(NewtonReport& report);
+
+  Problem& m_problem;
+  LinearSolver& m_linear;
+  NewtonOptions m_options;
+  SparseMatrix m_K;
+  bool m_analyzed = false;
+  bool m_have_factor = false;
+  VectorXd m_r, m_dx, m_trial, m_trial_r;
+};
+
+}  // namespace peristat

@@ -1,0 +1,229 @@
+#include "app/commands.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <optional>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+
+#include <omp.h>
+
+#include "assembly/quasi_static.hpp"
+#include "core/error.hpp"
+#include "discretisation/model.hpp"
+#include "io/results.hpp"
+#include "solvers/load_stepping.hpp"
+
+namespace peristat {
+
+namespace {
+
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+std::vector<Override> parse_overrides(const std::vector<std::string>& assignments) {
+  std::vector<Override> out;
+  for (const std::string& a : assignments) out.push_back(parse_override(a));
+  return out;
+}
+
+/// Model size figures printed by `check` and `run` and stored in summary.json.
+struct ModelSize {
+  Index particles = 0, fictitious = 0, bonds = 0, cut_bonds = 0, unknowns = 0, prescribed = 0;
+  long long nonzeros = 0;
+  double memory_bytes = 0.0;  ///< model + bond caches + tangent (factorisation excluded)
+};
+
+ModelSize measure(const Model& model, const TangentPattern& pattern) {
+  ModelSize s;
+  const Particles& p = model.particles;
+  s.particles = p.size();
+  for (char f : p.fictitious) s.fictitious += f;
+  s.bonds = model.bonds.n_bonds() / 2;
+  s.cut_bonds = model.n_cut_bonds;
+  s.unknowns = model.constraints.n_free;
+  s.prescribed = 2 * p.size() - s.unknowns;
+  s.nonzeros = pattern.matrix.nonZeros();
+  const double per_particle = sizeof(Vec2) + 2 * sizeof(double) + sizeof(int) + 1 + 2 * sizeof(int) +
+                              4 * (sizeof(char) + sizeof(double) + sizeof(Index)) +  // constraints
+                              4 * sizeof(double) + 2 * sizeof(Vec2) + 2 * sizeof(double);  // state
+  const double per_bond = 2 * sizeof(Index) + sizeof(Vec2) + sizeof(double) +        // bonds
+                          3 * sizeof(Vec2) + sizeof(double) + 3 * sizeof(double);    // caches
+  const double matrix = s.nonzeros * (sizeof(double) + sizeof(Index)) +
+                        pattern.row_particle.size() * 2.0 * sizeof(Index);
+  s.memory_bytes = per_particle * p.size() + per_bond * model.bonds.n_bonds() + matrix;
+  return s;
+}
+
+void print_size(const ModelSize& s) {
+  std::printf("  particles      %d (%d fictitious)\n", s.particles, s.fictitious);
+  std::printf("  bonds          %d (%d cut by pre-cracks)\n", s.bonds, s.cut_bonds);
+  std::printf("  unknowns       %d (%d prescribed components)\n", s.unknowns, s.prescribed);
+  std::printf("  tangent        %lld nonzeros\n", s.nonzeros);
+  std::printf("  memory         %.1f MB for model, bonds and tangent (factorisation not included)\n",
+              s.memory_bytes / 1e6);
+}
+
+std::string json_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out;
+}
+
+std::string run_info_json(const Scene& scene, const ModelSize& s, const std::string& linear, int threads) {
+  std::ostringstream j;
+  const NewtonOptions& n = scene.solver.newton;
+  j << "{\"particles\": " << s.particles << ", \"fictitious\": " << s.fictitious << ", \"bonds\": " << s.bonds
+    << ", \"cut_bonds\": " << s.cut_bonds << ", \"unknowns\": " << s.unknowns
+    << ", \"tangent_nonzeros\": " << s.nonzeros << ", \"threads\": " << threads
+    << ", \"spacing\": " << scene.discretization.spacing
+    << ", \"horizon_factor\": " << scene.discretization.horizon_factor
+    << ", \"load_steps\": " << scene.loading.steps << ", \"solver\": {\"type\": \""
+    << json_escape(scene.solver.type) << "\", \"linear\": \"" << json_escape(linear)
+    << "\", \"newton_rtol\": " << n.rtol << ", \"newton_atol\": " << n.atol
+    << ", \"newton_max_iterations\": " << n.max_iterations << ", \"line_search\": "
+    << (n.line_search ? "true" : "false") << ", \"tangent\": \""
+    << (n.tangent == TangentKind::consistent ? "consistent" : "initial") << "\"}}";
+  return j.str();
+}
+
+ParticleTable particle_table(const Scene& scene, const Model& model) {
+  ParticleTable t;
+  const Particles& p = model.particles;
+  t.position = p.position;
+  t.volume = p.volume;
+  t.body = p.body;
+  t.fictitious.assign(p.fictitious.begin(), p.fictitious.end());
+  for (const Body& b : scene.bodies) t.body_names.push_back(b.name);
+  t.spacing = model.spacing;
+  return t;
+}
+
+}  // namespace
+
+int check_command(const std::string& scene_path, const std::vector<std::string>& overrides) {
+  const Scene scene = parse_scene(scene_path, parse_overrides(overrides));
+  const Model model = discretise(scene);
+  const TangentPattern pattern = build_pattern(model);
+  std::printf("%s: scene '%s' is valid\n", scene_path.c_str(), scene.name.c_str());
+  std::printf("  bodies         %zu, materials %zu, pre-cracks %zu, conditions %zu\n", scene.bodies.size(),
+              scene.materials.size(), scene.cracks.size(), scene.boundary.size());
+  std::printf("  spacing        %g m, horizon %g m (m = %g), %zu bonds per interior family\n",
+              model.spacing, model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
+  print_size(measure(model, pattern));
+  return exit_success;
+}
+
+int run_command(const RunArguments& args) {
+  std::vector<Override> overrides = parse_overrides(args.overrides);
+  if (!args.solver.empty()) overrides.push_back({"solver.type", args.solver});
+  const Scene scene = parse_scene(args.scene, overrides);
+  if (scene.solver.type != "newton") {
+    throw InputError(SourceLocation{scene.path, 0, "solver.type"},
+                     "'" + scene.solver.type + "' is not available in this version: expected newton");
+  }
+  if (args.threads > 0) omp_set_num_threads(args.threads);
+  const bool verbose = !args.quiet;
+  const double t_start = now();
+
+  const Model model = discretise(scene);
+  QuasiStaticProblem problem(model, scene);
+  std::unique_ptr<LinearSolver> linear = make_linear_solver(scene.solver.linear);
+  const ModelSize size = measure(model, problem.pattern());
+  const double t_model = now() - t_start;
+  if (verbose) {
+    std::printf("peristat: %s (%s)\n", scene.name.c_str(), scene.path.c_str());
+    print_size(size);
+    std::printf("  model built in %.2f s; linear solver %s, %d threads\n", t_model, linear->name().c_str(),
+                omp_get_max_threads());
+  }
+
+  const std::string out = args.out.empty() ? "results/" + scene.name : args.out;
+  ResultsWriter writer(out, scene.name, scene.text, particle_table(scene, model),
+                       run_info_json(scene, size, linear->name(), omp_get_max_threads()));
+
+  NewtonSolver newton(problem, *linear, scene.solver.newton);
+  VectorXd x = VectorXd::Zero(problem.n_unknowns());
+  VectorXd u;
+  problem.set_load_factor(0.0);
+
+  LoadSteppingCallbacks cb;
+  cb.on_attempt = [&](int k, int n, double lambda, int cutbacks) {
+    if (verbose) {
+      std::printf("step %d/%d  load factor %.6g%s\n", k, n, lambda, cutbacks ? "  (after cut-back)" : "");
+      std::fflush(stdout);
+    }
+  };
+  cb.on_iteration = [&](int it, double rel, double alpha) {
+    if (!verbose) return;
+    if (it == 0) std::printf("  newton %2d  residual %.3e\n", it, rel);
+    else std::printf("  newton %2d  residual %.3e  step %.3g\n", it, rel, alpha);
+    std::fflush(stdout);
+  };
+  cb.on_cutback = [&](const std::string& reason, double next) {
+    if (verbose) std::printf("  cut-back: %s; next increment %.4g\n", reason.c_str(), next);
+  };
+  cb.on_step = [&](const StepReport& s, const VectorXd& state) {
+    if (s.step % scene.output.every != 0 && s.step != scene.loading.steps) return;
+    problem.expand(state, u);
+    StepRecord rec;
+    rec.index = s.step;
+    rec.load_factor = s.load_factor;
+    rec.newton_iterations = s.newton_iterations;
+    rec.active_set_iterations = 0;
+    rec.residual_norm = s.final_residual;
+    rec.wall_seconds = s.wall_seconds;
+    rec.displacement = &u;
+    rec.residual_history = s.residuals;
+    rec.counts = {{"substeps", s.substeps}, {"cutbacks", s.cutbacks}, {"factorizations", s.factorizations},
+                  {"linear_iterations", s.linear_iterations}};
+    rec.timings = {{"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};
+    writer.write_step(rec);
+    if (verbose) {
+      std::printf("  converged: %d Newton iterations, %.2f s (assembly %.2f, factorisation %.2f, solves %.2f)\n",
+                  s.newton_iterations, s.wall_seconds, s.seconds_evaluate, s.seconds_factorize, s.seconds_solve);
+    }
+  };
+
+  const RunReport report = run_load_steps(problem, newton, x, scene.loading, cb);
+  if (!report.completed) {
+    writer.finish("no_convergence", report.message);
+    std::fprintf(stderr, "peristat: %s; %d converged step(s) kept in %s\n", report.message.c_str(),
+                 report.steps_done, writer.h5_path().c_str());
+    return exit_no_convergence;
+  }
+  writer.finish("completed", "completed");
+  if (verbose) std::printf("peristat: done in %.2f s; results in %s\n", now() - t_start, writer.h5_path().c_str());
+  return exit_success;
+}
+
+int probe_command(const ProbeArguments& args) {
+  if (args.points < 2) throw InputError("--points: expected at least 2, got " + std::to_string(args.points));
+  std::optional<ResultsReader> opened;
+  try {
+    opened.emplace(args.results);
+  } catch (const std::runtime_error& e) {
+    throw InputError(e.what());  // a missing or foreign file is the user's input
+  }
+  const ResultsReader& reader = *opened;
+  if (reader.steps().empty()) throw InputError(args.results + ": the file holds no converged step");
+  const int step = args.step < 0 ? reader.steps().back() : args.step;
+  const auto& steps = reader.steps();
+  if (std::find(steps.begin(), steps.end(), step) == steps.end()) {
+    throw InputError(args.results + ": --step " + std::to_string(step) + " is not in the file (steps " +
+                     std::to_string(steps.front()) + " to " + std::to_string(steps.back()) + ")");
+  }
+  const auto samples = probe_line(reader, step, Vec2(args.x0, args.y0), Vec2(args.x1, args.y1), args.points);
+  std::printf("s,x,y,ux,uy\n");
+  for (const ProbeSample& p : samples) std::printf("%.10g,%.10g,%.10g,%.10g,%.10g\n", p.s, p.x, p.y, p.ux, p.uy);
+  return exit_success;
+}
+
+}  // namespace peristat

@@ -1,0 +1,32 @@
+// The peristat commands (DESIGN.md section 3). Each returns a process exit code; input
+// errors propagate as InputError and are turned into exit code 2 by main().
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "scene/scene.hpp"
+
+namespace peristat {
+
+struct RunArguments {
+  std::string scene;
+  std::string out;                     ///< default: results/<scene name>
+  std::string solver;                  ///< --solver, empty = from the scene
+  std::vector<std::string> overrides;  ///< --set KEY=VALUE
+  bool quiet = false;
+  int threads = 0;                     ///< 0 = OpenMP default
+};
+
+int run_command(const RunArguments& args);
+int check_command(const std::string& scene_path, const std::vector<std::string>& overrides);
+
+struct ProbeArguments {
+  std::string results;
+  double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  int step = -1;     ///< -1 = last step
+  int points = 101;
+};
+int probe_command(const ProbeArguments& args);
+
+}  // namespace peristat

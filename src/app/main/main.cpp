@@ -1,0 +1,65 @@
+// peristat: quasi-static peridynamics with frictional contact. Exit codes: 0 success,
+// 1 internal error, 2 bad input or usage, 3 no convergence (DESIGN.md section 3).
+#include <cstdio>
+#include <exception>
+
+#include <CLI/CLI.hpp>
+
+#include "app/commands.hpp"
+#include "core/error.hpp"
+
+int main(int argc, char** argv) {
+  using namespace peristat;
+  CLI::App app{"peristat: quasi-static state-based peridynamics (Newton on a consistent tangent)"};
+  app.require_subcommand(1);
+
+  RunArguments run;
+  CLI::App* run_cmd = app.add_subcommand("run", "solve a scene load step by load step");
+  run_cmd->add_option("scene", run.scene, "scene file (YAML)")->required();
+  run_cmd->add_option("--out", run.out, "output directory (default results/<scene name>)");
+  run_cmd->add_option("--solver", run.solver, "newton or adr (overrides solver.type)");
+  run_cmd->add_option("--set", run.overrides, "override a scene key: --set solver.linear=umfpack")
+      ->take_all()->allow_extra_args(false);
+  run_cmd->add_flag("--quiet", run.quiet, "no progress output");
+  run_cmd->add_option("--threads", run.threads, "OpenMP threads for assembly (default: all cores)")
+      ->check(CLI::PositiveNumber);
+
+  std::string check_scene;
+  std::vector<std::string> check_overrides;
+  CLI::App* check_cmd = app.add_subcommand("check", "validate a scene and print the model size");
+  check_cmd->add_option("scene", check_scene, "scene file (YAML)")->required();
+  check_cmd->add_option("--set", check_overrides, "override a scene key")->take_all()->allow_extra_args(false);
+
+  ProbeArguments probe;
+  std::vector<double> line;
+  CLI::App* probe_cmd = app.add_subcommand("probe", "CSV line profile s,x,y,ux,uy of a results file");
+  probe_cmd->add_option("results", probe.results, "results file (.h5)")->required();
+  probe_cmd->add_option("--line", line, "X0 Y0 X1 Y1 (reference coordinates)")->expected(4)->required();
+  probe_cmd->add_option("--step", probe.step, "step number (default: last)");
+  probe_cmd->add_option("--points", probe.points, "number of samples (default 101)");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? exit_success : exit_bad_input;
+  }
+
+  try {
+    if (*run_cmd) return run_command(run);
+    if (*check_cmd) return check_command(check_scene, check_overrides);
+    if (*probe_cmd) {
+      probe.x0 = line[0];
+      probe.y0 = line[1];
+      probe.x1 = line[2];
+      probe.y1 = line[3];
+      return probe_command(probe);
+    }
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "peristat: error: %s\n", e.what());
+    return exit_bad_input;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "peristat: internal error: %s\n", e.what());
+    return exit_internal_error;
+  }
+  return exit_internal_error;
+}

@@ -1,0 +1,382 @@
+#include "discretisation/model.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace peristat {
+
+namespace {
+
+/// Area of the unit cell centred at (ci, cj) inside the disc of radius r centred at the
+/// origin (lengths in units of dx). Composite midpoint rule over x of the clipped chord;
+/// 4000 panels give an error far below 1e-8 of the cell area.
+double cell_area_in_disc(int ci, int cj, double r) {
+  const int n = 4000;
+  const double x0 = ci - 0.5, y0 = cj - 0.5, y1 = cj + 0.5;
+  double area = 0.0;
+  for (int k = 0; k < n; ++k) {
+    const double x = x0 + (k + 0.5) / n;
+    if (std::abs(x) >= r) continue;
+    const double s = std::sqrt(r * r - x * x);
+    area += std::max(0.0, std::min(y1, s) - std::max(y0, -s));
+  }
+  return area / n;
+}
+
+/// Dense index from lattice coordinates to particle number over a bounding box.
+class LatticeIndex {
+ public:
+  LatticeIndex(int i0, int j0, int i1, int j1)
+      : m_i0(i0), m_j0(j0), m_ni(i1 - i0 + 1), m_nj(j1 - j0 + 1),
+        m_cell(static_cast<std::size_t>(m_ni) * m_nj, -1) {}
+  Index at(int i, int j) const {
+    if (i < m_i0 || j < m_j0 || i >= m_i0 + m_ni || j >= m_j0 + m_nj) return -1;
+    return m_cell[static_cast<std::size_t>(i - m_i0) * m_nj + (j - m_j0)];
+  }
+  void set(int i, int j, Index p) { m_cell[static_cast<std::size_t>(i - m_i0) * m_nj + (j - m_j0)] = p; }
+
+ private:
+  int m_i0, m_j0, m_ni, m_nj;
+  std::vector<Index> m_cell;
+};
+
+struct Box {
+  Vec2 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max()};
+  Vec2 hi{-std::numeric_limits<double>::max(), -std::numeric_limits<double>::max()};
+  void add(const Vec2& p) { lo = lo.cwiseMin(p); hi = hi.cwiseMax(p); }
+};
+
+Box polygon_box(const Polygon& polygon) {
+  Box box;
+  for (const Vec2& v : polygon.vertices) box.add(v);
+  return box;
+}
+
+double cross(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+
+double distance_to_segment(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 d = b - a;
+  const double t = std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
+  return (p - (a + t * d)).norm();
+}
+
+double distance_to_boundary(const Polygon& polygon, const Vec2& p) {
+  double d = std::numeric_limits<double>::max();
+  const std::size_t n = polygon.vertices.size();
+  for (std::size_t k = 0; k < n; ++k)
+    d = std::min(d, distance_to_segment(p, polygon.vertices[k], polygon.vertices[(k + 1) % n]));
+  return d;
+}
+
+/// Builder state shared by the steps of discretise().
+class Builder {
+ public:
+  explicit Builder(const Scene& scene) : m_scene(scene), m_dx(scene.discretization.spacing) {
+    for (const auto& [name, material] : scene.materials) m_model.material_names.push_back(name);
+    Box box;
+    for (const Body& body : scene.bodies) {
+      const Box b = polygon_box(body.shape);
+      box.add(b.lo);
+      box.add(b.hi);
+    }
+    int max_layers = scene.discretization.fictitious_layers;
+    for (const BoundaryCondition& bc : scene.boundary) max_layers = std::max(max_layers, bc.layers);
+    const int pad = max_layers + 2;
+    m_index = LatticeIndex(lattice_floor(box.lo.x(), 0) - pad, lattice_floor(box.lo.y(), 1) - pad,
+                           lattice_floor(box.hi.x(), 0) + pad, lattice_floor(box.hi.y(), 1) + pad);
+  }
+
+  Model build() {
+    m_model.spacing = m_dx;
+    m_model.horizon = m_scene.discretization.horizon_factor * m_dx;
+    for (std::size_t b = 0; b < m_scene.bodies.size(); ++b) add_body(static_cast<int>(b));
+    const Index n_real = m_model.particles.size();
+    (void)n_real;
+    m_model.constraints.prescribed.clear();
+    std::vector<std::vector<Index>> selected(m_scene.boundary.size());
+    for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) selected[k] = select(m_scene.boundary[k]);
+    apply_constraints(selected);
+    m_model.stencil = make_stencil(m_scene.discretization.horizon_factor, m_dx,
+                                   m_scene.discretization.quadrature);
+    build_bonds();
+    number_unknowns();
+    return std::move(m_model);
+  }
+
+ private:
+  const Scene& m_scene;
+  double m_dx;
+  Model m_model;
+  LatticeIndex m_index{0, 0, 0, 0};
+
+  int lattice_floor(double x, int axis) const {
+    return static_cast<int>(std::floor((x - m_scene.discretization.origin[axis]) / m_dx - 0.5));
+  }
+  Vec2 lattice_point(int i, int j) const {
+    return m_scene.discretization.origin + Vec2((i + 0.5) * m_dx, (j + 0.5) * m_dx);
+  }
+
+  Index add_particle(int body, int i, int j, bool fictitious) {
+    Particles& p = m_model.particles;
+    const Index id = p.size();
+    const Material& material = m_scene.materials.at(m_scene.bodies[body].material);
+    p.position.push_back(lattice_point(i, j));
+    p.volume.push_back(m_dx * m_dx * material.thickness);
+    p.body.push_back(body);
+    p.fictitious.push_back(fictitious ? 1 : 0);
+    p.lattice.push_back({i, j});
+    m_index.set(i, j, id);
+    return id;
+  }
+
+  void add_body(int b) {
+    const Body& body = m_scene.bodies[b];
+    const Box box = polygon_box(body.shape);
+    const auto& names = m_model.material_names;
+    m_model.body_material.push_back(static_cast<int>(
+        std::find(names.begin(), names.end(), body.material) - names.begin()));
+    Index count = 0;
+    for (int i = lattice_floor(box.lo.x(), 0); i <= lattice_floor(box.hi.x(), 0) + 1; ++i) {
+      for (int j = lattice_floor(box.lo.y(), 1); j <= lattice_floor(box.hi.y(), 1) + 1; ++j) {
+        if (!inside_polygon(body.shape, lattice_point(i, j))) continue;
+        const Index other = m_index.at(i, j);
+        if (other >= 0) {
+          throw InputError(body.where, "body '" + body.name + "' overlaps body '" +
+                                           m_scene.bodies[m_model.particles.body[other]].name +
+                                           "' (they share the lattice point at " +
+                                           format_point(lattice_point(i, j)) + ")");
+        }
+        add_particle(b, i, j, false);
+        ++count;
+      }
+    }
+    if (count == 0) {
+      throw InputError(body.where, "body '" + body.name +
+                                       "' contains no lattice point: it is smaller than the spacing "
+                                       "discretization.spacing = " + std::to_string(m_dx));
+    }
+  }
+
+  static std::string format_point(const Vec2& p) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "(%.6g, %.6g)", p.x(), p.y());
+    return buf;
+  }
+
+  /// The particle at lattice point (i, j) as a fictitious particle of `body`, created if
+  /// absent. Throws when the point belongs to something else.
+  Index fictitious_at(const BoundaryCondition& bc, int body, int i, int j) {
+    const Index existing = m_index.at(i, j);
+    if (existing < 0) return add_particle(body, i, j, true);
+    const Particles& p = m_model.particles;
+    if (p.body[existing] == body && p.fictitious[existing]) return existing;
+    throw InputError(bc.where, "the fictitious layers of this condition overlap body '" +
+                                   m_scene.bodies[p.body[existing]].name + "' at " +
+                                   format_point(p.position[existing]));
+  }
+
+  std::vector<Index> select(const BoundaryCondition& bc) {
+    const auto it = std::find_if(m_scene.bodies.begin(), m_scene.bodies.end(),
+                                 [&](const Body& b) { return b.name == bc.body; });
+    const int body = static_cast<int>(it - m_scene.bodies.begin());
+    const Polygon& shape = it->shape;
+    std::vector<Index> chosen;
+    const double eps = 1e-9 * m_dx;
+    if (bc.selector == BoundaryCondition::Selector::region) {
+      const Particles& p = m_model.particles;
+      for (Index q = 0; q < p.size(); ++q) {
+        if (p.body[q] != body || p.fictitious[q]) continue;
+        const Vec2& x = p.position[q];
+        if ((x.array() >= bc.lo.array() - eps).all() && (x.array() <= bc.hi.array() + eps).all())
+          chosen.push_back(q);
+      }
+    } else {
+      const double depth = bc.layers * m_dx;
+      Box box = polygon_box(shape);
+      const std::size_t n = shape.vertices.size();
+      Vec2 a = Vec2::Zero(), b = Vec2::Zero();
+      if (bc.selector == BoundaryCondition::Selector::edge) {
+        a = shape.vertices[bc.edge];
+        b = shape.vertices[(bc.edge + 1) % n];
+      }
+      const Vec2 tangent = (b - a).normalized();
+      const Vec2 outward(tangent.y(), -tangent.x());  // counter-clockwise polygon
+      const double length = (b - a).norm();
+      for (int i = lattice_floor(box.lo.x() - depth, 0) - 1; i <= lattice_floor(box.hi.x() + depth, 0) + 1; ++i) {
+        for (int j = lattice_floor(box.lo.y() - depth, 1) - 1; j <= lattice_floor(box.hi.y() + depth, 1) + 1; ++j) {
+          const Vec2 x = lattice_point(i, j);
+          if (inside_polygon(shape, x)) continue;
+          bool take = false;
+          if (bc.selector == BoundaryCondition::Selector::edge) {
+            const double d = outward.dot(x - a);
+            const double t = tangent.dot(x - a);
+            take = d > 0.0 && d <= depth + eps && t >= -eps && t <= length + eps;
+          } else {
+            take = distance_to_boundary(shape, x) <= depth + eps;
+          }
+          if (take) chosen.push_back(fictitious_at(bc, body, i, j));
+        }
+      }
+    }
+    if (chosen.empty()) {
+      throw InputError(bc.where, "this condition selects no particle of body '" + bc.body +
+                                     "' (check the edge, region or layers)");
+    }
+    return chosen;
+  }
+
+  void apply_constraints(const std::vector<std::vector<Index>>& selected) {
+    Constraints& c = m_model.constraints;
+    const Index n = m_model.particles.size();
+    c.prescribed.assign(2 * static_cast<std::size_t>(n), 0);
+    c.value.assign(2 * static_cast<std::size_t>(n), 0.0);
+    std::vector<int> owner(2 * static_cast<std::size_t>(n), -1);
+    for (std::size_t k = 0; k < selected.size(); ++k) {
+      const BoundaryCondition& bc = m_scene.boundary[k];
+      for (Index q : selected[k]) {
+        for (int comp = 0; comp < 2; ++comp) {
+          const std::optional<AffineValue>& v = comp == 0 ? bc.ux : bc.uy;
+          if (!v) continue;
+          const std::size_t dof = 2 * static_cast<std::size_t>(q) + comp;
+          if (owner[dof] >= 0) {
+            throw InputError(bc.where, std::string("prescribes u") + (comp == 0 ? "x" : "y") +
+                                           " of the particle at " +
+                                           format_point(m_model.particles.position[q]) +
+                                           ", which " + m_scene.boundary[owner[dof]].where.key +
+                                           " already prescribes");
+          }
+          owner[dof] = static_cast<int>(k);
+          c.prescribed[dof] = 1;
+          c.value[dof] = v->at(m_model.particles.position[q]);
+        }
+      }
+    }
+  }
+
+  void build_bonds() {
+    const Particles& p = m_model.particles;
+    const Stencil& s = m_model.stencil;
+    Bonds& bonds = m_model.bonds;
+    const Index n = p.size();
+    const double reach = m_model.horizon + m_dx;
+    // Cracks near each particle: the crack's box grown by the stencil reach.
+    bonds.start.assign(n + 1, 0);
+    for (Index i = 0; i < n; ++i) {
+      std::vector<const Crack*> near;
+      for (const Crack& crack : m_scene.cracks) {
+        const Vec2 lo = crack.a.cwiseMin(crack.b).array() - reach;
+        const Vec2 hi = crack.a.cwiseMax(crack.b).array() + reach;
+        if ((p.position[i].array() >= lo.array()).all() && (p.position[i].array() <= hi.array()).all())
+          near.push_back(&crack);
+      }
+      for (std::size_t k = 0; k < s.offset.size(); ++k) {
+        const Index j = m_index.at(p.lattice[i][0] + s.offset[k][0], p.lattice[i][1] + s.offset[k][1]);
+        if (j < 0 || p.body[j] != p.body[i]) continue;
+        const bool cut = std::any_of(near.begin(), near.end(), [&](const Crack* c) {
+          return bond_crosses_crack(p.position[i], p.position[j], c->a, c->b);
+        });
+        if (cut) {
+          if (i < j) ++m_model.n_cut_bonds;
+          continue;
+        }
+        bonds.neighbour.push_back(j);
+        bonds.xi.push_back(p.position[j] - p.position[i]);
+        bonds.weight.push_back(s.weight[k]);
+      }
+      bonds.start[i + 1] = static_cast<Index>(bonds.neighbour.size());
+    }
+    // Reverse bonds: neighbours are in stencil order, so search the family of j.
+    bonds.reverse.assign(bonds.neighbour.size(), -1);
+    for (Index i = 0; i < n; ++i) {
+      for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
+        const Index j = bonds.neighbour[b];
+        for (Index r = bonds.start[j]; r < bonds.start[j + 1]; ++r) {
+          if (bonds.neighbour[r] == i) { bonds.reverse[b] = r; break; }
+        }
+        PERISTAT_ASSERT(bonds.reverse[b] >= 0);
+      }
+    }
+  }
+
+  void number_unknowns() {
+    Constraints& c = m_model.constraints;
+    c.free_index.assign(c.prescribed.size(), -1);
+    Index next = 0;
+    for (std::size_t d = 0; d < c.prescribed.size(); ++d)
+      if (!c.prescribed[d]) c.free_index[d] = next++;
+    c.n_free = next;
+  }
+};
+
+}  // namespace
+
+Stencil make_stencil(double horizon_factor, double spacing, Quadrature quadrature) {
+  Stencil s;
+  const double r = horizon_factor;
+  const int reach = static_cast<int>(std::ceil(r + 0.5));
+  std::vector<double> fraction;
+  for (int i = -reach; i <= reach; ++i) {
+    for (int j = -reach; j <= reach; ++j) {
+      if (i == 0 && j == 0) continue;
+      double f = 0.0;
+      if (quadrature == Quadrature::full) {
+        f = (i * i + j * j <= r * r * (1.0 + 1e-12)) ? 1.0 : 0.0;
+      } else {
+        f = cell_area_in_disc(i, j, r);
+      }
+      if (f <= 1e-12) continue;
+      s.offset.push_back({i, j});
+      fraction.push_back(f);
+      s.reach = std::max({s.reach, std::abs(i), std::abs(j)});
+    }
+  }
+  // Fourth-harmonic correction: weights f (1 + beta cos 4 phi) with beta chosen so that
+  // sum f (1 + beta cos 4phi) |xi|^2 cos 4phi = 0, which makes the fourth moments of the
+  // bond direction isotropic (docs/theory/osb.md, "Quadrature").
+  if (quadrature == Quadrature::isotropic) {
+    double num = 0.0, den = 0.0;
+    for (std::size_t k = 0; k < s.offset.size(); ++k) {
+      const double x = s.offset[k][0], y = s.offset[k][1];
+      const double r2 = x * x + y * y;
+      const double c4 = std::cos(4.0 * std::atan2(y, x));
+      num += fraction[k] * r2 * c4;
+      den += fraction[k] * r2 * c4 * c4;
+    }
+    s.beta = den > 0.0 ? -num / den : 0.0;
+  }
+  const double cell = spacing * spacing;
+  for (std::size_t k = 0; k < s.offset.size(); ++k) {
+    const double c4 = std::cos(4.0 * std::atan2(double(s.offset[k][1]), double(s.offset[k][0])));
+    s.weight.push_back(cell * fraction[k] * (1.0 + s.beta * c4));
+  }
+  return s;
+}
+
+bool bond_crosses_crack(const Vec2& p, const Vec2& q, const Vec2& a, const Vec2& b) {
+  // A point on the crack line counts as lying on its left (non-negative) side, so a
+  // particle exactly on the crack is on one face, never on both.
+  const Vec2 d = b - a;
+  const double sp = cross(d, p - a), sq = cross(d, q - a);
+  if ((sp >= 0.0) == (sq >= 0.0)) return false;
+  const Vec2 x = p + (q - p) * (sp / (sp - sq));  // crossing with the crack line
+  const double u = (x - a).dot(d) / d.squaredNorm();
+  return u >= 0.0 && u <= 1.0;
+}
+
+bool inside_polygon(const Polygon& polygon, const Vec2& p) {
+  bool inside = false;
+  const std::size_t n = polygon.vertices.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    Vec2 a = polygon.vertices[k], b = polygon.vertices[(k + 1) % n];
+    if (a.y() > b.y()) std::swap(a, b);  // canonical order: identical arithmetic for shared edges
+    if (!(a.y() <= p.y() && p.y() < b.y())) continue;
+    if (cross(b - a, p - a) > 0.0) inside = !inside;  // the edge crosses the ray p + t e_x, t > 0
+  }
+  return inside;
+}
+
+Model discretise(const Scene& scene) { return Builder(scene).build(); }
+
+}  // namespace peristat

@@ -1,0 +1,80 @@
+// The discrete model: particles on a uniform lattice, bond families (CSR), prescribed
+// components. Built once from a Scene by discretise(); no physics here.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "core/types.hpp"
+#include "scene/scene.hpp"
+
+namespace peristat {
+
+/// Particles of every body, real and fictitious. Lattice point (i, j) sits at
+/// origin + ((i + 1/2) dx, (j + 1/2) dx).
+struct Particles {
+  std::vector<Vec2> position;              ///< reference position X
+  std::vector<double> volume;              ///< dx^2 * thickness [m^3]
+  std::vector<int> body;                   ///< index into Scene::bodies
+  std::vector<char> fictitious;            ///< 1 for fictitious boundary-layer particles
+  std::vector<std::array<int, 2>> lattice; ///< integer lattice coordinates
+  Index size() const { return static_cast<Index>(position.size()); }
+};
+
+/// The bond stencil of the uniform lattice: lattice offsets inside the horizon and the area
+/// weight of each (docs/theory/osb.md, "Quadrature").
+struct Stencil {
+  std::vector<std::array<int, 2>> offset;
+  std::vector<double> weight;  ///< area of the neighbour cell seen from the centre [m^2]
+  int reach = 0;               ///< max |offset component|
+  double beta = 0.0;           ///< the fourth-harmonic correction used (isotropic quadrature)
+};
+
+Stencil make_stencil(double horizon_factor, double spacing, Quadrature quadrature);
+
+/// Bond families in CSR form: the bonds of particle i are start[i] .. start[i+1]-1.
+/// Bonds are symmetric: reverse[b] is the index of the bond j -> i for b = i -> j.
+struct Bonds {
+  std::vector<Index> start;
+  std::vector<Index> neighbour;
+  std::vector<Vec2> xi;          ///< reference bond vector X_j - X_i
+  std::vector<double> weight;    ///< quadrature area of the neighbour [m^2]
+  std::vector<Index> reverse;
+  Index n_bonds() const { return static_cast<Index>(neighbour.size()); }
+  Index family_size(Index i) const { return start[i + 1] - start[i]; }
+};
+
+/// Prescribed displacement components: dof 2p + c (c = 0 for x, 1 for y).
+struct Constraints {
+  std::vector<char> prescribed;     ///< 2N flags
+  std::vector<double> value;        ///< 2N values at load factor 1
+  std::vector<Index> free_index;    ///< 2N: index among the unknowns, or -1 if prescribed
+  Index n_free = 0;
+};
+
+struct Model {
+  Particles particles;
+  Stencil stencil;
+  Bonds bonds;
+  Constraints constraints;
+  double spacing = 0.0;
+  double horizon = 0.0;
+  Index n_cut_bonds = 0;         ///< bonds removed by pre-cracks (counted once per pair)
+  std::vector<int> body_material;  ///< body index -> index into material_names
+  std::vector<std::string> material_names;
+};
+
+/// Builds the model. Throws InputError (with the condition's or body's location) when
+/// bodies overlap, a condition selects no particle, or two conditions prescribe the same
+/// component of one particle.
+Model discretise(const Scene& scene);
+
+/// True when segment [p, q] crosses the crack [a, b] (docs/theory/osb.md, "Pre-cracks").
+bool bond_crosses_crack(const Vec2& p, const Vec2& q, const Vec2& a, const Vec2& b);
+
+/// Crossing-number point-in-polygon test with a half-open rule, so a lattice point on an
+/// edge shared by two polygons belongs to exactly one of them.
+bool inside_polygon(const Polygon& polygon, const Vec2& p);
+
+}  // namespace peristat

@@ -1,0 +1,95 @@
+#include "materials/osb.hpp"
+
+#include <cmath>
+
+namespace peristat {
+
+OsbConstants OsbConstants::from(const Material& material) {
+  const double E = material.E, nu = material.nu;
+  OsbConstants k;
+  k.mu = E / (2.0 * (1.0 + nu));
+  const double bulk = E / (3.0 * (1.0 - 2.0 * nu));
+  // eq 8: k' = k + mu (nu + 1)^2 / (9 (2 nu - 1)^2)
+  k.k_prime = bulk + k.mu * (nu + 1.0) * (nu + 1.0) / (9.0 * (2.0 * nu - 1.0) * (2.0 * nu - 1.0));
+  // eq 3: theta = 2 (2 nu - 1) / (nu - 1) * (omega x . e) / m
+  k.c = 2.0 * (2.0 * nu - 1.0) / (nu - 1.0);
+  k.kinematics = material.kinematics;
+  return k;
+}
+
+double weighted_volume(std::span<const Vec2> xi, std::span<const double> weight) {
+  double m = 0.0;
+  for (std::size_t b = 0; b < xi.size(); ++b) m += xi[b].squaredNorm() * weight[b];
+  return m;
+}
+
+FamilyResult osb_family(const OsbConstants& material, double m, std::span<const Vec2> xi,
+                        std::span<const double> weight, std::span<const Vec2> eta,
+                        const FamilyOutputs& out, bool want_tangent) {
+  FamilyResult result;
+  const std::size_t n = xi.size();
+  if (n == 0 || m <= 0.0) {
+    return result;  // an isolated particle carries no bond energy
+  }
+  const bool finite = material.kinematics == Kinematics::finite;
+  const double alpha = 8.0 * material.mu / m;  // eq 8
+  const double cm = material.c / m;
+
+  // Pass 1: extensions (kept temporarily in t), directions, dilatation (eq 3).
+  double sum_bxe = 0.0;
+  for (std::size_t b = 0; b < n; ++b) {
+    const double x = xi[b].norm();
+    double e;
+    if (finite) {
+      const Vec2 y = xi[b] + eta[b];
+      const double ylen = y.norm();
+      out.direction[b] = y / ylen;
+      e = ylen - x;
+    } else {
+      out.direction[b] = xi[b] / x;
+      e = out.direction[b].dot(eta[b]);
+    }
+    out.t[b] = e;
+    sum_bxe += weight[b] * x * e;
+  }
+  const double theta = cm * sum_bxe;
+
+  // Pass 2: deviatoric extensions (eq 6) and (omega e^d) . x.
+  double sum_bxed = 0.0, sum_ed2 = 0.0;
+  for (std::size_t b = 0; b < n; ++b) {
+    const double x = xi[b].norm();
+    const double ed = out.t[b] - theta * x / 3.0;
+    sum_bxed += weight[b] * x * ed;
+    sum_ed2 += weight[b] * ed * ed;
+  }
+  result.theta = theta;
+  result.energy_density = 0.5 * material.k_prime * theta * theta + 0.5 * alpha * sum_ed2;  // eq 5
+
+  // Pass 3: force state (eqs 9-10), dW/de_b = w_b [c (k' theta - alpha/3 (omega e^d).x) x / m
+  // + alpha e^d_b], and on request the tangent pieces.
+  const double scalar = cm * (material.k_prime * theta - alpha / 3.0 * sum_bxed);
+  result.beta = cm * cm * (material.k_prime + alpha * m / 9.0) - 2.0 * alpha * cm / 3.0;
+  for (std::size_t b = 0; b < n; ++b) {
+    const double x = xi[b].norm();
+    const double e = out.t[b];
+    const double ed = e - theta * x / 3.0;
+    const double t = weight[b] * (scalar * x + alpha * ed);
+    out.t[b] = t;
+    if (!want_tangent) continue;
+    const Vec2& M = out.direction[b];
+    out.s[b] = weight[b] * x * M;
+    const double a = alpha * weight[b];
+    Sym2 k{a * M.x() * M.x(), a * M.x() * M.y(), a * M.y() * M.y()};
+    if (finite) {
+      // Geometric part: t/y (I - M M^T), y = |xi + eta| = x + e.
+      const double g = t / (x + e);
+      k[0] += g * (1.0 - M.x() * M.x());
+      k[1] -= g * M.x() * M.y();
+      k[2] += g * (1.0 - M.y() * M.y());
+    }
+    out.k_bond[b] = k;
+  }
+  return result;
+}
+
+}  // namespace peristat

@@ -1,0 +1,58 @@
+// Plane-stress ordinary state-based peridynamics (Le et al. 2014; paper eqs 3-10) as a
+// family kernel: one particle's bonds in, energy density, force state and tangent out.
+// No global numbering, no options. Derivations: docs/theory/osb.md.
+#pragma once
+
+#include <array>
+#include <span>
+
+#include "core/types.hpp"
+#include "scene/scene.hpp"
+
+namespace peristat {
+
+/// Material constants of eqs 3 and 8, influence function omega = 1.
+struct OsbConstants {
+  double k_prime = 0.0;  ///< k' = k + mu (nu+1)^2 / (9 (2nu-1)^2), k = E / (3 (1 - 2nu))
+  double mu = 0.0;       ///< shear modulus E / (2 (1 + nu)); alpha = 8 mu / m
+  double c = 0.0;        ///< dilatation factor 2 (2nu - 1) / (nu - 1) of eq 3
+  Kinematics kinematics = Kinematics::finite;
+
+  static OsbConstants from(const Material& material);
+};
+
+/// Symmetric 2x2 block stored as (xx, xy, yy).
+using Sym2 = std::array<double, 3>;
+
+/// Outputs of one family, written into caller-owned arrays of the family's size.
+struct FamilyOutputs {
+  std::span<double> t;          ///< dW/de_b: scalar force state times bond weight [Pa m^2 / m]
+  std::span<Vec2> direction;    ///< M_b: unit current bond direction (reference one if small)
+  std::span<Vec2> s;            ///< b_b M_b with b_b = omega w_b |xi_b| (rank-one vectors)
+  std::span<Sym2> k_bond;       ///< alpha omega w_b M M^T + (t_b / y_b)(I - M M^T) (finite only)
+};
+
+struct FamilyResult {
+  double energy_density = 0.0;  ///< W (eq 5) [J/m^3]
+  double theta = 0.0;           ///< dilatation (eq 3)
+  double beta = 0.0;            ///< coefficient of the rank-one tangent term
+};
+
+/// Weighted volume m = sum omega |xi|^2 w (eq 4), over the bonds given.
+double weighted_volume(std::span<const Vec2> xi, std::span<const double> weight);
+
+/// Evaluates one family. Inputs: reference bond vectors xi, quadrature weights w (area),
+/// relative displacements eta_b = u_j - u_i, weighted volume m. When want_tangent is false
+/// only t and direction are written.
+///
+/// Energy W(e) = k' theta^2 / 2 + alpha/2 sum_b omega w_b (e_b - theta |xi_b| / 3)^2 with
+/// theta = (c / m) sum_b omega w_b |xi_b| e_b, e_b = |xi_b + eta_b| - |xi_b| (finite) or
+/// M0_b . eta_b (small). Its Hessian in the extensions is
+///   d2W / de_a de_b = alpha omega w_a delta_ab + beta b_a b_b,
+///   beta = (c/m)^2 (k' + alpha m / 9) - 2 alpha c / (3 m),
+/// so the tangent with respect to eta_a, eta_b is delta_ab k_bond_a + beta s_a s_b^T.
+FamilyResult osb_family(const OsbConstants& material, double m, std::span<const Vec2> xi,
+                        std::span<const double> weight, std::span<const Vec2> eta,
+                        const FamilyOutputs& out, bool want_tangent);
+
+}  // namespace peristat

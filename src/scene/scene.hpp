@@ -1,0 +1,167 @@
+// The validated description of a run: plain data, no physics.
+// parse_scene() turns a YAML scene file (plus --set overrides) into a Scene or throws
+// InputError naming file, line and key. docs/guide/scene.md documents every key.
+#pragma once
+
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+#include "core/types.hpp"
+
+namespace peristat {
+
+enum class Kinematics { finite, small };
+
+struct Material {
+  std::string name;
+  double E = 0.0;          ///< Young's modulus [Pa], > 0, required
+  double nu = 0.0;         ///< Poisson's ratio, in (-1, 0.5), required
+  double thickness = 0.0;  ///< plate thickness [m], > 0, required
+  Kinematics kinematics = Kinematics::finite;  ///< "finite" (default) or "small"
+  SourceLocation where;
+};
+
+/// A closed polygon, vertices counter-clockwise (the parser reorders clockwise input).
+/// Edge k runs from vertices[k] to vertices[(k+1) % n].
+struct Polygon {
+  std::vector<Vec2> vertices;
+};
+
+struct Body {
+  std::string name;
+  std::string material;   ///< key into Scene::materials
+  Polygon shape;
+  /// For a `rectangle:` body the edges are also named: bottom = 0, right = 1, top = 2,
+  /// left = 3 (the counter-clockwise order from the lower-left corner).
+  bool is_rectangle = false;
+  SourceLocation where;
+};
+
+/// A pre-crack: every bond whose segment crosses [a, b] is cut before the first step.
+struct Crack {
+  Vec2 a = Vec2::Zero();
+  Vec2 b = Vec2::Zero();
+  SourceLocation where;
+};
+
+/// A prescribed displacement component at load factor 1: value + grad . X (X = reference
+/// position). The applied value at load factor lambda is lambda times this.
+struct AffineValue {
+  double value = 0.0;
+  Vec2 grad = Vec2::Zero();
+  double at(const Vec2& X) const { return value + grad.dot(X); }
+};
+
+/// A prescribed-displacement condition.
+///  - selector edge: `layers` fictitious layers of particles are added outside the named
+///    edge of the body (lattice points outside the polygon, within layers*dx of the edge
+///    line, projecting inside the edge) and the given components are prescribed on them.
+///  - selector surround: fictitious particles everywhere outside the body within
+///    layers*dx of its boundary (corners included); used by patch tests.
+///  - selector region: real particles of the body inside the box [lo, hi]; no layers.
+struct BoundaryCondition {
+  enum class Selector { edge, surround, region };
+  std::string body;
+  Selector selector = Selector::edge;
+  int edge = -1;           ///< polygon edge index (selector edge)
+  std::string edge_name;   ///< as written: "left", "3", ... (for messages)
+  int layers = 3;          ///< fictitious layers (default discretization.fictitious_layers)
+  Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();  ///< selector region
+  std::optional<AffineValue> ux, uy;          ///< at least one is set
+  SourceLocation where;
+};
+
+/// How bond weights (the volume of the neighbour seen from a particle) are integrated.
+///  - isotropic (default): partial areas of the neighbour cell inside the horizon disc,
+///    corrected by a fixed factor (1 + beta cos 4 phi) so that the square-lattice stencil
+///    integrates the fourth moments of the bond direction exactly (docs/theory/osb.md).
+///  - partial: partial areas only.  - full: whole cell if its centre is inside the horizon.
+enum class Quadrature { isotropic, partial, full };
+
+struct Discretization {
+  double spacing = 0.0;           ///< dx [m], > 0, required
+  double horizon_factor = 3.0;    ///< m: delta = m * dx, >= 1
+  int fictitious_layers = 3;      ///< default layer count of edge conditions, >= 1
+  Quadrature quadrature = Quadrature::isotropic;
+  Vec2 origin = Vec2::Zero();     ///< lattice points sit at origin + (i + 1/2, j + 1/2) dx
+  SourceLocation where;
+};
+
+struct Loading {
+  int steps = 1;          ///< equal load steps to load factor 1, >= 1
+  int max_cutbacks = 6;   ///< halvings of a failing step before giving up, >= 0
+};
+
+enum class TangentKind { consistent, initial };
+
+struct NewtonOptions {
+  double rtol = 1e-10;        ///< relative residual ||r_free|| / ||f_int|| (docs/theory/newton.md)
+  double atol = 1e-14;        ///< absolute residual floor [N]
+  double stol = 0.0;          ///< increment tolerance ||du|| / ||u||; 0 = not used
+  int max_iterations = 25;
+  bool line_search = true;    ///< backtracking on the residual norm
+  int line_search_max = 8;
+  TangentKind tangent = TangentKind::consistent;  ///< initial: factorise once per run
+};
+
+struct AdrOptions {
+  double rtol = 1e-8;
+  long max_iterations = 100000;
+};
+
+/// Linear solver (key solver.linear) and its iterative settings (solver.krylov.*).
+struct LinearOptions {
+  std::string type = "cholmod";       ///< cholmod | umfpack | klu | ldlt | cg | bicgstab
+  double rtol = 1e-10;                ///< Krylov relative residual
+  int max_iterations = 2000;          ///< Krylov iteration cap
+  std::string preconditioner = "ic";  ///< diagonal | ic | ilut | local_cholmod
+};
+
+struct SolverOptions {
+  std::string type = "newton";  ///< newton | adr
+  LinearOptions linear;
+  NewtonOptions newton;
+  AdrOptions adr;
+};
+
+struct OutputOptions {
+  int every = 1;             ///< write every k-th converged step (the last is always written)
+};
+
+struct Scene {
+  std::string name;          ///< results are DIR/<name>.h5; [A-Za-z0-9_.-]+
+  std::string path;          ///< the scene file
+  std::string text;          ///< the scene as run (YAML, after --set overrides)
+  std::map<std::string, Material> materials;
+  std::vector<Body> bodies;
+  std::vector<Crack> cracks;
+  std::vector<BoundaryCondition> boundary;
+  Discretization discretization;
+  Loading loading;
+  SolverOptions solver;
+  OutputOptions output;
+};
+
+/// One --set override, "dotted.key=value"; value is parsed as YAML (scalar or flow list).
+struct Override {
+  std::string key;
+  std::string value;
+};
+
+/// Parse, apply overrides, validate. Throws InputError (file, line, key, what was expected).
+/// Geometric checks that need the lattice (a condition selecting no particle, a crack
+/// outside every body, overlapping bodies) are done by the discretisation, which also
+/// throws InputError with the condition's SourceLocation.
+Scene parse_scene(const std::string& path, const std::vector<Override>& overrides = {});
+
+/// Same from text already in memory; `path` is used in messages only.
+Scene parse_scene_text(const std::string& text, const std::string& path,
+                       const std::vector<Override>& overrides = {});
+
+/// "a.b.c=value" -> Override; throws InputError on a missing '='.
+Override parse_override(const std::string& assignment);
+
+}  // namespace peristat

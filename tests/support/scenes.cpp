@@ -1,0 +1,38 @@
+#include "support/scenes.hpp"
+
+#include <sstream>
+
+namespace peristat::test {
+
+std::string plate_yaml(const PlateSpec& s) {
+  std::ostringstream y;
+  y.precision(17);
+  y << "name: test_plate\n"
+    << "materials:\n  mat:\n    E: " << s.E << "\n    nu: " << s.nu << "\n    thickness: " << s.thickness
+    << "\n    kinematics: " << s.kinematics << "\n"
+    << "discretization:\n  spacing: " << s.dx << "\n  horizon_factor: " << s.m
+    << "\n  quadrature: " << s.quadrature << "\n"
+    << "bodies:\n  plate:\n    material: mat\n    rectangle: {min: [0, 0], max: [" << s.nx * s.dx << ", "
+    << s.ny * s.dx << "]}\n"
+    << "loading:\n  steps: " << s.steps << "\n";
+  if (!s.boundary.empty()) y << "boundary:\n" << s.boundary;
+  if (!s.cracks.empty()) y << "cracks:\n" << s.cracks;
+  if (!s.solver.empty()) y << "solver:\n" << s.solver;
+  return y.str();
+}
+
+Scene scene_from_yaml(const std::string& text) { return parse_scene_text(text, "test.yaml"); }
+
+std::string tension_boundary(double strain, const PlateSpec& s) {
+  std::ostringstream y;
+  y.precision(17);
+  const double L = s.nx * s.dx, H = s.ny * s.dx;
+  y << "  - {body: plate, edge: left, ux: 0}\n"
+    << "  - {body: plate, edge: right, ux: " << strain * L << "}\n"
+    // uy = 0 on the two real particles nearest mid-height at the left end: no rigid motion
+    << "  - {body: plate, region: {min: [0, " << 0.5 * H - s.dx << "], max: [" << s.dx << ", "
+    << 0.5 * H + s.dx << "]}, uy: 0}\n";
+  return y.str();
+}
+
+}  // namespace peristat::test
