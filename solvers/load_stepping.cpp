@@ -27,6 +27,7 @@ RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, co
     double increment = target - lambda;
     int halvings = 0;  // current depth below the nominal increment
     while (lambda < target - 1e-12 * nominal) {
+      if (!newton.has_factor()) newton.prepare(x);  // tangent of the converged state
       const double next = std::min(lambda + increment, target);
       problem.set_load_factor(next);
       if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
@@ -54,6 +55,7 @@ RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, co
       ++step.cutbacks;
       ++halvings;
       problem.set_load_factor(lambda);
+      newton.invalidate_factorization();  // the factor may belong to a diverged iterate
       if (halvings > loading.max_cutbacks) {
         char buf[256];
         std::snprintf(buf, sizeof buf,

@@ -32,14 +32,24 @@ void NewtonSolver::factorize(NewtonReport& report) {
   report.seconds_factorize += now() - t0;
 }
 
+void NewtonSolver::prepare(const VectorXd& x) {
+  const double t0 = now();
+  m_problem.evaluate(x, m_r, &m_K);
+  m_pending.seconds_evaluate += now() - t0;
+  factorize(m_pending);
+}
+
 NewtonReport NewtonSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
-  NewtonReport report;
+  NewtonReport report = m_pending;
+  m_pending = NewtonReport{};
+  // Iteration 1 uses the factor of the last converged state when there is one.
+  bool use_existing = m_have_factor;
   const NewtonOptions& o = m_options;
   auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kTiny); };
   auto converged = [&](double norm) { return norm <= std::max(o.rtol * m_problem.force_scale(), o.atol); };
 
   double t0 = now();
-  m_problem.evaluate(x, m_r, reuse_factor() ? nullptr : &m_K);
+  m_problem.evaluate(x, m_r, (reuse_factor() || use_existing) ? nullptr : &m_K);
   report.seconds_evaluate += now() - t0;
   double norm = m_r.norm();
   report.residuals.push_back(relative(norm));
@@ -60,7 +70,7 @@ NewtonReport NewtonSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
       report.reason = "no convergence in " + std::to_string(o.max_iterations) + " iterations";
       return report;
     }
-    if (!reuse_factor()) {
+    if (!reuse_factor() && !use_existing) {
       factorize(report);
       if (!m_have_factor) {
         report.reason = "factorisation failed: " + describe(m_linear.info());
@@ -73,6 +83,7 @@ NewtonReport NewtonSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
     report.seconds_solve += now() - t0;
     report.linear_iterations += m_linear.iterations();
     ++report.iterations;
+    use_existing = false;
     if (m_linear.info() != Eigen::Success || !m_dx.allFinite()) {
       report.reason = "linear solve failed: " + describe(m_linear.info());
       return report;

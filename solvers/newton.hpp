@@ -38,7 +38,14 @@ class NewtonSolver {
   /// On failure x holds the last iterate (the caller restores its converged state).
   NewtonReport solve(VectorXd& x, const NewtonMonitor& monitor = {});
 
-  /// Forget the factorisation (e.g. after the pattern or the active set changed).
+  /// Factorises the tangent at x (a converged state, at the current load factor). The
+  /// first iteration of the next solve uses this factor: the Euler predictor of the new
+  /// step is computed with the tangent of the converged state, not of the state whose
+  /// prescribed components have just jumped (docs/theory/newton.md).
+  void prepare(const VectorXd& x);
+  /// True when a factor usable for the first iteration of the next solve exists.
+  bool has_factor() const { return m_have_factor; }
+  /// Forget the factorisation (after a failed solve, or when the pattern changed).
   void invalidate_factorization() { m_have_factor = false; }
 
  private:
@@ -51,6 +58,7 @@ class NewtonSolver {
   SparseMatrix m_K;
   bool m_analyzed = false;
   bool m_have_factor = false;
+  NewtonReport m_pending;  ///< work of prepare(), added to the next report
   VectorXd m_r, m_dx, m_trial, m_trial_r;
 };
 
