@@ -49,6 +49,13 @@ void QuasiStaticProblem::expand(const VectorXd& x, VectorXd& u) const {
     u[d] = c.prescribed[d] ? m_lambda * c.value[d] : x[c.free_index[d]];
 }
 
+Mat2 QuasiStaticProblem::stress(Index i) const {
+  const Bonds& bonds = m_model.bonds;
+  Mat2 P = Mat2::Zero();
+  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) P += m_t[b] * m_direction[b] * bonds.xi[b].transpose();
+  return P;
+}
+
 void QuasiStaticProblem::commit(const VectorXd& /*x*/) {
   // Elastic bonds carry no history; contact and failure (later issues) commit here.
 }

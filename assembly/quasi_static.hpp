@@ -31,6 +31,10 @@ class QuasiStaticProblem final : public Problem {
   /// Internal force dPi/du of every component (2N) from the last evaluate; on prescribed
   /// components these are the reactions.
   const VectorXd& internal_force() const { return m_force; }
+  /// First Piola stress at particle i from the last evaluate, P = sum_b t_b M_b xi_b^T: the
+  /// derivative of W with respect to the deformation gradient when the family deforms
+  /// homogeneously (docs/theory/osb.md, "Stress"). Meaningful away from boundaries.
+  Mat2 stress(Index i) const;
   /// Total strain energy Pi [J] of the last evaluate.
   double energy() const { return m_energy; }
   const Model& model() const { return m_model; }

@@ -152,9 +152,10 @@ struct Override {
 };
 
 /// Parse, apply overrides, validate. Throws InputError (file, line, key, what was expected).
-/// Geometric checks that need the lattice (a condition selecting no particle, a crack
-/// outside every body, overlapping bodies) are done by the discretisation, which also
-/// throws InputError with the condition's SourceLocation.
+/// Shapes are checked here (degenerate or self-intersecting polygons, a crack that meets no
+/// body). Checks that need the lattice (a condition selecting no particle, overlapping
+/// bodies) are done by the discretisation, which also throws InputError with the
+/// condition's or body's SourceLocation.
 Scene parse_scene(const std::string& path, const std::vector<Override>& overrides = {});
 
 /// Same from text already in memory; `path` is used in messages only.

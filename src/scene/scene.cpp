@@ -1,0 +1,417 @@
+#include "scene/scene.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <tuple>
+
+#include "scene/geometry.hpp"
+#include "scene/overrides.hpp"
+#include "scene/yaml_schema.hpp"
+
+namespace peristat {
+
+namespace {
+
+using schema::Field;
+using schema::Map;
+
+std::string format_point(const Vec2& p) {
+  std::ostringstream s;
+  s << "[" << p.x() << ", " << p.y() << "]";
+  return s.str();
+}
+
+/// A body as read, plus what edge indices need: whether its polygon was reversed.
+struct ParsedBody {
+  Body body;
+  bool reversed = false;
+};
+
+// ---- materials -------------------------------------------------------------------------
+
+Material read_material(const Field& field) {
+  const Map m = checked_map(field, {"E", "nu", "thickness", "kinematics"});
+  Material mat;
+  mat.name = schema::leaf(field.key());
+  mat.E = schema::positive(m.require("E", "E, Young's modulus [Pa], a number > 0"));
+  mat.nu = schema::in_open_range(m.require("nu", "nu, Poisson's ratio, -1 < nu < 0.5"), -1.0, 0.5);
+  mat.thickness = schema::positive(m.require("thickness", "thickness [m], a number > 0"));
+  if (auto f = m.find("kinematics"))
+    mat.kinematics = schema::choice(*f, {"finite", "small"}) == "small" ? Kinematics::small
+                                                                       : Kinematics::finite;
+  mat.where = field.where();
+  return mat;
+}
+
+std::map<std::string, Material> read_materials(const Field& field) {
+  const Map m = named_map(field, "material");
+  if (m.entries().empty())
+    field.fail("expected at least one material (a map name -> {E, nu, thickness}), found none");
+  std::map<std::string, Material> materials;
+  for (const Field& entry : m.entries()) materials.emplace(schema::leaf(entry.key()), read_material(entry));
+  return materials;
+}
+
+// ---- discretization --------------------------------------------------------------------
+
+Quadrature read_quadrature(const Field& field) {
+  const std::string q = schema::choice(field, {"isotropic", "partial", "full"});
+  if (q == "partial") return Quadrature::partial;
+  if (q == "full") return Quadrature::full;
+  return Quadrature::isotropic;
+}
+
+Discretization read_discretization(const Field& field) {
+  const Map m = checked_map(field, {"spacing", "horizon_factor", "fictitious_layers",
+                                    "quadrature", "origin"});
+  Discretization d;
+  d.spacing = schema::positive(m.require("spacing", "spacing, the lattice spacing dx [m], a number > 0"));
+  if (auto f = m.find("horizon_factor")) d.horizon_factor = schema::at_least(*f, 1.0);
+  if (auto f = m.find("fictitious_layers")) d.fictitious_layers = schema::int_at_least(*f, 1);
+  if (auto f = m.find("quadrature")) d.quadrature = read_quadrature(*f);
+  if (auto f = m.find("origin")) d.origin = schema::point(*f);
+  d.where = field.where();
+  return d;
+}
+
+// ---- bodies ----------------------------------------------------------------------------
+
+/// {min: [x, y], max: [x, y]} with min < max componentwise.
+std::pair<Vec2, Vec2> read_box(const Field& field, std::string_view what) {
+  const Map m = checked_map(field, {"min", "max"});
+  const Vec2 lo = schema::point(m.require("min", "min: [x, y], the lower-left corner"));
+  const Vec2 hi = schema::point(m.require("max", "max: [x, y], the upper-right corner"));
+  if (!(lo.x() < hi.x() && lo.y() < hi.y()))
+    field.fail("degenerate " + std::string(what) + ": expected min < max in x and in y, found min " +
+               format_point(lo) + ", max " + format_point(hi));
+  return {lo, hi};
+}
+
+Polygon read_rectangle(const Field& field) {
+  const auto [lo, hi] = read_box(field, "rectangle");
+  return Polygon{{lo, {hi.x(), lo.y()}, hi, {lo.x(), hi.y()}}};
+}
+
+void check_simple_polygon(const Field& field, const std::vector<Vec2>& v) {
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    if (v[k] == v[(k + 1) % v.size()])
+      field.fail("vertices " + std::to_string(k) + " and " + std::to_string((k + 1) % v.size()) +
+                 " coincide: expected distinct consecutive vertices");
+  }
+  const auto [i, j] = geometry::first_self_intersection(v);
+  if (i >= 0)
+    field.fail("edges " + std::to_string(i) + " and " + std::to_string(j) +
+               " intersect: expected a simple polygon (edge k runs from vertex k to k+1)");
+  Vec2 lo = v[0], hi = v[0];
+  for (const Vec2& p : v) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  if (std::abs(geometry::signed_area(v)) <= 1e-12 * (hi - lo).squaredNorm())
+    field.fail("degenerate polygon: its area is zero; expected area > 0");
+}
+
+/// The polygon counter-clockwise; `reversed` says whether the input was clockwise.
+Polygon read_polygon(const Field& field, bool& reversed) {
+  const std::vector<Field> items = schema::list(field);
+  if (items.size() < 3)
+    field.fail("expected a polygon of at least 3 vertices [[x, y], ...], found " +
+               std::to_string(items.size()));
+  Polygon poly;
+  for (const Field& item : items) poly.vertices.push_back(schema::point(item));
+  check_simple_polygon(field, poly.vertices);
+  reversed = geometry::signed_area(poly.vertices) < 0.0;
+  if (reversed) std::reverse(poly.vertices.begin(), poly.vertices.end());
+  return poly;
+}
+
+ParsedBody read_body(const Field& field, const std::map<std::string, Material>& materials) {
+  const Map m = checked_map(field, {"material", "rectangle", "polygon"});
+  ParsedBody parsed;
+  Body& b = parsed.body;
+  b.name = schema::leaf(field.key());
+  const Field material = m.require("material", "material, the name of an entry of materials");
+  b.material = schema::text(material);
+  if (!materials.contains(b.material)) {
+    std::string known;
+    for (const auto& [name, mat] : materials) known += (known.empty() ? "" : ", ") + name;
+    material.fail("unknown material \"" + b.material + "\": expected one of " + known);
+  }
+  const auto rectangle = m.find("rectangle");
+  const auto polygon = m.find("polygon");
+  if (rectangle && polygon)
+    polygon->fail("a body has one shape: expected exactly one of rectangle, polygon, found both");
+  if (rectangle) {
+    b.shape = read_rectangle(*rectangle);
+    b.is_rectangle = true;
+  } else if (polygon) {
+    b.shape = read_polygon(*polygon, parsed.reversed);
+  } else {
+    field.fail("missing shape: expected exactly one of rectangle: {min, max} or polygon: [[x, y], ...]");
+  }
+  b.where = field.where();
+  return parsed;
+}
+
+std::vector<ParsedBody> read_bodies(const Field& field, const std::map<std::string, Material>& materials) {
+  const Map m = named_map(field, "body");
+  if (m.entries().empty())
+    field.fail("expected at least one body (a map name -> {material, rectangle | polygon}), found none");
+  std::vector<ParsedBody> bodies;
+  for (const Field& entry : m.entries()) bodies.push_back(read_body(entry, materials));
+  return bodies;
+}
+
+// ---- cracks ----------------------------------------------------------------------------
+
+Crack read_crack(const Field& field, const std::vector<ParsedBody>& bodies) {
+  const Map m = checked_map(field, {"from", "to"});
+  Crack c;
+  c.a = schema::point(m.require("from", "from: [x, y], one end of the crack"));
+  c.b = schema::point(m.require("to", "to: [x, y], the other end of the crack"));
+  c.where = field.where();
+  if (c.a == c.b) field.fail("crack has zero length: expected from != to, found both " + format_point(c.a));
+  for (const ParsedBody& p : bodies)
+    if (geometry::segment_touches_polygon(c.a, c.b, p.body.shape.vertices)) return c;
+  field.fail("crack lies outside every body: expected a segment that meets at least one body, found " +
+             format_point(c.a) + " to " + format_point(c.b));
+}
+
+// ---- boundary conditions ---------------------------------------------------------------
+
+const ParsedBody& find_body(const Field& field, const std::vector<ParsedBody>& bodies) {
+  const std::string name = schema::text(field);
+  std::string known;
+  for (const ParsedBody& p : bodies) {
+    if (p.body.name == name) return p;
+    known += (known.empty() ? "" : ", ") + p.body.name;
+  }
+  field.fail("unknown body \"" + name + "\": expected one of " + known);
+}
+
+/// The edge index in the stored (counter-clockwise) polygon. Indices as written refer to
+/// the vertices as written; a reversed polygon maps user edge k to n - 2 - k (mod n).
+int read_edge(const Field& field, const ParsedBody& p) {
+  static const char* const names[] = {"bottom", "right", "top", "left"};
+  const int n = static_cast<int>(p.body.shape.vertices.size());
+  const std::string s = schema::text(field);
+  if (p.body.is_rectangle) {
+    for (int k = 0; k < 4; ++k)
+      if (s == names[k]) return k;
+  }
+  long long k = -1;
+  if (!YAML::convert<long long>::decode(field.node(), k) || k < 0 || k >= n) {
+    const std::string expected = p.body.is_rectangle
+        ? "bottom, right, top, left or 0..3"
+        : "an integer 0.." + std::to_string(n - 1) + " (edge k runs from vertex k to k+1)";
+    field.fail("unknown edge \"" + s + "\" of body " + p.body.name + ": expected " + expected);
+  }
+  const int edge = static_cast<int>(k);
+  return p.reversed ? (2 * n - 2 - edge) % n : edge;
+}
+
+AffineValue read_affine(const Field& field) {
+  if (field.node().IsScalar()) return AffineValue{schema::number(field), Vec2::Zero()};
+  if (!field.node().IsMap())
+    field.fail("expected a number or {value: v, grad: [gx, gy]}, found " + field.found());
+  const Map m = checked_map(field, {"value", "grad"});
+  AffineValue v;
+  if (auto f = m.find("value")) v.value = schema::number(*f);
+  if (auto f = m.find("grad")) v.grad = schema::point(*f);
+  return v;
+}
+
+void read_selector(const Map& m, const ParsedBody& body, int default_layers, BoundaryCondition& bc) {
+  const auto edge = m.find("edge"), surround = m.find("surround"), region = m.find("region");
+  const int count = int(bool(edge)) + int(bool(surround)) + int(bool(region));
+  if (count != 1)
+    m.self().fail("expected exactly one of edge, surround, region, found " + std::to_string(count));
+  const auto layers = m.find("layers");
+  bc.layers = layers ? schema::int_at_least(*layers, 1) : default_layers;
+  if (edge) {
+    bc.selector = BoundaryCondition::Selector::edge;
+    bc.edge = read_edge(*edge, body);
+    bc.edge_name = schema::text(*edge);
+  } else if (surround) {
+    bc.selector = BoundaryCondition::Selector::surround;
+    if (!schema::boolean(*surround))
+      surround->fail("surround: false selects nothing: expected true (or use edge or region)");
+  } else {
+    bc.selector = BoundaryCondition::Selector::region;
+    if (layers) layers->fail("layers is not allowed with region (a region prescribes real particles)");
+    std::tie(bc.lo, bc.hi) = read_box(*region, "region");
+  }
+}
+
+BoundaryCondition read_condition(const Field& field, const std::vector<ParsedBody>& bodies,
+                                 int default_layers) {
+  const Map m = checked_map(field, {"body", "edge", "surround", "region", "layers", "ux", "uy"});
+  BoundaryCondition bc;
+  const ParsedBody& body = find_body(m.require("body", "body, the name of an entry of bodies"), bodies);
+  bc.body = body.body.name;
+  read_selector(m, body, default_layers, bc);
+  if (auto f = m.find("ux")) bc.ux = read_affine(*f);
+  if (auto f = m.find("uy")) bc.uy = read_affine(*f);
+  if (!bc.ux && !bc.uy) field.fail("prescribes nothing: expected at least one of ux, uy");
+  bc.where = field.where();
+  return bc;
+}
+
+// ---- loading, solver, output -----------------------------------------------------------
+
+Loading read_loading(const Field& field) {
+  const Map m = checked_map(field, {"steps", "max_cutbacks"});
+  Loading l;
+  if (auto f = m.find("steps")) l.steps = schema::int_at_least(*f, 1);
+  if (auto f = m.find("max_cutbacks")) l.max_cutbacks = schema::int_at_least(*f, 0);
+  return l;
+}
+
+void read_krylov(const Field& field, LinearOptions& o) {
+  const Map m = checked_map(field, {"rtol", "max_iterations", "preconditioner"});
+  if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
+  if (auto f = m.find("max_iterations")) o.max_iterations = schema::int_at_least(*f, 1);
+  if (auto f = m.find("preconditioner"))
+    o.preconditioner = schema::choice(*f, {"diagonal", "ic", "ilut", "local_cholmod"});
+}
+
+NewtonOptions read_newton(const Field& field) {
+  const Map m = checked_map(field, {"rtol", "atol", "stol", "max_iterations", "line_search",
+                                    "line_search_max", "tangent"});
+  NewtonOptions o;
+  if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
+  if (auto f = m.find("atol")) o.atol = schema::at_least(*f, 0.0);
+  if (auto f = m.find("stol")) o.stol = schema::at_least(*f, 0.0);
+  if (auto f = m.find("max_iterations")) o.max_iterations = schema::int_at_least(*f, 1);
+  if (auto f = m.find("line_search")) o.line_search = schema::boolean(*f);
+  if (auto f = m.find("line_search_max")) o.line_search_max = schema::int_at_least(*f, 0);
+  if (auto f = m.find("tangent"))
+    o.tangent = schema::choice(*f, {"consistent", "initial"}) == "initial" ? TangentKind::initial
+                                                                          : TangentKind::consistent;
+  return o;
+}
+
+AdrOptions read_adr(const Field& field) {
+  const Map m = checked_map(field, {"rtol", "max_iterations"});
+  AdrOptions o;
+  if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
+  if (auto f = m.find("max_iterations")) {
+    o.max_iterations = static_cast<long>(schema::integer(*f));
+    if (o.max_iterations < 1) schema::out_of_range(*f, "max_iterations >= 1");
+  }
+  return o;
+}
+
+SolverOptions read_solver(const Field& field) {
+  const Map m = checked_map(field, {"type", "linear", "krylov", "newton", "adr"});
+  SolverOptions o;
+  if (auto f = m.find("type")) o.type = schema::choice(*f, {"newton", "adr"});
+  if (auto f = m.find("linear"))
+    o.linear.type = schema::choice(*f, {"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab"});
+  if (auto f = m.find("krylov")) read_krylov(*f, o.linear);
+  if (auto f = m.find("newton")) o.newton = read_newton(*f);
+  if (auto f = m.find("adr")) o.adr = read_adr(*f);
+  return o;
+}
+
+OutputOptions read_output(const Field& field) {
+  const Map m = checked_map(field, {"every"});
+  OutputOptions o;
+  if (auto f = m.find("every")) o.every = schema::int_at_least(*f, 1);
+  return o;
+}
+
+// ---- the scene -------------------------------------------------------------------------
+
+std::string read_name(const Field& field) {
+  const std::string name = schema::text(field);
+  const bool ok = !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-';
+  });
+  if (!ok)
+    field.fail("invalid name \"" + name + "\": expected letters, digits, '_', '.' and '-' only "
+               "(results are written to <out>/<name>.h5)");
+  return name;
+}
+
+void read_sections(const Map& top, Scene& scene) {
+  scene.name = read_name(top.require("name", "name, the run name [A-Za-z0-9_.-]+"));
+  scene.materials = read_materials(top.require("materials", "materials, a map name -> {E, nu, thickness}"));
+  scene.discretization =
+      read_discretization(top.require("discretization", "discretization, a map with at least spacing"));
+  const std::vector<ParsedBody> bodies =
+      read_bodies(top.require("bodies", "bodies, a map name -> {material, rectangle | polygon}"),
+                  scene.materials);
+  for (const ParsedBody& p : bodies) scene.bodies.push_back(p.body);
+  if (auto f = top.find("cracks"))
+    for (const Field& item : schema::list(*f)) scene.cracks.push_back(read_crack(item, bodies));
+  if (auto f = top.find("boundary"))
+    for (const Field& item : schema::list(*f))
+      scene.boundary.push_back(read_condition(item, bodies, scene.discretization.fictitious_layers));
+  if (auto f = top.find("loading")) scene.loading = read_loading(*f);
+  if (auto f = top.find("solver")) scene.solver = read_solver(*f);
+  if (auto f = top.find("output")) scene.output = read_output(*f);
+}
+
+Scene read_scene(const Field& root) {
+  if (root.node().IsNull())
+    root.fail("the scene is empty: expected a map with at least name, materials, discretization, bodies");
+  const Map top = checked_map(root, {"name", "materials", "discretization", "bodies", "cracks",
+                                     "boundary", "loading", "solver", "output"});
+  Scene scene;
+  read_sections(top, scene);
+  return scene;
+}
+
+/// The one YAML document of `text`; syntax errors become InputError at their line.
+YAML::Node load_document(const std::string& text, const std::string& path) {
+  std::vector<YAML::Node> docs;
+  try {
+    docs = YAML::LoadAll(text);
+  } catch (const YAML::ParserException& e) {
+    throw InputError(SourceLocation{path, e.mark.line + 1, ""}, "YAML syntax error: " + e.msg);
+  }
+  if (docs.size() > 1)
+    throw InputError(SourceLocation{path, docs[1].Mark().line + 1, ""},
+                     "found " + std::to_string(docs.size()) + " YAML documents: expected one");
+  return docs.empty() ? YAML::Node(YAML::NodeType::Null) : docs[0];
+}
+
+std::string emit(const YAML::Node& root) {
+  YAML::Emitter out;
+  out << root;
+  return std::string(out.c_str()) + "\n";
+}
+
+}  // namespace
+
+Scene parse_scene_text(const std::string& text, const std::string& path,
+                       const std::vector<Override>& overrides) {
+  schema::Source source{path, {}};
+  YAML::Node root = load_document(text, path);
+  for (const Override& o : overrides) apply_override(root, o, source);
+  const int line = root.Mark().line >= 0 ? root.Mark().line + 1 : 1;
+  Scene scene = read_scene(Field(source, root, "", line));
+  scene.path = path;
+  scene.text = emit(root);
+  return scene;
+}
+
+Scene parse_scene(const std::string& path, const std::vector<Override>& overrides) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::exists(path, ec))
+    throw InputError(SourceLocation{path, 0, ""}, "cannot read the scene file: no such file");
+  if (!fs::is_regular_file(path, ec))
+    throw InputError(SourceLocation{path, 0, ""}, "cannot read the scene file: not a regular file");
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (!in) throw InputError(SourceLocation{path, 0, ""}, "cannot read the scene file");
+  return parse_scene_text(text.str(), path, overrides);
+}
+
+}  // namespace peristat

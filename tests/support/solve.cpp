@@ -1,0 +1,43 @@
+#include "support/solve.hpp"
+
+#include <Eigen/Dense>
+
+#include "support/scenes.hpp"
+
+namespace peristat::test {
+
+std::unique_ptr<Solved> solve_scene(const std::string& yaml) {
+  auto s = std::make_unique<Solved>();
+  s->scene = scene_from_yaml(yaml);
+  s->model = discretise(s->scene);
+  s->problem = std::make_unique<QuasiStaticProblem>(s->model, s->scene);
+  auto linear = make_linear_solver(s->scene.solver.linear);
+  NewtonSolver newton(*s->problem, *linear, s->scene.solver.newton);
+  s->x = VectorXd::Zero(s->problem->n_unknowns());
+  s->problem->set_load_factor(0.0);
+  LoadSteppingCallbacks cb;
+  cb.on_step = [&](const StepReport& r, const VectorXd&) { s->steps.push_back(r); };
+  s->run = run_load_steps(*s->problem, newton, s->x, s->scene.loading, cb);
+  VectorXd r;
+  s->problem->evaluate(s->x, r, nullptr);  // leave the problem's state at the solution
+  s->problem->expand(s->x, s->u);
+  return s;
+}
+
+Eigen::Vector3d fit_affine(const Solved& s, int component, const Vec2& lo, const Vec2& hi) {
+  const Particles& p = s.model.particles;
+  std::vector<Index> pick;
+  for (Index i = 0; i < p.size(); ++i) {
+    const Vec2& X = p.position[i];
+    if (!p.fictitious[i] && (X.array() >= lo.array()).all() && (X.array() <= hi.array()).all()) pick.push_back(i);
+  }
+  Eigen::MatrixXd A(pick.size(), 3);
+  VectorXd b(pick.size());
+  for (std::size_t k = 0; k < pick.size(); ++k) {
+    A.row(k) << 1.0, p.position[pick[k]].x(), p.position[pick[k]].y();
+    b[k] = s.u[2 * pick[k] + component];
+  }
+  return A.colPivHouseholderQr().solve(b);
+}
+
+}  // namespace peristat::test

@@ -1,0 +1,29 @@
+// Solving a scene in-process for tests: the same pieces `peristat run` uses.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "assembly/quasi_static.hpp"
+#include "solvers/load_stepping.hpp"
+
+namespace peristat::test {
+
+struct Solved {
+  Scene scene;
+  Model model;
+  std::unique_ptr<QuasiStaticProblem> problem;
+  VectorXd x;                      ///< unknowns at the end
+  VectorXd u;                      ///< full displacement (2N)
+  std::vector<StepReport> steps;
+  RunReport run;
+};
+
+/// Parses, discretises and solves with the scene's own solver options.
+std::unique_ptr<Solved> solve_scene(const std::string& yaml);
+
+/// Least-squares affine fit u_c = a0 + a1 X + a2 Y of component c over the real particles
+/// whose reference position lies in [lo, hi]; returns (a0, a1, a2).
+Eigen::Vector3d fit_affine(const Solved& s, int component, const Vec2& lo, const Vec2& hi);
+
+}  // namespace peristat::test
