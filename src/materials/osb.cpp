@@ -44,7 +44,9 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
       const Vec2 y = xi[b] + eta[b];
       const double ylen = y.norm();
       out.direction[b] = y / ylen;
-      e = ylen - x;
+      // |y| - |x| without cancellation: (|y|^2 - |x|^2) / (|y| + |x|). At strains of 1e-6
+      // the direct difference would lose ten digits and put a floor under the residual.
+      e = (2.0 * xi[b].dot(eta[b]) + eta[b].squaredNorm()) / (ylen + x);
     } else {
       out.direction[b] = xi[b] / x;
       e = out.direction[b].dot(eta[b]);
