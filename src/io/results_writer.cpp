@@ -1,0 +1,318 @@
+// ResultsWriter: DIR/<name>.h5, DIR/<name>.xdmf and DIR/summary.json (DESIGN.md section 4).
+#include <filesystem>
+#include <memory>
+#include <set>
+#include <stdexcept>
+
+#include "io/h5.hpp"
+#include "io/layout.hpp"
+#include "io/json.hpp"
+#include "io/results.hpp"
+#include "io/safe_write.hpp"
+#include "io/xdmf.hpp"
+
+namespace peristat {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Attribute names every step group carries; counts and timings may not reuse them.
+const std::set<std::string>& fixed_step_attributes() {
+  static const std::set<std::string> names = {
+      "load_factor", "newton_iterations", "active_set_iterations", "residual_norm", "wall_seconds"};
+  return names;
+}
+
+/// What summary.json and the XDMF need from a written step.
+struct StepSummary {
+  int index = 0;
+  double load_factor = 0.0;
+  int newton_iterations = 0;
+  int active_set_iterations = 0;
+  double residual_norm = 0.0;
+  double wall_seconds = 0.0;
+  std::vector<double> residual_history;
+  std::map<std::string, double> counts;
+  std::map<std::string, double> timings;
+  bool has_damage = false;
+  bool has_contact_force = false;
+};
+
+StepSummary summarise(const StepRecord& step) {
+  StepSummary s;
+  s.index = step.index;
+  s.load_factor = step.load_factor;
+  s.newton_iterations = step.newton_iterations;
+  s.active_set_iterations = step.active_set_iterations;
+  s.residual_norm = step.residual_norm;
+  s.wall_seconds = step.wall_seconds;
+  s.residual_history = step.residual_history;
+  s.counts = step.counts;
+  s.timings = step.timings;
+  s.has_damage = step.damage != nullptr;
+  s.has_contact_force = step.contact_force != nullptr;
+  return s;
+}
+
+void check_particles(const ParticleTable& p) {
+  const std::size_t n = p.size();
+  if (p.volume.size() != n || p.body.size() != n || p.fictitious.size() != n) {
+    throw std::invalid_argument(
+        "ResultsWriter: particle table columns differ in length (position " + std::to_string(n) +
+        ", volume " + std::to_string(p.volume.size()) + ", body " + std::to_string(p.body.size()) +
+        ", fictitious " + std::to_string(p.fictitious.size()) + ")");
+  }
+}
+
+void check_field(const VectorXd* field, std::size_t expected, const char* name, int index) {
+  if (field != nullptr && static_cast<std::size_t>(field->size()) != expected) {
+    throw std::invalid_argument("ResultsWriter: step " + std::to_string(index) + ": " + name +
+                                " has " + std::to_string(field->size()) + " entries, expected " +
+                                std::to_string(expected));
+  }
+}
+
+/// Names of the per-entry attributes (counts as is, timings prefixed "time_"), checked
+/// for clashes before anything is written.
+void check_attribute_names(const StepRecord& step) {
+  std::set<std::string> used = fixed_step_attributes();
+  auto claim = [&](const std::string& name) {
+    if (name.empty() || !used.insert(name).second) {
+      throw std::invalid_argument("ResultsWriter: step " + std::to_string(step.index) +
+                                  ": counts/timings entry '" + name +
+                                  "' is empty or clashes with another step attribute");
+    }
+  };
+  for (const auto& entry : step.counts) claim(entry.first);
+  for (const auto& entry : step.timings) claim("time_" + entry.first);
+}
+
+void check_step(const StepRecord& step, std::size_t n, const std::vector<StepSummary>& written) {
+  if (step.index < 1) {
+    throw std::invalid_argument("ResultsWriter: step index must be >= 1, got " +
+                                std::to_string(step.index));
+  }
+  for (const StepSummary& s : written) {
+    if (s.index == step.index) {
+      throw std::invalid_argument("ResultsWriter: step " + std::to_string(step.index) +
+                                  " was already written");
+    }
+  }
+  if (step.displacement == nullptr) {
+    throw std::invalid_argument("ResultsWriter: step " + std::to_string(step.index) +
+                                " has no displacement");
+  }
+  check_field(step.displacement, 2 * n, "displacement", step.index);
+  check_field(step.damage, n, "damage", step.index);
+  check_field(step.contact_force, 2 * n, "contact_force", step.index);
+  check_attribute_names(step);
+}
+
+std::vector<double> flatten(const std::vector<Vec2>& points) {
+  std::vector<double> xy;
+  xy.reserve(2 * points.size());
+  for (const Vec2& p : points) {
+    xy.push_back(p.x());
+    xy.push_back(p.y());
+  }
+  return xy;
+}
+
+void write_particles(const h5::File& file, const ParticleTable& p) {
+  const auto n = static_cast<hsize_t>(p.size());
+  h5::Handle group = file.create_group(file.id(), "particles");
+  const std::vector<double> xy = flatten(p.position);
+  file.write_doubles(group, "position", xy.data(), {n, 2});
+  file.write_doubles(group, "volume", p.volume.data(), {n});
+  file.write_ints(group, "body", p.body.data(), {n});
+  file.write_ints(group, "fictitious", p.fictitious.data(), {n});
+  file.write_attribute(group, "spacing", p.spacing);
+  file.write_attribute(group, "body_names", p.body_names);
+}
+
+void write_step_contents(const h5::File& file, hid_t group, const StepRecord& step) {
+  const auto n = static_cast<hsize_t>(step.displacement->size() / 2);
+  file.write_doubles(group, "displacement", step.displacement->data(), {n, 2});
+  if (step.damage != nullptr) file.write_doubles(group, "damage", step.damage->data(), {n});
+  if (step.contact_force != nullptr) {
+    file.write_doubles(group, "contact_force", step.contact_force->data(), {n, 2});
+  }
+  file.write_doubles(group, "residual_history", step.residual_history.data(),
+                     {static_cast<hsize_t>(step.residual_history.size())});
+  file.write_attribute(group, "load_factor", step.load_factor);
+  file.write_attribute(group, "newton_iterations", step.newton_iterations);
+  file.write_attribute(group, "active_set_iterations", step.active_set_iterations);
+  file.write_attribute(group, "residual_norm", step.residual_norm);
+  file.write_attribute(group, "wall_seconds", step.wall_seconds);
+  for (const auto& [key, value] : step.counts) file.write_attribute(group, key, value);
+  for (const auto& [key, value] : step.timings) file.write_attribute(group, "time_" + key, value);
+}
+
+void write_json_map(json::Writer& w, const std::map<std::string, double>& entries) {
+  w.begin_object();
+  for (const auto& [key, value] : entries) {
+    w.key(key);
+    w.value(value);
+  }
+  w.end_object();
+}
+
+void write_json_step(json::Writer& w, const StepSummary& s) {
+  w.begin_object();
+  w.key("step");
+  w.value(s.index);
+  w.key("load_factor");
+  w.value(s.load_factor);
+  w.key("newton_iterations");
+  w.value(s.newton_iterations);
+  w.key("active_set_iterations");
+  w.value(s.active_set_iterations);
+  w.key("residual_norm");
+  w.value(s.residual_norm);
+  w.key("wall_seconds");
+  w.value(s.wall_seconds);
+  w.key("residual_history");
+  w.numbers(s.residual_history);
+  w.key("counts");
+  write_json_map(w, s.counts);
+  w.key("timings");
+  write_json_map(w, s.timings);
+  w.end_object();
+}
+
+bool is_blank(const std::string& text) {
+  return text.find_first_not_of(" \t\r\n") == std::string::npos;
+}
+
+}  // namespace
+
+struct ResultsWriter::Impl {
+  std::string name;
+  fs::path dir;
+  std::string run_info_json;
+  std::size_t n_particles = 0;
+  std::vector<StepSummary> steps;
+  std::string status = "running";
+  std::string message;
+
+  fs::path h5() const { return dir / (name + ".h5"); }
+  fs::path xdmf() const { return dir / (name + ".xdmf"); }
+  fs::path summary() const { return dir / "summary.json"; }
+
+  void create_h5(const std::string& scene_text, const ParticleTable& particles) const {
+    const std::string temporary = h5().string() + ".tmp";
+    h5::File file = h5::File::create(temporary);
+    file.write_attribute(file.id(), "scene", scene_text);
+    write_particles(file, particles);
+    file.create_group(file.id(), "steps");
+    file.close();
+    std::error_code error;
+    fs::rename(temporary, h5(), error);
+    if (error) {
+      throw std::runtime_error("cannot rename '" + temporary + "' to '" + h5().string() +
+                               "': " + error.message());
+    }
+  }
+
+  /// Appends /steps/<index>; a group left half-written by a failure is removed again.
+  void append_h5(const StepRecord& step) const {
+    h5::File file = h5::File::open(h5().string(), true);
+    const std::string group_name = io::step_group_name(step.index);
+    {
+      h5::Handle steps_group = file.open_group(file.id(), "steps");
+      try {
+        h5::Handle group = file.create_group(steps_group, group_name);
+        write_step_contents(file, group, step);
+      } catch (...) {
+        try {
+          if (file.link_exists(steps_group, group_name)) file.delete_link(steps_group, group_name);
+        } catch (...) {  // NOLINT(bugprone-empty-catch): the first error is the one to report
+        }
+        throw;
+      }
+    }
+    file.close();
+  }
+
+  void write_xdmf() const {
+    std::vector<io::XdmfStep> xs;
+    xs.reserve(steps.size());
+    for (const StepSummary& s : steps) {
+      xs.push_back({s.index, s.load_factor, s.has_damage, s.has_contact_force});
+    }
+    io::write_file_atomically(xdmf().string(), io::xdmf_document(name + ".h5", n_particles, xs));
+  }
+
+  void write_summary() const {
+    json::Writer w;
+    w.begin_object();
+    w.key("scene");
+    w.value(name);
+    w.key("status");
+    w.value(status);
+    w.key("message");
+    w.value(message);
+    w.key("run");
+    if (is_blank(run_info_json)) {
+      w.null();
+    } else {
+      w.raw(run_info_json);
+    }
+    w.key("steps");
+    w.begin_array();
+    for (const StepSummary& s : steps) write_json_step(w, s);
+    w.end_array();
+    w.end_object();
+    io::write_file_atomically(summary().string(), w.str() + "\n");
+  }
+};
+
+ResultsWriter::ResultsWriter(const std::string& dir, const std::string& name,
+                             const std::string& scene_text, const ParticleTable& particles,
+                             const std::string& run_info_json)
+    : m_impl(nullptr) {
+  if (name.empty()) throw std::invalid_argument("ResultsWriter: empty scene name");
+  check_particles(particles);
+  auto impl = std::make_unique<Impl>();
+  impl->name = name;
+  impl->dir = fs::path(dir);
+  impl->run_info_json = run_info_json;
+  impl->n_particles = particles.size();
+
+  std::error_code error;
+  fs::create_directories(impl->dir, error);
+  if (error) {
+    throw std::runtime_error("cannot create results directory '" + dir + "': " + error.message());
+  }
+  const io::SignalBlocker hold_signals;
+  impl->create_h5(scene_text, particles);
+  impl->write_xdmf();
+  impl->write_summary();
+  m_impl = impl.release();
+}
+
+ResultsWriter::~ResultsWriter() { delete m_impl; }
+
+void ResultsWriter::write_step(const StepRecord& step) {
+  check_step(step, m_impl->n_particles, m_impl->steps);
+  const io::SignalBlocker hold_signals;
+  m_impl->append_h5(step);
+  m_impl->steps.push_back(summarise(step));
+  m_impl->write_xdmf();
+  m_impl->write_summary();
+}
+
+void ResultsWriter::finish(const std::string& status, const std::string& message) {
+  static const std::set<std::string> allowed = {"running", "completed", "no_convergence", "error"};
+  if (allowed.count(status) == 0) {
+    throw std::invalid_argument("ResultsWriter::finish: unknown status '" + status + "'");
+  }
+  const io::SignalBlocker hold_signals;
+  m_impl->status = status;
+  m_impl->message = message;
+  m_impl->write_summary();
+}
+
+std::string ResultsWriter::h5_path() const { return m_impl->h5().string(); }
+
+}  // namespace peristat
