@@ -7,7 +7,8 @@
 
 namespace peristat {
 
-TangentPattern build_pattern(const Model& model) {
+TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double radius) {
+  const double radius2 = radius * radius * (1.0 + 1e-9);
   const Index n = model.particles.size();
   const Bonds& bonds = model.bonds;
   const Constraints& cons = model.constraints;
@@ -27,7 +28,9 @@ TangentPattern build_pattern(const Model& model) {
       add(p);
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
         const Index i = bonds.neighbour[b];
+        if (reach_kind == PatternReach::bonds_within && bonds.xi[b].squaredNorm() > radius2) continue;
         add(i);
+        if (reach_kind != PatternReach::two_horizons) continue;
         for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c) add(bonds.neighbour[c]);
       }
       std::sort(r.begin(), r.end());
@@ -71,6 +74,9 @@ TangentPattern build_pattern(const Model& model) {
   A.resizeNonZeros(outer[n_free]);
   std::copy(outer.begin(), outer.end(), A.outerIndexPtr());
   Index* inner = A.innerIndexPtr();
+  double* values = A.valuePtr();
+  // Rows and zero values written in parallel: the first touch of these pages (hundreds of
+  // MB on large models) is itself a noticeable cost.
 #pragma omp parallel for schedule(dynamic, 256)
   for (Index p = 0; p < n; ++p) {
     for (int c = 0; c < 2; ++c) {
@@ -80,11 +86,13 @@ TangentPattern build_pattern(const Model& model) {
       for (Index k = pat.col_start[p]; k < pat.col_start[p + 1]; ++k) {
         const Index q = pat.row_particle[k];
         for (int d = 0; d < 2; ++d)
-          if (const Index row = cons.free_index[2 * q + d]; row >= 0) inner[pos++] = row;
+          if (const Index row = cons.free_index[2 * q + d]; row >= 0) {
+            inner[pos] = row;
+            values[pos++] = 0.0;
+          }
       }
     }
   }
-  std::fill(A.valuePtr(), A.valuePtr() + A.nonZeros(), 0.0);
   return pat;
 }
 

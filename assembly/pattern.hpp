@@ -23,7 +23,16 @@ struct TangentPattern {
   SparseMatrix matrix;
 };
 
+/// Which couplings the pattern holds.
+enum class PatternReach {
+  two_horizons,  ///< the OSB tangent: families of p and of its neighbours
+  bonds_within,  ///< bond pairs of length <= a given radius only
+};
+
+
 /// Builds the pattern. Deterministic; O(N n^2) with n the family size.
-TangentPattern build_pattern(const Model& model);
+/// `radius` [m] is used with PatternReach::bonds_within only.
+TangentPattern build_pattern(const Model& model, PatternReach reach = PatternReach::two_horizons,
+                             double radius = 0.0);
 
 }  // namespace peristat

@@ -35,6 +35,13 @@ class Problem {
   /// True when the tangent does not depend on x (linear problem: factorise once).
   virtual bool tangent_constant() const = 0;
 
+  /// An optional cheaper symmetric positive definite matrix over the same unknowns whose
+  /// factor preconditions Krylov solves with the tangent (PETSc's Pmat). Empty when the
+  /// problem offers none.
+  virtual SparseMatrix make_preconditioner() const { return {}; }
+  /// Fills the values of P (from make_preconditioner()) at the state of the last evaluate().
+  virtual void assemble_preconditioner(SparseMatrix& /*P*/) {}
+
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;
 };

@@ -13,7 +13,8 @@ double now() {
 }  // namespace
 
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
-    : m_model(model), m_pattern(build_pattern(model)) {
+    : m_model(model), m_pattern(build_pattern(model)),
+      m_bond_radius(scene.solver.linear.bond_radius * scene.discretization.spacing) {
   m_linear = true;
   for (const Body& body : scene.bodies) {
     m_body_constants.push_back(OsbConstants::from(scene.materials.at(body.material)));
@@ -41,6 +42,19 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
 }
 
 void QuasiStaticProblem::set_load_factor(double lambda) { m_lambda = lambda; }
+
+SparseMatrix QuasiStaticProblem::make_tangent() const {
+  // One named result on every path, so it is returned without a copy (NRVO): Eigen 3.4's
+  // SparseMatrix has no move constructor and a copy would cost seconds on large models.
+  SparseMatrix K;
+  if (m_pattern.matrix.rows() == n_unknowns() && m_pattern.matrix.nonZeros() > 0) {
+    K.swap(m_pattern.matrix);
+  } else {
+    TangentPattern fresh = build_pattern(m_model);
+    K.swap(fresh.matrix);
+  }
+  return K;
+}
 
 void QuasiStaticProblem::expand(const VectorXd& x, VectorXd& u) const {
   const Constraints& c = m_model.constraints;
@@ -126,6 +140,71 @@ void QuasiStaticProblem::gather_forces() {
   m_force_scale = m_force.norm();
 }
 
+namespace {
+
+/// Writes 2x2 blocks (q, p) into the free-dof columns of particle p of a matrix with the
+/// given pattern. One per thread; begin(p) prepares the column (zeroes it and fills a table
+/// from lattice offset to row position), end() clears the table.
+class ColumnWriter {
+ public:
+  ColumnWriter(const Model& model, const TangentPattern& pattern, SparseMatrix& A)
+      : m_part(model.particles), m_cons(model.constraints), m_pat(pattern), m_reach(pattern.lattice_reach),
+        m_width(2 * pattern.lattice_reach + 1), m_outer(A.outerIndexPtr()), m_values(A.valuePtr()),
+        m_slot(static_cast<std::size_t>(m_width) * m_width, -1) {}
+
+  /// False when p has no free component (nothing to write).
+  bool begin(Index p) {
+    m_p = p;
+    m_col[0] = m_cons.free_index[2 * p];
+    m_col[1] = m_cons.free_index[2 * p + 1];
+    if (m_col[0] < 0 && m_col[1] < 0) return false;
+    for (Index k = m_pat.col_start[p]; k < m_pat.col_start[p + 1]; ++k) slot(m_pat.row_particle[k]) = k;
+    for (int c = 0; c < 2; ++c)
+      if (m_col[c] >= 0) std::fill(m_values + m_outer[m_col[c]], m_values + m_outer[m_col[c] + 1], 0.0);
+    return true;
+  }
+  void end() {
+    for (Index k = m_pat.col_start[m_p]; k < m_pat.col_start[m_p + 1]; ++k) slot(m_pat.row_particle[k]) = -1;
+  }
+  /// Adds the block a (row component, column component) at (q, p).
+  void add(Index q, double a00, double a01, double a10, double a11) {
+    const Index base = m_pat.row_offset[slot(q)];
+    const bool xr = m_cons.free_index[2 * q] >= 0, yr = m_cons.free_index[2 * q + 1] >= 0;
+    const double a[2][2] = {{a00, a01}, {a10, a11}};
+    for (int cp = 0; cp < 2; ++cp) {
+      if (m_col[cp] < 0) continue;
+      double* v = m_values + m_outer[m_col[cp]] + base;
+      if (xr) v[0] += a[0][cp];
+      if (yr) v[xr ? 1 : 0] += a[1][cp];
+    }
+  }
+  void add_sym(Index q, double scale, const Sym2& k) {
+    add(q, scale * k[0], scale * k[1], scale * k[1], scale * k[2]);
+  }
+  void add_outer(Index q, double scale, const Vec2& a, const Vec2& b) {
+    add(q, scale * a.x() * b.x(), scale * a.x() * b.y(), scale * a.y() * b.x(), scale * a.y() * b.y());
+  }
+
+ private:
+  Index& slot(Index q) {
+    const auto& lq = m_part.lattice[q];
+    const auto& lp = m_part.lattice[m_p];
+    return m_slot[static_cast<std::size_t>(lq[0] - lp[0] + m_reach) * m_width + (lq[1] - lp[1] + m_reach)];
+  }
+
+  const Particles& m_part;
+  const Constraints& m_cons;
+  const TangentPattern& m_pat;
+  int m_reach, m_width;
+  const Index* m_outer;
+  double* m_values;
+  std::vector<Index> m_slot;
+  Index m_p = 0;
+  Index m_col[2] = {-1, -1};
+};
+
+}  // namespace
+
 void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
   // Column particle p gathers the Hessian blocks (q, p) of every family energy V_i W_i with
   // p in {i} + family(i) (docs/theory/osb.md, "Assembly"):
@@ -135,68 +214,79 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
   //                        (j,p) += bV_i s_c s_r^T for every bond c = i -> j.
   const Bonds& bonds = m_model.bonds;
   const Particles& part = m_model.particles;
-  const Constraints& cons = m_model.constraints;
-  const TangentPattern& pat = m_pattern;
   const Index n = part.size();
-  const int reach = pat.lattice_reach;
-  const int width = 2 * reach + 1;
-  const Index* outer = K.outerIndexPtr();
-  double* values = K.valuePtr();
-
 #pragma omp parallel
   {
-    std::vector<Index> slot(static_cast<std::size_t>(width) * width, -1);
+    ColumnWriter col(m_model, m_pattern, K);
 #pragma omp for schedule(static)
     for (Index p = 0; p < n; ++p) {
-      const Index col[2] = {cons.free_index[2 * p], cons.free_index[2 * p + 1]};
-      if (col[0] < 0 && col[1] < 0) continue;
-      const auto& lp = part.lattice[p];
-      auto slot_of = [&](Index q) -> Index& {
-        const auto& lq = part.lattice[q];
-        return slot[static_cast<std::size_t>(lq[0] - lp[0] + reach) * width + (lq[1] - lp[1] + reach)];
-      };
-      for (Index k = pat.col_start[p]; k < pat.col_start[p + 1]; ++k) slot_of(pat.row_particle[k]) = k;
-      for (int c = 0; c < 2; ++c)
-        if (col[c] >= 0) std::fill(values + outer[col[c]], values + outer[col[c] + 1], 0.0);
-
-      // Adds the 2x2 block a (row component, column component) at (q, p).
-      auto add = [&](Index q, double a00, double a01, double a10, double a11) {
-        const Index base = pat.row_offset[slot_of(q)];
-        const bool xr = cons.free_index[2 * q] >= 0, yr = cons.free_index[2 * q + 1] >= 0;
-        const double a[2][2] = {{a00, a01}, {a10, a11}};
-        for (int cp = 0; cp < 2; ++cp) {
-          if (col[cp] < 0) continue;
-          double* v = values + outer[col[cp]] + base;
-          if (xr) v[0] += a[0][cp];
-          if (yr) v[xr ? 1 : 0] += a[1][cp];
-        }
-      };
-      auto add_sym = [&](Index q, double scale, const Sym2& k) { add(q, scale * k[0], scale * k[1], scale * k[1], scale * k[2]); };
-      auto add_outer = [&](Index q, double scale, const Vec2& a, const Vec2& b) {
-        add(q, scale * a.x() * b.x(), scale * a.x() * b.y(), scale * a.y() * b.x(), scale * a.y() * b.y());
-      };
-
+      if (!col.begin(p)) continue;
       // Family of p.
       const double Vp = part.volume[p], bVp = m_beta_volume[p];
       const Vec2& sp = m_s_self[p];
-      add_outer(p, bVp, sp, sp);
+      col.add_outer(p, bVp, sp, sp);
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
-        add_sym(p, Vp, m_kbond[b]);
+        col.add_sym(p, Vp, m_kbond[b]);
         const Index j = bonds.neighbour[b];
-        add_sym(j, -Vp, m_kbond[b]);
-        add_outer(j, bVp, m_s[b], sp);
+        col.add_sym(j, -Vp, m_kbond[b]);
+        col.add_outer(j, bVp, m_s[b], sp);
       }
       // Families of the neighbours of p.
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
         const Index i = bonds.neighbour[b], r = bonds.reverse[b];
         const double Vi = part.volume[i], bVi = m_beta_volume[i];
         const Vec2& sr = m_s[r];
-        add_sym(i, -Vi, m_kbond[r]);
-        add_outer(i, bVi, m_s_self[i], sr);
-        add_sym(p, Vi, m_kbond[r]);
-        for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c) add_outer(bonds.neighbour[c], bVi, m_s[c], sr);
+        col.add_sym(i, -Vi, m_kbond[r]);
+        col.add_outer(i, bVi, m_s_self[i], sr);
+        col.add_sym(p, Vi, m_kbond[r]);
+        for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c) col.add_outer(bonds.neighbour[c], bVi, m_s[c], sr);
       }
-      for (Index k = pat.col_start[p]; k < pat.col_start[p + 1]; ++k) slot_of(pat.row_particle[k]) = -1;
+      col.end();
+    }
+  }
+}
+
+SparseMatrix QuasiStaticProblem::make_preconditioner() const {
+  if (!m_bond_pattern)
+    m_bond_pattern = std::make_unique<TangentPattern>(build_pattern(m_model, PatternReach::bonds_within, m_bond_radius));
+  return m_bond_pattern->matrix;
+}
+
+void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
+  // P = sum over bonds b = i -> j with |xi_b| <= bond_radius dx of V_i alpha'_i omega w_b
+  // (g_b g_b^T), g_b the gradient of the extension: the material bond part of the tangent
+  // without the rank-one dilatation coupling, on a short stencil whose alpha' = 8 mu / m'
+  // keeps the long-wave stiffness. Positive semi-definite bond by bond, definite once
+  // rigid motions are prescribed.
+  if (!m_bond_pattern) make_preconditioner();
+  const Bonds& bonds = m_model.bonds;
+  const Particles& part = m_model.particles;
+  const Index n = part.size();
+  const double r2 = m_bond_radius * m_bond_radius * (1.0 + 1e-9);
+  if (m_bond_alpha_volume.empty()) {
+    m_bond_alpha_volume.resize(n);
+    for (Index i = 0; i < n; ++i) {
+      double m = 0.0;
+      for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+        if (bonds.xi[b].squaredNorm() <= r2) m += bonds.weight[b] * bonds.xi[b].squaredNorm();
+      m_bond_alpha_volume[i] = m > 0.0 ? 8.0 * m_body_constants[part.body[i]].mu / m * part.volume[i] : 0.0;
+    }
+  }
+#pragma omp parallel
+  {
+    ColumnWriter col(m_model, *m_bond_pattern, P);
+#pragma omp for schedule(static)
+    for (Index p = 0; p < n; ++p) {
+      if (!col.begin(p)) continue;
+      for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
+        if (bonds.xi[b].squaredNorm() > r2) continue;
+        const Index j = bonds.neighbour[b], r = bonds.reverse[b];
+        const double k = m_bond_alpha_volume[p] * bonds.weight[b] + m_bond_alpha_volume[j] * bonds.weight[r];
+        const Vec2& M = m_direction[b];
+        col.add_outer(p, k, M, M);
+        col.add_outer(j, -k, M, M);
+      }
+      col.end();
     }
   }
 }

@@ -3,6 +3,7 @@
 // derivatives, assembled in parallel by gathering per particle (deterministic, no atomics).
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include "assembly/pattern.hpp"
@@ -21,9 +22,16 @@ class QuasiStaticProblem final : public Problem {
   double load_factor() const override { return m_lambda; }
   void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override;
   double force_scale() const override { return m_force_scale; }
-  SparseMatrix make_tangent() const override { return m_pattern.matrix; }
+  /// The first call hands over the pattern built at construction (no copy of a matrix that
+  /// can hold hundreds of MB); later calls rebuild it.
+  SparseMatrix make_tangent() const override;
   bool tangent_symmetric() const override { return true; }
   bool tangent_constant() const override { return m_linear; }
+  /// The bond-based part of the tangent restricted to bonds shorter than
+  /// solver.krylov.bond_radius * dx: sum of V alpha' omega w M M^T with alpha' = 8 mu / m'
+  /// and m' the weighted volume of those bonds (docs/theory/newton.md, "Bond preconditioner").
+  SparseMatrix make_preconditioner() const override;
+  void assemble_preconditioner(SparseMatrix& P) override;
   void commit(const VectorXd& x) override;
 
   /// Full displacement (2N, interleaved) of x at the current load factor.
@@ -49,7 +57,10 @@ class QuasiStaticProblem final : public Problem {
   void gather_tangent(SparseMatrix& K) const;
 
   const Model& m_model;
-  TangentPattern m_pattern;
+  mutable TangentPattern m_pattern;  ///< its matrix is moved out by the first make_tangent()
+  mutable std::unique_ptr<TangentPattern> m_bond_pattern;  ///< built on first request
+  double m_bond_radius = 0.0;                               ///< [m]
+  std::vector<double> m_bond_alpha_volume;                  ///< per particle V 8 mu / m' 
   std::vector<OsbConstants> m_body_constants;  ///< per body
   std::vector<double> m_weighted_volume;       ///< m_i (eq 4), intact bonds at the start
   bool m_linear = false;

@@ -22,26 +22,39 @@ bool NewtonSolver::reuse_factor() const {
 
 void NewtonSolver::factorize(NewtonReport& report) {
   const double t0 = now();
+  if (m_linear.uses_preconditioner_matrix()) {
+    if (m_P.rows() == 0) m_P = m_problem.make_preconditioner();
+    m_problem.assemble_preconditioner(m_P);  // at the state of the last evaluate, like K
+    m_linear.set_preconditioner_matrix(m_P);
+  }
   if (!m_analyzed) {
     m_linear.analyzePattern(m_K);
     m_analyzed = true;
   }
   m_linear.factorize(m_K);
   m_have_factor = m_linear.info() == Eigen::Success;
-  ++report.factorizations;
   report.seconds_factorize += now() - t0;
 }
 
 void NewtonSolver::prepare(const VectorXd& x) {
+  const long f0 = m_linear.factorizations();
   const double t0 = now();
   m_problem.evaluate(x, m_r, &m_K);
   m_pending.seconds_evaluate += now() - t0;
   factorize(m_pending);
+  m_pending.factorizations += static_cast<int>(m_linear.factorizations() - f0);
 }
 
 NewtonReport NewtonSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
   NewtonReport report = m_pending;
   m_pending = NewtonReport{};
+  const long f0 = m_linear.factorizations();
+  report = solve_iterations(x, monitor, std::move(report));
+  report.factorizations += static_cast<int>(m_linear.factorizations() - f0);
+  return report;
+}
+
+NewtonReport NewtonSolver::solve_iterations(VectorXd& x, const NewtonMonitor& monitor, NewtonReport report) {
   // Iteration 1 uses the factor of the last converged state when there is one.
   bool use_existing = m_have_factor;
   const NewtonOptions& o = m_options;

@@ -49,6 +49,7 @@ class NewtonSolver {
   void invalidate_factorization() { m_have_factor = false; }
 
  private:
+  NewtonReport solve_iterations(VectorXd& x, const NewtonMonitor& monitor, NewtonReport report);
   bool reuse_factor() const;
   void factorize(NewtonReport& report);
 
@@ -56,6 +57,7 @@ class NewtonSolver {
   LinearSolver& m_linear;
   NewtonOptions m_options;
   SparseMatrix m_K;
+  SparseMatrix m_P;  ///< preconditioner matrix, when the linear solver uses one
   bool m_analyzed = false;
   bool m_have_factor = false;
   NewtonReport m_pending;  ///< work of prepare(), added to the next report

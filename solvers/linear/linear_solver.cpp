@@ -7,6 +7,7 @@
 #include <Eigen/UmfPackSupport>
 
 #include "core/error.hpp"
+#include "solvers/linear/factor_krylov.hpp"
 
 namespace peristat {
 
@@ -36,7 +37,9 @@ class DirectSolver final : public LinearSolver {
   void factorize(const SparseMatrix& A) override {
     m_solver.factorize(A);
     m_info = m_solver.info();
+    ++m_factorizations;
   }
+  long factorizations() const override { return m_factorizations; }
   void solve(const VectorXd& b, VectorXd& x) override {
     x = m_solver.solve(b);
     m_info = m_solver.info();
@@ -50,6 +53,7 @@ class DirectSolver final : public LinearSolver {
   std::string m_name;
   bool m_symmetric;
   Eigen::ComputationInfo m_info = Eigen::Success;
+  long m_factorizations = 0;
 };
 
 /// Any Eigen Krylov solver; factorize() builds the preconditioner.
@@ -68,7 +72,9 @@ class KrylovSolver final : public LinearSolver {
   void factorize(const SparseMatrix& A) override {
     m_solver.factorize(A);
     m_info = m_solver.info();
+    ++m_factorizations;
   }
+  long factorizations() const override { return m_factorizations; }
   void solve(const VectorXd& b, VectorXd& x) override {
     if (x.size() != b.size()) x = VectorXd::Zero(b.size());
     x = m_solver.solveWithGuess(b, x);
@@ -85,6 +91,7 @@ class KrylovSolver final : public LinearSolver {
   std::string m_name;
   bool m_symmetric;
   Eigen::ComputationInfo m_info = Eigen::Success;
+  long m_factorizations = 0;
 };
 
 using Full = SparseMatrix;
@@ -94,19 +101,25 @@ constexpr int kBoth = Eigen::Lower | Eigen::Upper;
 
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
   const std::string& t = o.type;
-  const std::string& pc = o.preconditioner;
+  const std::string pc = o.preconditioner != "auto" ? o.preconditioner : t == "bicgstab" ? "ilut" : "bond";
   if (t == "cholmod") return std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
   if (t == "umfpack") return std::make_unique<DirectSolver<Eigen::UmfPackLU<Full>>>("umfpack", false);
   if (t == "klu") return std::make_unique<DirectSolver<Eigen::KLU<Full>>>("klu", false);
   if (t == "ldlt") return std::make_unique<DirectSolver<Eigen::SimplicialLDLT<Full, Eigen::Lower>>>("ldlt", true);
   if (t == "cg") {
+    if (pc == "bond" || pc == "cholmod") {
+      auto factor = std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
+      const auto source = pc == "bond" ? FactorSource::preconditioner_matrix : FactorSource::system_matrix;
+      return make_factor_preconditioned_cg(std::move(factor), source, o);
+    }
     if (pc == "ic")
       return std::make_unique<KrylovSolver<Eigen::ConjugateGradient<
           Full, kBoth, Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::AMDOrdering<Index>>>>>("cg+ic", true, o);
     if (pc == "diagonal")
       return std::make_unique<KrylovSolver<Eigen::ConjugateGradient<Full, kBoth, Eigen::DiagonalPreconditioner<double>>>>(
           "cg+diagonal", true, o);
-    throw InputError("solver.krylov.preconditioner: '" + pc + "' is not available with cg: expected ic or diagonal");
+    throw InputError("solver.krylov.preconditioner: '" + pc +
+                     "' is not available with cg: expected bond, cholmod, ic or diagonal");
   }
   if (t == "bicgstab") {
     if (pc == "ilut")

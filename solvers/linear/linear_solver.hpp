@@ -34,6 +34,14 @@ class LinearSolver {
   virtual int iterations() const { return 0; }
   /// Estimated relative residual of the last solve (0 for direct solvers).
   virtual double error() const { return 0.0; }
+  /// Numeric factorisations performed so far (of A, or of the preconditioner's matrix).
+  virtual long factorizations() const = 0;
+
+  /// True when the solver is preconditioned by the factor of a second matrix P that the
+  /// caller passes with set_preconditioner_matrix() before each factorize() (PETSc's Pmat).
+  virtual bool uses_preconditioner_matrix() const { return false; }
+  /// P must stay alive and keep its pattern until the next call.
+  virtual void set_preconditioner_matrix(const SparseMatrix& /*P*/) {}
 };
 
 /// Creates the solver named by options.type (cholmod, umfpack, klu, ldlt, cg, bicgstab).

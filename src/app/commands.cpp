@@ -187,8 +187,10 @@ int run_command(const RunArguments& args) {
     rec.timings = {{"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};
     writer.write_step(rec);
     if (verbose) {
-      std::printf("  converged: %d Newton iterations, %.2f s (assembly %.2f, factorisation %.2f, solves %.2f)\n",
-                  s.newton_iterations, s.wall_seconds, s.seconds_evaluate, s.seconds_factorize, s.seconds_solve);
+      std::printf("  converged: %d Newton iterations, %d factorisations, %d Krylov iterations; %.2f s "
+                  "(assembly %.2f, factorisation %.2f, solves %.2f)\n",
+                  s.newton_iterations, s.factorizations, s.linear_iterations, s.wall_seconds, s.seconds_evaluate,
+                  s.seconds_factorize, s.seconds_solve);
     }
   };
 

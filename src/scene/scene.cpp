@@ -271,11 +271,12 @@ Loading read_loading(const Field& field) {
 }
 
 void read_krylov(const Field& field, LinearOptions& o) {
-  const Map m = checked_map(field, {"rtol", "max_iterations", "preconditioner"});
+  const Map m = checked_map(field, {"rtol", "max_iterations", "preconditioner", "bond_radius"});
   if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
+  if (auto f = m.find("bond_radius")) o.bond_radius = schema::at_least(*f, 1.0);
   if (auto f = m.find("max_iterations")) o.max_iterations = schema::int_at_least(*f, 1);
   if (auto f = m.find("preconditioner"))
-    o.preconditioner = schema::choice(*f, {"diagonal", "ic", "ilut", "local_cholmod"});
+    o.preconditioner = schema::choice(*f, {"auto", "bond", "cholmod", "ic", "diagonal", "ilut"});
 }
 
 NewtonOptions read_newton(const Field& field) {

@@ -117,7 +117,12 @@ struct LinearOptions {
   std::string type = "cholmod";       ///< cholmod | umfpack | klu | ldlt | cg | bicgstab
   double rtol = 1e-10;                ///< Krylov relative residual
   int max_iterations = 2000;          ///< Krylov iteration cap
-  std::string preconditioner = "ic";  ///< diagonal | ic | ilut | local_cholmod
+  /// auto (bond with cg, ilut with bicgstab) | bond | cholmod | ic | diagonal (cg);
+  /// ilut | diagonal (bicgstab)
+  std::string preconditioner = "auto";
+  /// `bond` preconditioner: bonds of length <= bond_radius * dx, >= 1 (default 2.25: the
+  /// 20 nearest lattice neighbours; docs/theory/newton.md).
+  double bond_radius = 2.25;
 };
 
 struct SolverOptions {

@@ -119,7 +119,7 @@ loading:
 solver:
   type: adr
   linear: bicgstab
-  krylov: {rtol: 1.0e-8, max_iterations: 500, preconditioner: local_cholmod}
+  krylov: {rtol: 1.0e-8, max_iterations: 500, preconditioner: bond}
   newton: {rtol: 1.0e-9, atol: 1.0e-12, stol: 1.0e-7, max_iterations: 40,
            line_search: false, line_search_max: 3, tangent: initial}
   adr: {rtol: 1.0e-7, max_iterations: 5000}
@@ -208,7 +208,7 @@ void expect_full_scene(const Scene& s) {
   EXPECT_EQ(s.solver.linear.type, "bicgstab");
   EXPECT_EQ(s.solver.linear.rtol, 1.0e-8);
   EXPECT_EQ(s.solver.linear.max_iterations, 500);
-  EXPECT_EQ(s.solver.linear.preconditioner, "local_cholmod");
+  EXPECT_EQ(s.solver.linear.preconditioner, "bond");
   EXPECT_EQ(s.solver.newton.rtol, 1.0e-9);
   EXPECT_EQ(s.solver.newton.atol, 1.0e-12);
   EXPECT_EQ(s.solver.newton.stol, 1.0e-7);
@@ -255,7 +255,7 @@ TEST(SceneParse, MinimalSceneGetsTheDocumentedDefaults) {
   EXPECT_EQ(s.solver.type, "newton");
   EXPECT_EQ(s.solver.linear.type, "cholmod");
   EXPECT_EQ(s.solver.linear.rtol, defaults.linear.rtol);
-  EXPECT_EQ(s.solver.linear.preconditioner, "ic");
+  EXPECT_EQ(s.solver.linear.preconditioner, "auto");
   EXPECT_EQ(s.solver.newton.rtol, defaults.newton.rtol);
   EXPECT_EQ(s.solver.newton.max_iterations, defaults.newton.max_iterations);
   EXPECT_TRUE(s.solver.newton.line_search);

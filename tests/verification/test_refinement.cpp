@@ -50,7 +50,9 @@ TEST(Refinement, ErrorFallsWithSpacing) {
     std::printf("\n");
     // Each halving of dx must cut the error by at least a quarter (first order would
     // halve it); a non-convergent discretisation would not.
-    if (prev > 0.0) EXPECT_LT(e, 0.75 * prev);
+    if (prev > 0.0) {
+      EXPECT_LT(e, 0.75 * prev);
+    }
     prev = e;
   }
 }

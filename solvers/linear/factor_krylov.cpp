@@ -1,0 +1,137 @@
+#include "solvers/linear/factor_krylov.hpp"
+
+#include <cmath>
+
+namespace peristat {
+
+namespace {
+
+/// y = A x for a symmetric A stored by columns: y_i = column i . x, parallel over columns,
+/// deterministic (each y_i is one thread's dot product).
+void symmetric_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) {
+  const Index n = static_cast<Index>(A.outerSize());
+  const Index* outer = A.outerIndexPtr();
+  const Index* inner = A.innerIndexPtr();
+  const double* v = A.valuePtr();
+  y.resize(n);
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < n; ++i) {
+    double s = 0.0;
+    for (Index k = outer[i]; k < outer[i + 1]; ++k) s += v[k] * x[inner[k]];
+    y[i] = s;
+  }
+}
+
+class FactorPreconditionedCG final : public LinearSolver {
+ public:
+  FactorPreconditionedCG(std::unique_ptr<LinearSolver> factor, FactorSource source, const LinearOptions& o)
+      : m_factor(std::move(factor)), m_source(source), m_rtol(o.rtol), m_max_iterations(o.max_iterations) {}
+
+  void analyzePattern(const SparseMatrix& A) override { m_A = &A; }
+
+  void factorize(const SparseMatrix& A) override {
+    m_A = &A;
+    m_info = Eigen::Success;
+    if (m_refresh) refresh_factor();
+  }
+
+  void solve(const VectorXd& b, VectorXd& x) override {
+    if (!m_have_factor) refresh_factor();
+    if (m_info != Eigen::Success) return;
+    run_cg(b, x);
+    // One retry with a fresh factor when an old one no longer converges.
+    if (m_info == Eigen::NoConvergence && !m_fresh) {
+      refresh_factor();
+      if (m_info != Eigen::Success) return;
+      run_cg(b, x);
+    }
+    // Renew the factor at the next factorize() once iterations exceed twice (plus five)
+    // those of the first solve with the current factor.
+    if (m_fresh) {
+      m_fresh_iterations = m_iterations;
+      m_fresh = false;
+    } else if (m_iterations > 2 * m_fresh_iterations + 5) {
+      m_refresh = true;
+    }
+  }
+
+  Eigen::ComputationInfo info() const override { return m_info; }
+  std::string name() const override {
+    return m_source == FactorSource::preconditioner_matrix ? "cg+bond-cholmod" : "cg+cholmod";
+  }
+  bool needs_symmetric() const override { return true; }
+  int iterations() const override { return m_iterations; }
+  double error() const override { return m_error; }
+  long factorizations() const override { return m_factor->factorizations(); }
+  bool uses_preconditioner_matrix() const override { return m_source == FactorSource::preconditioner_matrix; }
+  void set_preconditioner_matrix(const SparseMatrix& P) override { m_P = &P; }
+
+ private:
+  void refresh_factor() {
+    const SparseMatrix& M = m_source == FactorSource::preconditioner_matrix ? *m_P : *m_A;
+    if (!m_analyzed) {
+      m_factor->analyzePattern(M);
+      m_analyzed = true;
+    }
+    m_factor->factorize(M);
+    m_info = m_factor->info();
+    m_have_factor = m_info == Eigen::Success;
+    m_refresh = false;
+    m_fresh = true;
+  }
+
+  // Preconditioned CG (Saad, Iterative Methods, alg. 9.1); stops at ||r|| <= rtol ||b||.
+  void run_cg(const VectorXd& b, VectorXd& x) {
+    const Index n = static_cast<Index>(b.size());
+    if (x.size() != n) x = VectorXd::Zero(n);
+    const double bnorm = b.norm();
+    m_iterations = 0;
+    if (bnorm == 0.0) {
+      x.setZero();
+      m_error = 0.0;
+      m_info = Eigen::Success;
+      return;
+    }
+    symmetric_product(*m_A, x, m_q);
+    m_r = b - m_q;
+    m_factor->solve(m_r, m_z);
+    m_p = m_z;
+    double rz = m_r.dot(m_z);
+    m_error = m_r.norm() / bnorm;
+    while (m_error > m_rtol && m_iterations < m_max_iterations) {
+      symmetric_product(*m_A, m_p, m_q);
+      const double alpha = rz / m_p.dot(m_q);
+      x += alpha * m_p;
+      m_r -= alpha * m_q;
+      ++m_iterations;
+      m_error = m_r.norm() / bnorm;
+      if (m_error <= m_rtol) break;
+      m_factor->solve(m_r, m_z);
+      const double rz_new = m_r.dot(m_z);
+      m_p = m_z + (rz_new / rz) * m_p;
+      rz = rz_new;
+    }
+    m_info = m_error <= m_rtol && std::isfinite(m_error) ? Eigen::Success : Eigen::NoConvergence;
+  }
+
+  std::unique_ptr<LinearSolver> m_factor;
+  FactorSource m_source;
+  double m_rtol;
+  int m_max_iterations;
+  const SparseMatrix* m_A = nullptr;
+  const SparseMatrix* m_P = nullptr;
+  bool m_analyzed = false, m_have_factor = false, m_refresh = true, m_fresh = false;
+  int m_iterations = 0, m_fresh_iterations = 0;
+  double m_error = 0.0;
+  Eigen::ComputationInfo m_info = Eigen::Success;
+  VectorXd m_r, m_z, m_p, m_q;  // work vectors, reused across solves
+};
+
+}  // namespace
+
+std::unique_ptr<LinearSolver> make_factor_preconditioned_cg(std::unique_ptr<LinearSolver> factor,
+                                                            FactorSource source, const LinearOptions& options) {
+  return std::make_unique<FactorPreconditionedCG>(std::move(factor), source, options);
+}
+
+}  // namespace peristat

@@ -1,0 +1,23 @@
+// Conjugate gradients preconditioned by a reused sparse factorisation (DESIGN.md section 5,
+// "Linear solves are the cost"): the factor of either the system matrix itself, kept
+// across Newton iterations and load steps, or of a cheaper matrix P that the problem
+// supplies (the bond-based part of the tangent). The factor is renewed only when the
+// iteration count climbs (docs/theory/newton.md, "Factor-preconditioned CG").
+#pragma once
+
+#include <memory>
+
+#include "solvers/linear/linear_solver.hpp"
+
+namespace peristat {
+
+enum class FactorSource {
+  system_matrix,         ///< factor A itself (refreshed when iterations climb)
+  preconditioner_matrix  ///< factor the P given by set_preconditioner_matrix()
+};
+
+/// `factor` is a direct solver for symmetric matrices (CHOLMOD in practice).
+std::unique_ptr<LinearSolver> make_factor_preconditioned_cg(std::unique_ptr<LinearSolver> factor,
+                                                            FactorSource source, const LinearOptions& options);
+
+}  // namespace peristat

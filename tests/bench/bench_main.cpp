@@ -1,0 +1,143 @@
+// peristat_bench: performance measurements (not tests). See docs/performance.md.
+//   peristat_bench tension N [--set KEY=VALUE]...    square N x N plate in tension, one
+//       load step: model build, assembly, factorisation, solve times, iterations, nonzeros,
+//       peak memory; one CSV line on stdout.
+//   peristat_bench factor N MATRIX ORDERING          CHOLMOD analyse + factorise of the
+//       tangent (MATRIX = tangent) or its bond part (MATRIX = bond) with ORDERING = default |
+//       amd | metis | nesdis.
+#include <sys/resource.h>
+
+#include <Eigen/CholmodSupport>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <omp.h>
+
+#include "assembly/quasi_static.hpp"
+#include "solvers/load_stepping.hpp"
+
+using namespace peristat;
+
+namespace {
+
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+double peak_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss / 1024.0;
+}
+
+std::string plate_scene(int n) {
+  char buf[1024];
+  const double dx = 0.1 / n;
+  std::snprintf(buf, sizeof buf,
+                "name: bench_plate\n"
+                "materials: {al: {E: 70.0e9, nu: 0.33, thickness: 1.0e-3}}\n"
+                "discretization: {spacing: %.17g}\n"
+                "bodies: {plate: {material: al, rectangle: {min: [0, 0], max: [0.1, 0.1]}}}\n"
+                "boundary:\n"
+                "  - {body: plate, edge: left, ux: 0}\n"
+                "  - {body: plate, edge: right, ux: 1.0e-4}\n"
+                "  - {body: plate, region: {min: [0, %.17g], max: [%.17g, %.17g]}, uy: 0}\n",
+                dx, 0.05 - dx, dx, 0.05 + dx);
+  return buf;
+}
+
+std::vector<Override> overrides_from(int argc, char** argv, int first) {
+  std::vector<Override> o;
+  for (int i = first; i + 1 < argc; ++i)
+    if (std::strcmp(argv[i], "--set") == 0) o.push_back(parse_override(argv[++i]));
+  return o;
+}
+
+int tension(int n, const std::vector<Override>& overrides) {
+  const double t0 = now();
+  const Scene scene = parse_scene_text(plate_scene(n), "bench_plate.yaml", overrides);
+  const Model model = discretise(scene);
+  const double t_discretise = now() - t0;
+  QuasiStaticProblem problem(model, scene);
+  const double t_model = now() - t0;
+  const long long nonzeros = problem.pattern().matrix.nonZeros();
+  std::fprintf(stderr, "discretise %.2f s, problem set-up (pattern) %.2f s\n", t_discretise, t_model - t_discretise);
+  auto linear = make_linear_solver(scene.solver.linear);
+  NewtonSolver newton(problem, *linear, scene.solver.newton);
+  VectorXd x = VectorXd::Zero(problem.n_unknowns());
+  problem.set_load_factor(0.0);
+  StepReport last;
+  int steps = 0, newton_its = 0, lin_its = 0, facts = 0;
+  double evaluate = 0, factorize = 0, solve = 0;
+  LoadSteppingCallbacks cb;
+  cb.on_step = [&](const StepReport& s, const VectorXd&) {
+    ++steps;
+    newton_its += s.newton_iterations;
+    lin_its += s.linear_iterations;
+    facts += s.factorizations;
+    evaluate += s.seconds_evaluate;
+    factorize += s.seconds_factorize;
+    solve += s.seconds_solve;
+    last = s;
+  };
+  const double t1 = now();
+  const RunReport run = run_load_steps(problem, newton, x, scene.loading, cb);
+  const double t_solve = now() - t1;
+  const double per_it = newton_its > 0 ? t_solve / newton_its : 0.0;
+  std::printf("n,particles,unknowns,nonzeros,linear,threads,model_s,solve_s,total_s,newton_its,krylov_its,"
+              "factorizations,evaluate_s,factorize_s,linsolve_s,assembly_share,final_residual,peak_mb,completed\n");
+  std::printf("%d,%d,%d,%lld,%s,%d,%.3f,%.3f,%.3f,%d,%d,%d,%.3f,%.3f,%.3f,%.3f,%.2e,%.0f,%d\n", n,
+              model.particles.size(), problem.n_unknowns(), nonzeros,
+              linear->name().c_str(), omp_get_max_threads(), t_model, t_solve, t_model + t_solve, newton_its, lin_its,
+              facts, evaluate, factorize, solve, per_it > 0 ? (evaluate / newton_its) / per_it : 0.0,
+              last.final_residual, peak_mb(), run.completed ? 1 : 0);
+  return run.completed ? 0 : 3;
+}
+
+int factor(int n, const std::string& which, const std::string& ordering) {
+  const Scene scene = parse_scene_text(plate_scene(n), "bench_plate.yaml");
+  const Model model = discretise(scene);
+  QuasiStaticProblem problem(model, scene);
+  problem.set_load_factor(1.0);
+  VectorXd x = VectorXd::Zero(problem.n_unknowns()), r;
+  SparseMatrix K = problem.make_tangent();
+  problem.evaluate(x, r, &K);
+  SparseMatrix A = K;
+  if (which == "bond") {
+    A = problem.make_preconditioner();
+    problem.assemble_preconditioner(A);
+  }
+  Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> llt;
+  cholmod_common& c = llt.cholmod();
+  if (ordering != "default") {
+    c.nmethods = 1;
+    c.method[0].ordering = ordering == "amd" ? CHOLMOD_AMD : ordering == "metis" ? CHOLMOD_METIS : CHOLMOD_NESDIS;
+    c.postorder = 1;
+  }
+  const double t0 = now();
+  llt.analyzePattern(A);
+  const double t1 = now();
+  llt.factorize(A);
+  const double t2 = now();
+  VectorXd sol = llt.solve(-r);
+  const double t3 = now();
+  std::printf("n=%d matrix=%s ordering=%s nnz=%lld analyse=%.2fs factorise=%.2fs solve=%.3fs factor_nnz=%.0f "
+              "flops=%.3g peak=%.0fMB info=%d\n",
+              n, which.c_str(), ordering.c_str(), (long long)A.nonZeros(), t1 - t0, t2 - t1, t3 - t2, c.lnz, c.fl,
+              peak_mb(), (int)llt.info());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc >= 3 && std::strcmp(argv[1], "tension") == 0) return tension(std::atoi(argv[2]), overrides_from(argc, argv, 3));
+  if (argc >= 5 && std::strcmp(argv[1], "factor") == 0) return factor(std::atoi(argv[2]), argv[3], argv[4]);
+  std::fprintf(stderr,
+               "usage: peristat_bench tension N [--set KEY=VALUE]...\n"
+               "       peristat_bench factor N tangent|bond default|amd|metis|nesdis\n");
+  return 2;
+}
