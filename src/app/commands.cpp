@@ -11,6 +11,7 @@
 
 #include <omp.h>
 
+#include "app/interrupt.hpp"
 #include "assembly/quasi_static.hpp"
 #include "core/error.hpp"
 #include "discretisation/model.hpp"
@@ -155,13 +156,18 @@ int run_command(const RunArguments& args) {
   problem.set_load_factor(0.0);
 
   LoadSteppingCallbacks cb;
+  auto check_interrupt = [] {
+    if (const int sig = interrupt_signal()) throw Interrupted{sig};
+  };
   cb.on_attempt = [&](int k, int n, double lambda, int cutbacks) {
+    check_interrupt();
     if (verbose) {
       std::printf("step %d/%d  load factor %.6g%s\n", k, n, lambda, cutbacks ? "  (after cut-back)" : "");
       std::fflush(stdout);
     }
   };
   cb.on_iteration = [&](int it, double rel, double alpha) {
+    check_interrupt();
     if (!verbose) return;
     if (it == 0) std::printf("  newton %2d  residual %.3e\n", it, rel);
     else std::printf("  newton %2d  residual %.3e  step %.3g\n", it, rel, alpha);
@@ -185,6 +191,7 @@ int run_command(const RunArguments& args) {
     rec.counts = {{"substeps", s.substeps}, {"cutbacks", s.cutbacks}, {"factorizations", s.factorizations},
                   {"linear_iterations", s.linear_iterations}};
     rec.timings = {{"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};
+    const WriteGuard guard;
     writer.write_step(rec);
     if (verbose) {
       std::printf("  converged: %d Newton iterations, %d factorisations, %d Krylov iterations; %.2f s "
@@ -194,7 +201,16 @@ int run_command(const RunArguments& args) {
     }
   };
 
-  const RunReport report = run_load_steps(problem, newton, x, scene.loading, cb);
+  install_interrupt_handlers();
+  RunReport report;
+  try {
+    report = run_load_steps(problem, newton, x, scene.loading, cb);
+  } catch (const Interrupted& stop) {
+    const std::string message = "interrupted by signal " + std::to_string(stop.signal);
+    writer.finish("interrupted", message);
+    std::fprintf(stderr, "peristat: %s; converged steps kept in %s\n", message.c_str(), writer.h5_path().c_str());
+    return 128 + stop.signal;
+  }
   if (!report.completed) {
     writer.finish("no_convergence", report.message);
     std::fprintf(stderr, "peristat: %s; %d converged step(s) kept in %s\n", report.message.c_str(),

@@ -59,7 +59,7 @@ class ResultsWriter {
   /// summary.json. Signals SIGINT/SIGTERM/SIGHUP are blocked while this runs.
   void write_step(const StepRecord& step);
 
-  /// Records the final status ("completed", "no_convergence", "error") and a message in
+  /// Records the final status ("completed", "no_convergence", "interrupted", "error") and a message in
   /// summary.json.
   void finish(const std::string& status, const std::string& message);
 

@@ -303,7 +303,7 @@ void ResultsWriter::write_step(const StepRecord& step) {
 }
 
 void ResultsWriter::finish(const std::string& status, const std::string& message) {
-  static const std::set<std::string> allowed = {"running", "completed", "no_convergence", "error"};
+  static const std::set<std::string> allowed = {"running", "completed", "no_convergence", "interrupted", "error"};
   if (allowed.count(status) == 0) {
     throw std::invalid_argument("ResultsWriter::finish: unknown status '" + status + "'");
   }

@@ -1,0 +1,27 @@
+// Ctrl-C and kill during a run. The first SIGINT/SIGTERM/SIGHUP asks the run to stop at
+// the next Newton iteration (the results keep every converged step and summary.json says
+// "interrupted"); a second one exits at once, unless a step is being written, in which case
+// the exit waits for the write to finish. Either way the files stay valid.
+#pragma once
+
+namespace peristat {
+
+void install_interrupt_handlers();
+/// The signal received, or 0.
+int interrupt_signal();
+
+/// Marks the span of a results write: a second signal inside it is deferred to its end.
+class WriteGuard {
+ public:
+  WriteGuard();
+  ~WriteGuard();
+  WriteGuard(const WriteGuard&) = delete;
+  WriteGuard& operator=(const WriteGuard&) = delete;
+};
+
+/// Thrown by the run's progress callbacks once a signal has arrived.
+struct Interrupted {
+  int signal;
+};
+
+}  // namespace peristat

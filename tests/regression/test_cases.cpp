@@ -1,0 +1,86 @@
+// The cases and the program's contracts, end to end through the command line, in smoke
+// mode (coarse spacing) so the suite stays fast.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <sstream>
+
+#include "io/results.hpp"
+#include "support/cli.hpp"
+
+namespace peristat {
+namespace {
+
+const std::string kTension = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+
+TEST(TensionPlateCase, SmokeRunMatchesUniaxialSolution) {
+  const auto dir = test::fresh_directory("tension");
+  const auto r = test::run_cli("run " + kTension + " --out " + dir.string() + " --set discretization.spacing=4e-3");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("step 2/2"), std::string::npos) << "progress shows the load steps";
+  for (const char* f : {"tension_plate.h5", "tension_plate.xdmf", "summary.json"})
+    EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
+  EXPECT_NE(test::read_file(dir / "summary.json").find("\"completed\""), std::string::npos);
+
+  // Mid-height profile over the central 40% of the plate: the uniaxial solution is
+  // ux = eps x with eps = 1e-3. Tolerance 2% of the end displacement (1e-4 m): at dx = 4 mm
+  // the loaded layers and the free edges, each a horizon (12 mm) wide, bend the profile
+  // (measured: 0.7%, 7.1e-7 m at x = 0.03 and 0.07).
+  const auto p = test::run_cli("probe " + (dir / "tension_plate.h5").string() + " --line 0.03 0.05 0.07 0.05 --points 5");
+  ASSERT_EQ(p.exit_code, 0) << p.err;
+  std::istringstream csv(p.out);
+  std::string line;
+  std::getline(csv, line);
+  EXPECT_EQ(line, "s,x,y,ux,uy");
+  int rows = 0;
+  while (std::getline(csv, line)) {
+    double s, x, y, ux, uy;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%lf,%lf,%lf,%lf", &s, &x, &y, &ux, &uy), 5) << line;
+    EXPECT_NEAR(ux, 1e-3 * x, 2e-6) << "at x = " << x;
+    ++rows;
+  }
+  EXPECT_EQ(rows, 5);
+  std::filesystem::remove_all(dir);
+}
+
+// Exit code 3 with a valid file: an unreachable tolerance (1e-30, below round-off) makes
+// every attempt fail; after the cut-backs the run stops, the file holds the particles and
+// no step, and summary.json says why.
+TEST(ExitCodes, NoConvergenceIsThreeAndLeavesAValidFile) {
+  const auto dir = test::fresh_directory("noconv");
+  const auto r = test::run_cli("run " + kTension + " --quiet --out " + dir.string() +
+                               " --set discretization.spacing=5e-3 --set solver.newton.rtol=1e-30"
+                               " --set solver.newton.atol=1e-300 --set solver.newton.max_iterations=3"
+                               " --set loading.max_cutbacks=1");
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("did not converge"), std::string::npos) << r.err;
+  ResultsReader reader((dir / "tension_plate.h5").string());
+  EXPECT_GT(reader.particles().size(), 0u);
+  EXPECT_TRUE(reader.steps().empty());
+  EXPECT_NE(test::read_file(dir / "summary.json").find("no_convergence"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ExitCodes, QuietRunPrintsNothing) {
+  const auto dir = test::fresh_directory("quiet");
+  const auto r = test::run_cli("run " + kTension + " --quiet --out " + dir.string() + " --set discretization.spacing=5e-3");
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ExitCodes, CheckPrintsTheModelSize) {
+  const auto r = test::run_cli("check " + kTension);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  for (const char* word : {"particles", "bonds", "unknowns", "nonzeros", "memory"})
+    EXPECT_NE(r.out.find(word), std::string::npos) << word;
+}
+
+TEST(ExitCodes, ProbeOfAMissingFileIsBadInput) {
+  const auto r = test::run_cli("probe /nonexistent/result.h5 --line 0 0 1 1");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("/nonexistent/result.h5"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace peristat

@@ -1,0 +1,22 @@
+// Running the peristat program from tests.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+namespace peristat::test {
+
+struct CliResult {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+/// Runs PERISTAT_EXE with the arguments (a shell-quoted string) and captures both streams.
+CliResult run_cli(const std::string& arguments);
+
+/// A fresh empty directory under the system temporary directory.
+std::filesystem::path fresh_directory(const std::string& stem);
+
+std::string read_file(const std::filesystem::path& path);
+
+}  // namespace peristat::test
