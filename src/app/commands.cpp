@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <sstream>
 
 #include <omp.h>
 
@@ -15,6 +14,7 @@
 #include "assembly/quasi_static.hpp"
 #include "core/error.hpp"
 #include "discretisation/model.hpp"
+#include "io/json.hpp"
 #include "io/results.hpp"
 #include "solvers/load_stepping.hpp"
 
@@ -69,30 +69,37 @@ void print_size(const ModelSize& s) {
               s.memory_bytes / 1e6);
 }
 
-std::string json_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out;
-}
-
+/// The resolved options and model size, stored under "run" in summary.json.
 std::string run_info_json(const Scene& scene, const ModelSize& s, const std::string& linear, int threads) {
-  std::ostringstream j;
   const NewtonOptions& n = scene.solver.newton;
-  j << "{\"particles\": " << s.particles << ", \"fictitious\": " << s.fictitious << ", \"bonds\": " << s.bonds
-    << ", \"cut_bonds\": " << s.cut_bonds << ", \"unknowns\": " << s.unknowns
-    << ", \"tangent_nonzeros\": " << s.nonzeros << ", \"threads\": " << threads
-    << ", \"spacing\": " << scene.discretization.spacing
-    << ", \"horizon_factor\": " << scene.discretization.horizon_factor
-    << ", \"load_steps\": " << scene.loading.steps << ", \"solver\": {\"type\": \""
-    << json_escape(scene.solver.type) << "\", \"linear\": \"" << json_escape(linear)
-    << "\", \"newton_rtol\": " << n.rtol << ", \"newton_atol\": " << n.atol
-    << ", \"newton_max_iterations\": " << n.max_iterations << ", \"line_search\": "
-    << (n.line_search ? "true" : "false") << ", \"tangent\": \""
-    << (n.tangent == TangentKind::consistent ? "consistent" : "initial") << "\"}}";
-  return j.str();
+  json::Writer w;
+  w.begin_object();
+  auto field = [&w](const char* name, auto v) {
+    w.key(name);
+    w.value(v);
+  };
+  field("particles", s.particles);
+  field("fictitious", s.fictitious);
+  field("bonds", s.bonds);
+  field("cut_bonds", s.cut_bonds);
+  field("unknowns", s.unknowns);
+  field("tangent_nonzeros", s.nonzeros);
+  field("threads", threads);
+  field("spacing", scene.discretization.spacing);
+  field("horizon_factor", scene.discretization.horizon_factor);
+  field("load_steps", scene.loading.steps);
+  w.key("solver");
+  w.begin_object();
+  field("type", std::string_view(scene.solver.type));
+  field("linear", std::string_view(linear));
+  field("newton_rtol", n.rtol);
+  field("newton_atol", n.atol);
+  field("newton_max_iterations", n.max_iterations);
+  field("line_search", n.line_search);
+  field("tangent", n.tangent == TangentKind::consistent ? "consistent" : "initial");
+  w.end_object();
+  w.end_object();
+  return w.str();
 }
 
 ParticleTable particle_table(const Scene& scene, const Model& model) {

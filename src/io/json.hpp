@@ -1,4 +1,4 @@
-// Private to src/io: a tiny streaming JSON writer (enough for summary.json).
+// A tiny streaming JSON writer (enough for summary.json and its "run" object).
 #pragma once
 
 #include <string>
@@ -26,6 +26,7 @@ class Writer {
   void value(int v) { value(static_cast<long long>(v)); }
   void value(std::string_view text);
   void value(const char* text) { value(std::string_view(text)); }
+  void value(bool b) { raw(b ? "true" : "false"); }
   void null();
   /// A flat array of numbers on one line: [1, 2.5, null].
   void numbers(const std::vector<double>& values);
