@@ -23,7 +23,10 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
     for (Index p = 0; p < n; ++p) {
       std::vector<Index>& r = rows[p];
       auto add = [&](Index q) {
-        if (!seen[q]) { seen[q] = 1; r.push_back(q); }
+        if (!seen[q]) {
+          seen[q] = 1;
+          r.push_back(q);
+        }
       };
       add(p);
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {

@@ -29,7 +29,6 @@ enum class PatternReach {
   bonds_within,  ///< bond pairs of length <= a given radius only
 };
 
-
 /// Builds the pattern. Deterministic; O(N n^2) with n the family size.
 /// `radius` [m] is used with PatternReach::bonds_within only.
 TangentPattern build_pattern(const Model& model, PatternReach reach = PatternReach::two_horizons,

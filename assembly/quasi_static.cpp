@@ -1,19 +1,14 @@
 #include "assembly/quasi_static.hpp"
 
-#include <chrono>
-
 #include <omp.h>
+
+#include "core/clock.hpp"
 
 namespace peristat {
 
-namespace {
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-}  // namespace
-
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
-    : m_model(model), m_pattern(build_pattern(model)),
+    : m_model(model),
+      m_pattern(build_pattern(model)),
       m_bond_radius(scene.solver.linear.bond_radius * scene.discretization.spacing) {
   m_linear = true;
   for (const Body& body : scene.bodies) {
@@ -25,8 +20,8 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
   m_weighted_volume.resize(n);
   for (Index i = 0; i < n; ++i) {
     const Index b0 = bonds.start[i], nb = bonds.family_size(i);
-    m_weighted_volume[i] = weighted_volume(std::span(bonds.xi).subspan(b0, nb),
-                                           std::span(bonds.weight).subspan(b0, nb));
+    m_weighted_volume[i] =
+        weighted_volume(std::span(bonds.xi).subspan(b0, nb), std::span(bonds.weight).subspan(b0, nb));
   }
   const std::size_t nbonds = bonds.neighbour.size();
   m_eta.assign(nbonds, Vec2::Zero());
@@ -41,7 +36,9 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
   m_force = VectorXd::Zero(2 * n);
 }
 
-void QuasiStaticProblem::set_load_factor(double lambda) { m_lambda = lambda; }
+void QuasiStaticProblem::set_load_factor(double lambda) {
+  m_lambda = lambda;
+}
 
 SparseMatrix QuasiStaticProblem::make_tangent() const {
   // One named result on every path, so it is returned without a copy (NRVO): Eigen 3.4's
@@ -66,7 +63,8 @@ void QuasiStaticProblem::expand(const VectorXd& x, VectorXd& u) const {
 Mat2 QuasiStaticProblem::stress(Index i) const {
   const Bonds& bonds = m_model.bonds;
   Mat2 P = Mat2::Zero();
-  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) P += m_t[b] * m_direction[b] * bonds.xi[b].transpose();
+  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+    P += m_t[b] * m_direction[b] * bonds.xi[b].transpose();
   return P;
 }
 
@@ -75,7 +73,7 @@ void QuasiStaticProblem::commit(const VectorXd& /*x*/) {
 }
 
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {
-  const double t0 = now();
+  const double t0 = wall_seconds();
   expand(x, m_u);
   compute_families(K != nullptr);
   gather_forces();
@@ -83,11 +81,11 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   r.resize(c.n_free);
   for (std::size_t d = 0; d < c.prescribed.size(); ++d)
     if (!c.prescribed[d]) r[c.free_index[d]] = m_force[d];
-  const double t1 = now();
+  const double t1 = wall_seconds();
   m_seconds_residual += t1 - t0;
   if (K) {
     gather_tangent(*K);
-    m_seconds_tangent += now() - t1;
+    m_seconds_tangent += wall_seconds() - t1;
   }
 }
 
@@ -106,9 +104,9 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
     }
     const FamilyOutputs out{std::span(m_t).subspan(b0, nb), std::span(m_direction).subspan(b0, nb),
                             std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
-    const FamilyResult res =
-        osb_family(m_body_constants[p.body[i]], m_weighted_volume[i], std::span(bonds.xi).subspan(b0, nb),
-                   std::span(bonds.weight).subspan(b0, nb), std::span(m_eta).subspan(b0, nb), out, want_tangent);
+    const FamilyResult res = osb_family(
+        m_body_constants[p.body[i]], m_weighted_volume[i], std::span(bonds.xi).subspan(b0, nb),
+        std::span(bonds.weight).subspan(b0, nb), std::span(m_eta).subspan(b0, nb), out, want_tangent);
     m_energy_density[i] = res.energy_density;
     energy += p.volume[i] * res.energy_density;
     if (want_tangent) {
@@ -148,8 +146,13 @@ namespace {
 class ColumnWriter {
  public:
   ColumnWriter(const Model& model, const TangentPattern& pattern, SparseMatrix& A)
-      : m_part(model.particles), m_cons(model.constraints), m_pat(pattern), m_reach(pattern.lattice_reach),
-        m_width(2 * pattern.lattice_reach + 1), m_outer(A.outerIndexPtr()), m_values(A.valuePtr()),
+      : m_part(model.particles),
+        m_cons(model.constraints),
+        m_pat(pattern),
+        m_reach(pattern.lattice_reach),
+        m_width(2 * pattern.lattice_reach + 1),
+        m_outer(A.outerIndexPtr()),
+        m_values(A.valuePtr()),
         m_slot(static_cast<std::size_t>(m_width) * m_width, -1) {}
 
   /// False when p has no free component (nothing to write).
@@ -239,7 +242,8 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
         col.add_sym(i, -Vi, m_kbond[r]);
         col.add_outer(i, bVi, m_s_self[i], sr);
         col.add_sym(p, Vi, m_kbond[r]);
-        for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c) col.add_outer(bonds.neighbour[c], bVi, m_s[c], sr);
+        for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c)
+          col.add_outer(bonds.neighbour[c], bVi, m_s[c], sr);
       }
       col.end();
     }
@@ -248,7 +252,8 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
 
 SparseMatrix QuasiStaticProblem::make_preconditioner() const {
   if (!m_bond_pattern)
-    m_bond_pattern = std::make_unique<TangentPattern>(build_pattern(m_model, PatternReach::bonds_within, m_bond_radius));
+    m_bond_pattern =
+        std::make_unique<TangentPattern>(build_pattern(m_model, PatternReach::bonds_within, m_bond_radius));
   return m_bond_pattern->matrix;
 }
 

@@ -59,22 +59,22 @@ class QuasiStaticProblem final : public Problem {
   const Model& m_model;
   mutable TangentPattern m_pattern;  ///< its matrix is moved out by the first make_tangent()
   mutable std::unique_ptr<TangentPattern> m_bond_pattern;  ///< built on first request
-  double m_bond_radius = 0.0;                               ///< [m]
-  std::vector<double> m_bond_alpha_volume;                  ///< per particle V 8 mu / m' 
-  std::vector<OsbConstants> m_body_constants;  ///< per body
-  std::vector<double> m_weighted_volume;       ///< m_i (eq 4), intact bonds at the start
+  double m_bond_radius = 0.0;                              ///< [m]
+  std::vector<double> m_bond_alpha_volume;                 ///< per particle V 8 mu / m'
+  std::vector<OsbConstants> m_body_constants;              ///< per body
+  std::vector<double> m_weighted_volume;                   ///< m_i (eq 4), intact bonds at the start
   bool m_linear = false;
   double m_lambda = 0.0;
 
   // State of the last evaluate.
   VectorXd m_u, m_force;
   double m_force_scale = 0.0, m_energy = 0.0;
-  std::vector<Vec2> m_eta, m_direction, m_s;   ///< per bond
-  std::vector<double> m_t;                     ///< per bond
-  std::vector<Sym2> m_kbond;                   ///< per bond
-  std::vector<Vec2> m_s_self;                  ///< per particle: -sum_b s_b
-  std::vector<double> m_beta_volume;           ///< per particle: beta_i V_i
-  std::vector<double> m_energy_density;        ///< per particle
+  std::vector<Vec2> m_eta, m_direction, m_s;  ///< per bond
+  std::vector<double> m_t;                    ///< per bond
+  std::vector<Sym2> m_kbond;                  ///< per bond
+  std::vector<Vec2> m_s_self;                 ///< per particle: -sum_b s_b
+  std::vector<double> m_beta_volume;          ///< per particle: beta_i V_i
+  std::vector<double> m_energy_density;       ///< per particle
   double m_seconds_residual = 0.0, m_seconds_tangent = 0.0;
 };
 

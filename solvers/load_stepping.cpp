@@ -1,16 +1,11 @@
 #include "solvers/load_stepping.hpp"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 
-namespace peristat {
+#include "core/clock.hpp"
 
-namespace {
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-}  // namespace
+namespace peristat {
 
 RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, const Loading& loading,
                          const LoadSteppingCallbacks& cb) {
@@ -20,7 +15,7 @@ RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, co
   double lambda = problem.load_factor();
   VectorXd trial;
   for (int k = 1; k <= n; ++k) {
-    const double start = now();
+    const double start = wall_seconds();
     const double target = static_cast<double>(k) / n;
     StepReport step;
     step.step = k;
@@ -69,7 +64,7 @@ RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, co
       if (cb.on_cutback) cb.on_cutback(r.reason, increment);
     }
     step.load_factor = lambda;
-    step.wall_seconds = now() - start;
+    step.wall_seconds = wall_seconds() - start;
     run.steps_done = k;
     if (cb.on_step) cb.on_step(step, x);
   }

@@ -17,10 +17,10 @@ struct StepReport {
   double load_factor = 0.0;
   int substeps = 0;
   int cutbacks = 0;
-  int newton_iterations = 0;          ///< summed over sub-steps
+  int newton_iterations = 0;  ///< summed over sub-steps
   int linear_iterations = 0;
   int factorizations = 0;
-  std::vector<double> residuals;      ///< relative residuals of all sub-steps, in order
+  std::vector<double> residuals;  ///< relative residuals of all sub-steps, in order
   double final_residual = 0.0;
   double seconds_evaluate = 0.0, seconds_factorize = 0.0, seconds_solve = 0.0;
   double wall_seconds = 0.0;

@@ -1,15 +1,13 @@
 #include "solvers/newton.hpp"
 
-#include <chrono>
 #include <cmath>
 #include <limits>
+
+#include "core/clock.hpp"
 
 namespace peristat {
 
 namespace {
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 constexpr double kTiny = std::numeric_limits<double>::min();
 }  // namespace
 
@@ -21,7 +19,7 @@ bool NewtonSolver::reuse_factor() const {
 }
 
 void NewtonSolver::factorize(NewtonReport& report) {
-  const double t0 = now();
+  const double t0 = wall_seconds();
   if (m_linear.uses_preconditioner_matrix()) {
     if (m_P.rows() == 0) m_P = m_problem.make_preconditioner();
     m_problem.assemble_preconditioner(m_P);  // at the state of the last evaluate, like K
@@ -33,14 +31,14 @@ void NewtonSolver::factorize(NewtonReport& report) {
   }
   m_linear.factorize(m_K);
   m_have_factor = m_linear.info() == Eigen::Success;
-  report.seconds_factorize += now() - t0;
+  report.seconds_factorize += wall_seconds() - t0;
 }
 
 void NewtonSolver::prepare(const VectorXd& x) {
   const long f0 = m_linear.factorizations();
-  const double t0 = now();
+  const double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, &m_K);
-  m_pending.seconds_evaluate += now() - t0;
+  m_pending.seconds_evaluate += wall_seconds() - t0;
   factorize(m_pending);
   m_pending.factorizations += static_cast<int>(m_linear.factorizations() - f0);
 }
@@ -61,9 +59,9 @@ NewtonReport NewtonSolver::solve_iterations(VectorXd& x, const NewtonMonitor& mo
   auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kTiny); };
   auto converged = [&](double norm) { return norm <= std::max(o.rtol * m_problem.force_scale(), o.atol); };
 
-  double t0 = now();
+  double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, (reuse_factor() || use_existing) ? nullptr : &m_K);
-  report.seconds_evaluate += now() - t0;
+  report.seconds_evaluate += wall_seconds() - t0;
   double norm = m_r.norm();
   report.residuals.push_back(relative(norm));
   if (monitor) monitor(0, report.residuals.back(), 0.0);
@@ -73,7 +71,8 @@ NewtonReport NewtonSolver::solve_iterations(VectorXd& x, const NewtonMonitor& mo
       report.reason = "the residual is not finite";
       return report;
     }
-    const bool increment_ok = o.stol <= 0.0 || report.increments.empty() || report.increments.back() <= o.stol;
+    const bool increment_ok =
+        o.stol <= 0.0 || report.increments.empty() || report.increments.back() <= o.stol;
     if (converged(norm) && increment_ok) {
       report.converged = true;
       report.reason = "converged";
@@ -90,10 +89,10 @@ NewtonReport NewtonSolver::solve_iterations(VectorXd& x, const NewtonMonitor& mo
         return report;
       }
     }
-    t0 = now();
+    t0 = wall_seconds();
     m_dx.setZero(m_r.size());
     m_linear.solve(-m_r, m_dx);
-    report.seconds_solve += now() - t0;
+    report.seconds_solve += wall_seconds() - t0;
     report.linear_iterations += m_linear.iterations();
     ++report.iterations;
     use_existing = false;
@@ -106,12 +105,12 @@ NewtonReport NewtonSolver::solve_iterations(VectorXd& x, const NewtonMonitor& mo
     double alpha = 1.0;
     for (int ls = 0;; ++ls) {
       m_trial = x + alpha * m_dx;
-      t0 = now();
+      t0 = wall_seconds();
       m_problem.evaluate(m_trial, m_trial_r, reuse_factor() ? nullptr : &m_K);
-      report.seconds_evaluate += now() - t0;
+      report.seconds_evaluate += wall_seconds() - t0;
       const double trial_norm = m_trial_r.norm();
-      const bool accept = !o.line_search || converged(trial_norm) ||
-                          trial_norm <= (1.0 - 1e-4 * alpha) * norm;
+      const bool accept =
+          !o.line_search || converged(trial_norm) || trial_norm <= (1.0 - 1e-4 * alpha) * norm;
       if (accept && std::isfinite(trial_norm)) {
         norm = trial_norm;
         break;

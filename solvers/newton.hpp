@@ -16,13 +16,13 @@ namespace peristat {
 /// Outcome of one Newton solve, like Eigen's info() but with the history.
 struct NewtonReport {
   bool converged = false;
-  std::string reason;                 ///< why it stopped (converged, max iterations, ...)
-  int iterations = 0;                 ///< linear solves performed
-  std::vector<double> residuals;      ///< relative residual at every evaluated iterate
-  std::vector<double> increments;     ///< ||dx|| / max(||x||, tiny) of each accepted update
+  std::string reason;              ///< why it stopped (converged, max iterations, ...)
+  int iterations = 0;              ///< linear solves performed
+  std::vector<double> residuals;   ///< relative residual at every evaluated iterate
+  std::vector<double> increments;  ///< ||dx|| / max(||x||, tiny) of each accepted update
   int factorizations = 0;
-  int linear_iterations = 0;          ///< Krylov iterations, summed
-  double seconds_evaluate = 0.0;      ///< residual + tangent assembly
+  int linear_iterations = 0;      ///< Krylov iterations, summed
+  double seconds_evaluate = 0.0;  ///< residual + tangent assembly
   double seconds_factorize = 0.0;
   double seconds_solve = 0.0;
 };

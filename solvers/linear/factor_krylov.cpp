@@ -130,7 +130,8 @@ class FactorPreconditionedCG final : public LinearSolver {
 }  // namespace
 
 std::unique_ptr<LinearSolver> make_factor_preconditioned_cg(std::unique_ptr<LinearSolver> factor,
-                                                            FactorSource source, const LinearOptions& options) {
+                                                            FactorSource source,
+                                                            const LinearOptions& options) {
   return std::make_unique<FactorPreconditionedCG>(std::move(factor), source, options);
 }
 

@@ -13,12 +13,15 @@ namespace peristat {
 
 std::string describe(Eigen::ComputationInfo info) {
   switch (info) {
-    case Eigen::Success: return "success";
+    case Eigen::Success:
+      return "success";
     case Eigen::NumericalIssue:
       return "numerical issue (the matrix is singular or not positive definite: is every "
              "body held against rigid motion?)";
-    case Eigen::NoConvergence: return "the iterative solver did not converge";
-    case Eigen::InvalidInput: return "invalid input";
+    case Eigen::NoConvergence:
+      return "the iterative solver did not converge";
+    case Eigen::InvalidInput:
+      return "invalid input";
   }
   return "unknown";
 }
@@ -102,34 +105,42 @@ constexpr int kBoth = Eigen::Lower | Eigen::Upper;
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
   const std::string& t = o.type;
   const std::string pc = o.preconditioner != "auto" ? o.preconditioner : t == "bicgstab" ? "ilut" : "bond";
-  if (t == "cholmod") return std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
+  if (t == "cholmod")
+    return std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
   if (t == "umfpack") return std::make_unique<DirectSolver<Eigen::UmfPackLU<Full>>>("umfpack", false);
   if (t == "klu") return std::make_unique<DirectSolver<Eigen::KLU<Full>>>("klu", false);
-  if (t == "ldlt") return std::make_unique<DirectSolver<Eigen::SimplicialLDLT<Full, Eigen::Lower>>>("ldlt", true);
+  if (t == "ldlt")
+    return std::make_unique<DirectSolver<Eigen::SimplicialLDLT<Full, Eigen::Lower>>>("ldlt", true);
   if (t == "cg") {
     if (pc == "bond" || pc == "cholmod") {
-      auto factor = std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
+      auto factor =
+          std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
       const auto source = pc == "bond" ? FactorSource::preconditioner_matrix : FactorSource::system_matrix;
       return make_factor_preconditioned_cg(std::move(factor), source, o);
     }
     if (pc == "ic")
       return std::make_unique<KrylovSolver<Eigen::ConjugateGradient<
-          Full, kBoth, Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::AMDOrdering<Index>>>>>("cg+ic", true, o);
+          Full, kBoth, Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::AMDOrdering<Index>>>>>("cg+ic",
+                                                                                                     true, o);
     if (pc == "diagonal")
-      return std::make_unique<KrylovSolver<Eigen::ConjugateGradient<Full, kBoth, Eigen::DiagonalPreconditioner<double>>>>(
+      return std::make_unique<
+          KrylovSolver<Eigen::ConjugateGradient<Full, kBoth, Eigen::DiagonalPreconditioner<double>>>>(
           "cg+diagonal", true, o);
     throw InputError("solver.krylov.preconditioner: '" + pc +
                      "' is not available with cg: expected bond, cholmod, ic or diagonal");
   }
   if (t == "bicgstab") {
     if (pc == "ilut")
-      return std::make_unique<KrylovSolver<Eigen::BiCGSTAB<Full, Eigen::IncompleteLUT<double, Index>>>>("bicgstab+ilut", false, o);
+      return std::make_unique<KrylovSolver<Eigen::BiCGSTAB<Full, Eigen::IncompleteLUT<double, Index>>>>(
+          "bicgstab+ilut", false, o);
     if (pc == "diagonal")
       return std::make_unique<KrylovSolver<Eigen::BiCGSTAB<Full, Eigen::DiagonalPreconditioner<double>>>>(
           "bicgstab+diagonal", false, o);
-    throw InputError("solver.krylov.preconditioner: '" + pc + "' is not available with bicgstab: expected ilut or diagonal");
+    throw InputError("solver.krylov.preconditioner: '" + pc +
+                     "' is not available with bicgstab: expected ilut or diagonal");
   }
-  throw InputError("solver.linear: unknown linear solver '" + t + "': expected cholmod, umfpack, klu, ldlt, cg or bicgstab");
+  throw InputError("solver.linear: unknown linear solver '" + t +
+                   "': expected cholmod, umfpack, klu, ldlt, cg or bicgstab");
 }
 
 }  // namespace peristat

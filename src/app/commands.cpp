@@ -1,17 +1,17 @@
 #include "app/commands.hpp"
 
 #include <algorithm>
-#include <chrono>
-#include <optional>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include <omp.h>
 
 #include "app/interrupt.hpp"
 #include "assembly/quasi_static.hpp"
+#include "core/clock.hpp"
 #include "core/error.hpp"
 #include "discretisation/model.hpp"
 #include "io/json.hpp"
@@ -21,10 +21,6 @@
 namespace peristat {
 
 namespace {
-
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 std::vector<Override> parse_overrides(const std::vector<std::string>& assignments) {
   std::vector<Override> out;
@@ -50,12 +46,12 @@ ModelSize measure(const Model& model, const TangentPattern& pattern) {
   s.prescribed = 2 * p.size() - s.unknowns;
   s.nonzeros = pattern.matrix.nonZeros();
   const double per_particle = sizeof(Vec2) + 2 * sizeof(double) + sizeof(int) + 1 + 2 * sizeof(int) +
-                              4 * (sizeof(char) + sizeof(double) + sizeof(Index)) +  // constraints
+                              4 * (sizeof(char) + sizeof(double) + sizeof(Index)) +        // constraints
                               4 * sizeof(double) + 2 * sizeof(Vec2) + 2 * sizeof(double);  // state
-  const double per_bond = 2 * sizeof(Index) + sizeof(Vec2) + sizeof(double) +        // bonds
-                          3 * sizeof(Vec2) + sizeof(double) + 3 * sizeof(double);    // caches
-  const double matrix = s.nonzeros * (sizeof(double) + sizeof(Index)) +
-                        pattern.row_particle.size() * 2.0 * sizeof(Index);
+  const double per_bond = 2 * sizeof(Index) + sizeof(Vec2) + sizeof(double) +              // bonds
+                          3 * sizeof(Vec2) + sizeof(double) + 3 * sizeof(double);          // caches
+  const double matrix =
+      s.nonzeros * (sizeof(double) + sizeof(Index)) + pattern.row_particle.size() * 2.0 * sizeof(Index);
   s.memory_bytes = per_particle * p.size() + per_bond * model.bonds.n_bonds() + matrix;
   return s;
 }
@@ -123,8 +119,8 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   std::printf("%s: scene '%s' is valid\n", scene_path.c_str(), scene.name.c_str());
   std::printf("  bodies         %zu, materials %zu, pre-cracks %zu, conditions %zu\n", scene.bodies.size(),
               scene.materials.size(), scene.cracks.size(), scene.boundary.size());
-  std::printf("  spacing        %g m, horizon %g m (m = %g), %zu bonds per interior family\n",
-              model.spacing, model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
+  std::printf("  spacing        %g m, horizon %g m (m = %g), %zu bonds per interior family\n", model.spacing,
+              model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
   print_size(measure(model, pattern));
   return exit_success;
 }
@@ -139,13 +135,13 @@ int run_command(const RunArguments& args) {
   }
   if (args.threads > 0) omp_set_num_threads(args.threads);
   const bool verbose = !args.quiet;
-  const double t_start = now();
+  const double t_start = wall_seconds();
 
   const Model model = discretise(scene);
   QuasiStaticProblem problem(model, scene);
   std::unique_ptr<LinearSolver> linear = make_linear_solver(scene.solver.linear);
   const ModelSize size = measure(model, problem.pattern());
-  const double t_model = now() - t_start;
+  const double t_model = wall_seconds() - t_start;
   if (verbose) {
     std::printf("peristat: %s (%s)\n", scene.name.c_str(), scene.path.c_str());
     print_size(size);
@@ -176,8 +172,10 @@ int run_command(const RunArguments& args) {
   cb.on_iteration = [&](int it, double rel, double alpha) {
     check_interrupt();
     if (!verbose) return;
-    if (it == 0) std::printf("  newton %2d  residual %.3e\n", it, rel);
-    else std::printf("  newton %2d  residual %.3e  step %.3g\n", it, rel, alpha);
+    if (it == 0)
+      std::printf("  newton %2d  residual %.3e\n", it, rel);
+    else
+      std::printf("  newton %2d  residual %.3e  step %.3g\n", it, rel, alpha);
     std::fflush(stdout);
   };
   cb.on_cutback = [&](const std::string& reason, double next) {
@@ -195,16 +193,20 @@ int run_command(const RunArguments& args) {
     rec.wall_seconds = s.wall_seconds;
     rec.displacement = &u;
     rec.residual_history = s.residuals;
-    rec.counts = {{"substeps", s.substeps}, {"cutbacks", s.cutbacks}, {"factorizations", s.factorizations},
+    rec.counts = {{"substeps", s.substeps},
+                  {"cutbacks", s.cutbacks},
+                  {"factorizations", s.factorizations},
                   {"linear_iterations", s.linear_iterations}};
-    rec.timings = {{"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};
+    rec.timings = {
+        {"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};
     const WriteGuard guard;
     writer.write_step(rec);
     if (verbose) {
-      std::printf("  converged: %d Newton iterations, %d factorisations, %d Krylov iterations; %.2f s "
-                  "(assembly %.2f, factorisation %.2f, solves %.2f)\n",
-                  s.newton_iterations, s.factorizations, s.linear_iterations, s.wall_seconds, s.seconds_evaluate,
-                  s.seconds_factorize, s.seconds_solve);
+      std::printf(
+          "  converged: %d Newton iterations, %d factorisations, %d Krylov iterations; %.2f s "
+          "(assembly %.2f, factorisation %.2f, solves %.2f)\n",
+          s.newton_iterations, s.factorizations, s.linear_iterations, s.wall_seconds, s.seconds_evaluate,
+          s.seconds_factorize, s.seconds_solve);
     }
   };
 
@@ -215,7 +217,8 @@ int run_command(const RunArguments& args) {
   } catch (const Interrupted& stop) {
     const std::string message = "interrupted by signal " + std::to_string(stop.signal);
     writer.finish("interrupted", message);
-    std::fprintf(stderr, "peristat: %s; converged steps kept in %s\n", message.c_str(), writer.h5_path().c_str());
+    std::fprintf(stderr, "peristat: %s; converged steps kept in %s\n", message.c_str(),
+                 writer.h5_path().c_str());
     return 128 + stop.signal;
   }
   if (!report.completed) {
@@ -225,7 +228,9 @@ int run_command(const RunArguments& args) {
     return exit_no_convergence;
   }
   writer.finish("completed", "completed");
-  if (verbose) std::printf("peristat: done in %.2f s; results in %s\n", now() - t_start, writer.h5_path().c_str());
+  if (verbose)
+    std::printf("peristat: done in %.2f s; results in %s\n", wall_seconds() - t_start,
+                writer.h5_path().c_str());
   return exit_success;
 }
 
@@ -247,7 +252,8 @@ int probe_command(const ProbeArguments& args) {
   }
   const auto samples = probe_line(reader, step, Vec2(args.x0, args.y0), Vec2(args.x1, args.y1), args.points);
   std::printf("s,x,y,ux,uy\n");
-  for (const ProbeSample& p : samples) std::printf("%.10g,%.10g,%.10g,%.10g,%.10g\n", p.s, p.x, p.y, p.ux, p.uy);
+  for (const ProbeSample& p : samples)
+    std::printf("%.10g,%.10g,%.10g,%.10g,%.10g\n", p.s, p.x, p.y, p.ux, p.uy);
   return exit_success;
 }
 

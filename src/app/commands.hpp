@@ -15,7 +15,7 @@ struct RunArguments {
   std::string solver;                  ///< --solver, empty = from the scene
   std::vector<std::string> overrides;  ///< --set KEY=VALUE
   bool quiet = false;
-  int threads = 0;                     ///< 0 = OpenMP default
+  int threads = 0;  ///< 0 = OpenMP default
 };
 
 int run_command(const RunArguments& args);
@@ -24,7 +24,7 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
 struct ProbeArguments {
   std::string results;
   double x0 = 0, y0 = 0, x1 = 0, y1 = 0;
-  int step = -1;     ///< -1 = last step
+  int step = -1;  ///< -1 = last step
   int points = 101;
 };
 int probe_command(const ProbeArguments& args);

@@ -31,9 +31,13 @@ void install_interrupt_handlers() {
   for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaction(sig, &sa, nullptr);
 }
 
-int interrupt_signal() { return g_signal; }
+int interrupt_signal() {
+  return g_signal;
+}
 
-WriteGuard::WriteGuard() { g_writing = 1; }
+WriteGuard::WriteGuard() {
+  g_writing = 1;
+}
 
 WriteGuard::~WriteGuard() {
   g_writing = 0;

@@ -19,9 +19,9 @@ enum ExitCode : int {
 
 /// Where in the input a value came from: the scene file and line, or a --set override.
 struct SourceLocation {
-  std::string file;   ///< scene path, or "--set" for a command-line override
-  int line = 0;       ///< 1-based; 0 when unknown
-  std::string key;    ///< dotted key path, e.g. "materials.steel.E"
+  std::string file;  ///< scene path, or "--set" for a command-line override
+  int line = 0;      ///< 1-based; 0 when unknown
+  std::string key;   ///< dotted key path, e.g. "materials.steel.E"
 
   /// "scene.yaml:12: materials.steel.E" (line omitted when unknown).
   std::string describe() const {

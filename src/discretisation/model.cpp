@@ -29,7 +29,10 @@ double cell_area_in_disc(int ci, int cj, double r) {
 class LatticeIndex {
  public:
   LatticeIndex(int i0, int j0, int i1, int j1)
-      : m_i0(i0), m_j0(j0), m_ni(i1 - i0 + 1), m_nj(j1 - j0 + 1),
+      : m_i0(i0),
+        m_j0(j0),
+        m_ni(i1 - i0 + 1),
+        m_nj(j1 - j0 + 1),
         m_cell(static_cast<std::size_t>(m_ni) * m_nj, -1) {}
   Index at(int i, int j) const {
     if (i < m_i0 || j < m_j0 || i >= m_i0 + m_ni || j >= m_j0 + m_nj) return -1;
@@ -45,7 +48,10 @@ class LatticeIndex {
 struct Box {
   Vec2 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max()};
   Vec2 hi{-std::numeric_limits<double>::max(), -std::numeric_limits<double>::max()};
-  void add(const Vec2& p) { lo = lo.cwiseMin(p); hi = hi.cwiseMax(p); }
+  void add(const Vec2& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
 };
 
 Box polygon_box(const Polygon& polygon) {
@@ -54,7 +60,9 @@ Box polygon_box(const Polygon& polygon) {
   return box;
 }
 
-double cross(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+double cross(const Vec2& a, const Vec2& b) {
+  return a.x() * b.y() - a.y() * b.x();
+}
 
 double distance_to_segment(const Vec2& p, const Vec2& a, const Vec2& b) {
   const Vec2 d = b - a;
@@ -92,14 +100,11 @@ class Builder {
     m_model.spacing = m_dx;
     m_model.horizon = m_scene.discretization.horizon_factor * m_dx;
     for (std::size_t b = 0; b < m_scene.bodies.size(); ++b) add_body(static_cast<int>(b));
-    const Index n_real = m_model.particles.size();
-    (void)n_real;
-    m_model.constraints.prescribed.clear();
     std::vector<std::vector<Index>> selected(m_scene.boundary.size());
     for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) selected[k] = select(m_scene.boundary[k]);
     apply_constraints(selected);
-    m_model.stencil = make_stencil(m_scene.discretization.horizon_factor, m_dx,
-                                   m_scene.discretization.quadrature);
+    m_model.stencil =
+        make_stencil(m_scene.discretization.horizon_factor, m_dx, m_scene.discretization.quadrature);
     build_bonds();
     number_unknowns();
     return std::move(m_model);
@@ -135,8 +140,8 @@ class Builder {
     const Body& body = m_scene.bodies[b];
     const Box box = polygon_box(body.shape);
     const auto& names = m_model.material_names;
-    m_model.body_material.push_back(static_cast<int>(
-        std::find(names.begin(), names.end(), body.material) - names.begin()));
+    m_model.body_material.push_back(
+        static_cast<int>(std::find(names.begin(), names.end(), body.material) - names.begin()));
     Index count = 0;
     for (int i = lattice_floor(box.lo.x(), 0); i <= lattice_floor(box.hi.x(), 0) + 1; ++i) {
       for (int j = lattice_floor(box.lo.y(), 1); j <= lattice_floor(box.hi.y(), 1) + 1; ++j) {
@@ -155,7 +160,8 @@ class Builder {
     if (count == 0) {
       throw InputError(body.where, "body '" + body.name +
                                        "' contains no lattice point: it is smaller than the spacing "
-                                       "discretization.spacing = " + std::to_string(m_dx));
+                                       "discretization.spacing = " +
+                                       std::to_string(m_dx));
     }
   }
 
@@ -204,8 +210,10 @@ class Builder {
       const Vec2 tangent = (b - a).normalized();
       const Vec2 outward(tangent.y(), -tangent.x());  // counter-clockwise polygon
       const double length = (b - a).norm();
-      for (int i = lattice_floor(box.lo.x() - depth, 0) - 1; i <= lattice_floor(box.hi.x() + depth, 0) + 1; ++i) {
-        for (int j = lattice_floor(box.lo.y() - depth, 1) - 1; j <= lattice_floor(box.hi.y() + depth, 1) + 1; ++j) {
+      for (int i = lattice_floor(box.lo.x() - depth, 0) - 1; i <= lattice_floor(box.hi.x() + depth, 0) + 1;
+           ++i) {
+        for (int j = lattice_floor(box.lo.y() - depth, 1) - 1; j <= lattice_floor(box.hi.y() + depth, 1) + 1;
+             ++j) {
           const Vec2 x = lattice_point(i, j);
           if (inside_polygon(shape, x)) continue;
           bool take = false;
@@ -243,9 +251,8 @@ class Builder {
           if (owner[dof] >= 0) {
             throw InputError(bc.where, std::string("prescribes u") + (comp == 0 ? "x" : "y") +
                                            " of the particle at " +
-                                           format_point(m_model.particles.position[q]) +
-                                           ", which " + m_scene.boundary[owner[dof]].where.key +
-                                           " already prescribes");
+                                           format_point(m_model.particles.position[q]) + ", which " +
+                                           m_scene.boundary[owner[dof]].where.key + " already prescribes");
           }
           owner[dof] = static_cast<int>(k);
           c.prescribed[dof] = 1;
@@ -293,7 +300,10 @@ class Builder {
       for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
         const Index j = bonds.neighbour[b];
         for (Index r = bonds.start[j]; r < bonds.start[j + 1]; ++r) {
-          if (bonds.neighbour[r] == i) { bonds.reverse[b] = r; break; }
+          if (bonds.neighbour[r] == i) {
+            bonds.reverse[b] = r;
+            break;
+          }
         }
         PERISTAT_ASSERT(bonds.reverse[b] >= 0);
       }
@@ -377,6 +387,8 @@ bool inside_polygon(const Polygon& polygon, const Vec2& p) {
   return inside;
 }
 
-Model discretise(const Scene& scene) { return Builder(scene).build(); }
+Model discretise(const Scene& scene) {
+  return Builder(scene).build();
+}
 
 }  // namespace peristat

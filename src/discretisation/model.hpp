@@ -14,11 +14,11 @@ namespace peristat {
 /// Particles of every body, real and fictitious. Lattice point (i, j) sits at
 /// origin + ((i + 1/2) dx, (j + 1/2) dx).
 struct Particles {
-  std::vector<Vec2> position;              ///< reference position X
-  std::vector<double> volume;              ///< dx^2 * thickness [m^3]
-  std::vector<int> body;                   ///< index into Scene::bodies
-  std::vector<char> fictitious;            ///< 1 for fictitious boundary-layer particles
-  std::vector<std::array<int, 2>> lattice; ///< integer lattice coordinates
+  std::vector<Vec2> position;               ///< reference position X
+  std::vector<double> volume;               ///< dx^2 * thickness [m^3]
+  std::vector<int> body;                    ///< index into Scene::bodies
+  std::vector<char> fictitious;             ///< 1 for fictitious boundary-layer particles
+  std::vector<std::array<int, 2>> lattice;  ///< integer lattice coordinates
   Index size() const { return static_cast<Index>(position.size()); }
 };
 
@@ -38,8 +38,8 @@ Stencil make_stencil(double horizon_factor, double spacing, Quadrature quadratur
 struct Bonds {
   std::vector<Index> start;
   std::vector<Index> neighbour;
-  std::vector<Vec2> xi;          ///< reference bond vector X_j - X_i
-  std::vector<double> weight;    ///< quadrature area of the neighbour [m^2]
+  std::vector<Vec2> xi;        ///< reference bond vector X_j - X_i
+  std::vector<double> weight;  ///< quadrature area of the neighbour [m^2]
   std::vector<Index> reverse;
   Index n_bonds() const { return static_cast<Index>(neighbour.size()); }
   Index family_size(Index i) const { return start[i + 1] - start[i]; }
@@ -47,9 +47,9 @@ struct Bonds {
 
 /// Prescribed displacement components: dof 2p + c (c = 0 for x, 1 for y).
 struct Constraints {
-  std::vector<char> prescribed;     ///< 2N flags
-  std::vector<double> value;        ///< 2N values at load factor 1
-  std::vector<Index> free_index;    ///< 2N: index among the unknowns, or -1 if prescribed
+  std::vector<char> prescribed;   ///< 2N flags
+  std::vector<double> value;      ///< 2N values at load factor 1
+  std::vector<Index> free_index;  ///< 2N: index among the unknowns, or -1 if prescribed
   Index n_free = 0;
 };
 
@@ -60,7 +60,7 @@ struct Model {
   Constraints constraints;
   double spacing = 0.0;
   double horizon = 0.0;
-  Index n_cut_bonds = 0;         ///< bonds removed by pre-cracks (counted once per pair)
+  Index n_cut_bonds = 0;           ///< bonds removed by pre-cracks (counted once per pair)
   std::vector<int> body_material;  ///< body index -> index into material_names
   std::vector<std::string> material_names;
 };

@@ -27,8 +27,7 @@ hsize_t product(const std::vector<hsize_t>& dims) {
 /// A variable-length UTF-8 string type.
 Handle vlen_string_type() {
   Handle type(H5Tcopy(H5T_C_S1), H5Tclose);
-  if (type.get() < 0 || H5Tset_size(type, H5T_VARIABLE) < 0 ||
-      H5Tset_cset(type, H5T_CSET_UTF8) < 0) {
+  if (type.get() < 0 || H5Tset_size(type, H5T_VARIABLE) < 0 || H5Tset_cset(type, H5T_CSET_UTF8) < 0) {
     throw std::runtime_error("HDF5 could not create a string type: " + hdf5_reason());
   }
   return type;
@@ -48,7 +47,9 @@ Handle writer_access(const std::string& path) {
 
 }  // namespace
 
-void silence_errors() { H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr); }
+void silence_errors() {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+}
 
 void fail(const std::string& path, const std::string& what) {
   std::string message = "'" + path + "': HDF5 could not " + what;
@@ -70,8 +71,8 @@ File File::create(const std::string& path) {
 File File::open(const std::string& path, bool writable) {
   silence_errors();
   const Handle fapl = writable ? writer_access(path) : Handle();
-  const hid_t id = H5Fopen(path.c_str(), writable ? H5F_ACC_RDWR : H5F_ACC_RDONLY,
-                           writable ? fapl.get() : H5P_DEFAULT);
+  const hid_t id =
+      H5Fopen(path.c_str(), writable ? H5F_ACC_RDWR : H5F_ACC_RDONLY, writable ? fapl.get() : H5P_DEFAULT);
   if (id < 0) fail(path, "open the file");
   return File(path, Handle(id, H5Fclose));
 }
@@ -98,8 +99,7 @@ Handle File::create_group(hid_t loc, const std::string& name) const {
 }
 
 Handle File::open_group(hid_t loc, const std::string& name) const {
-  return Handle(check(H5Gopen2(loc, name.c_str(), H5P_DEFAULT), "open group '" + name + "'"),
-                H5Gclose);
+  return Handle(check(H5Gopen2(loc, name.c_str(), H5P_DEFAULT), "open group '" + name + "'"), H5Gclose);
 }
 
 bool File::link_exists(hid_t loc, const std::string& name) const {
@@ -121,8 +121,7 @@ std::vector<std::string> File::link_names(hid_t group) const {
     return 0;
   };
   hsize_t index = 0;
-  check_status(H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, &index, collect, &names),
-               "list a group");
+  check_status(H5Literate(group, H5_INDEX_NAME, H5_ITER_INC, &index, collect, &names), "list a group");
   return names;
 }
 
@@ -135,11 +134,9 @@ void File::delete_link(hid_t loc, const std::string& name) const {
 void File::write_dataset(hid_t loc, const std::string& name, hid_t mem_type, hid_t file_type,
                          const void* data, const std::vector<hsize_t>& dims) const {
   const std::string what = "write dataset '" + name + "'";
-  Handle space(check(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), what),
-               H5Sclose);
+  Handle space(check(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), what), H5Sclose);
   Handle dset(
-      check(H5Dcreate2(loc, name.c_str(), file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
-            what),
+      check(H5Dcreate2(loc, name.c_str(), file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), what),
       H5Dclose);
   if (product(dims) > 0) {
     check_status(H5Dwrite(dset, mem_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), what);
@@ -195,13 +192,12 @@ std::vector<int> File::read_ints(hid_t loc, const std::string& name) const {
 
 // ---- attributes ---------------------------------------------------------------------
 
-void File::write_scalar_attribute(hid_t obj, const std::string& name, hid_t mem_type,
-                                  hid_t file_type, const void* value) const {
+void File::write_scalar_attribute(hid_t obj, const std::string& name, hid_t mem_type, hid_t file_type,
+                                  const void* value) const {
   const std::string what = "write attribute '" + name + "'";
   Handle space(check(H5Screate(H5S_SCALAR), what), H5Sclose);
-  Handle attr(
-      check(H5Acreate2(obj, name.c_str(), file_type, space, H5P_DEFAULT, H5P_DEFAULT), what),
-      H5Aclose);
+  Handle attr(check(H5Acreate2(obj, name.c_str(), file_type, space, H5P_DEFAULT, H5P_DEFAULT), what),
+              H5Aclose);
   check_status(H5Awrite(attr, mem_type, value), what);
 }
 
@@ -219,14 +215,12 @@ void File::write_attribute(hid_t obj, const std::string& name, const std::string
   write_scalar_attribute(obj, name, type, type, &text);
 }
 
-void File::write_attribute(hid_t obj, const std::string& name,
-                           const std::vector<std::string>& values) const {
+void File::write_attribute(hid_t obj, const std::string& name, const std::vector<std::string>& values) const {
   const std::string what = "write attribute '" + name + "'";
   const Handle type = vlen_string_type();
   const hsize_t n = values.size();
   Handle space(check(H5Screate_simple(1, &n, nullptr), what), H5Sclose);
-  Handle attr(check(H5Acreate2(obj, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT), what),
-              H5Aclose);
+  Handle attr(check(H5Acreate2(obj, name.c_str(), type, space, H5P_DEFAULT, H5P_DEFAULT), what), H5Aclose);
   std::vector<const char*> texts;
   texts.reserve(values.size());
   for (const auto& v : values) texts.push_back(v.c_str());
@@ -241,8 +235,7 @@ double File::read_double_attribute(hid_t obj, const std::string& name) const {
   return value;
 }
 
-std::vector<std::string> File::read_string_array_attribute(hid_t obj,
-                                                           const std::string& name) const {
+std::vector<std::string> File::read_string_array_attribute(hid_t obj, const std::string& name) const {
   const std::string what = "read string attribute '" + name + "'";
   Handle attr(check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), what), H5Aclose);
   Handle file_type(check(H5Aget_type(attr), what), H5Tclose);

@@ -2,11 +2,11 @@
 // std::runtime_error naming the file, the object and HDF5's own reason.
 #pragma once
 
-#include <hdf5.h>
-
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <hdf5.h>
 
 namespace peristat::h5 {
 
@@ -89,8 +89,7 @@ class File {
   void write_attribute(hid_t obj, const std::string& name, double value) const;
   void write_attribute(hid_t obj, const std::string& name, int value) const;
   void write_attribute(hid_t obj, const std::string& name, const std::string& value) const;
-  void write_attribute(hid_t obj, const std::string& name,
-                       const std::vector<std::string>& values) const;
+  void write_attribute(hid_t obj, const std::string& name, const std::vector<std::string>& values) const;
   double read_double_attribute(hid_t obj, const std::string& name) const;
   /// Scalar string attribute, variable or fixed length.
   std::string read_string_attribute(hid_t obj, const std::string& name) const;
@@ -101,8 +100,8 @@ class File {
   File(std::string path, Handle handle) : m_path(std::move(path)), m_handle(std::move(handle)) {}
   hid_t check(hid_t id, const std::string& what) const;
   void check_status(herr_t status, const std::string& what) const;
-  void write_dataset(hid_t loc, const std::string& name, hid_t mem_type, hid_t file_type,
-                     const void* data, const std::vector<hsize_t>& dims) const;
+  void write_dataset(hid_t loc, const std::string& name, hid_t mem_type, hid_t file_type, const void* data,
+                     const std::vector<hsize_t>& dims) const;
   void read_dataset(hid_t loc, const std::string& name, hid_t mem_type, void* out,
                     std::size_t n_expected) const;
   std::size_t element_count(hid_t loc, const std::string& name) const;

@@ -85,10 +85,18 @@ void Writer::close(char bracket) {
   m_out += bracket;
 }
 
-void Writer::begin_object() { open('{'); }
-void Writer::end_object() { close('}'); }
-void Writer::begin_array() { open('['); }
-void Writer::end_array() { close(']'); }
+void Writer::begin_object() {
+  open('{');
+}
+void Writer::end_object() {
+  close('}');
+}
+void Writer::begin_array() {
+  open('[');
+}
+void Writer::end_array() {
+  close(']');
+}
 
 void Writer::key(std::string_view name) {
   before_value();

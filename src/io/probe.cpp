@@ -30,8 +30,7 @@ Key pack(std::int64_t i, std::int64_t j) {
 /// Spatial index over the non-fictitious particles, built once per probe.
 class LatticeIndex {
  public:
-  LatticeIndex(const ParticleTable& particles, double spacing)
-      : m_particles(particles), m_h(spacing) {
+  LatticeIndex(const ParticleTable& particles, double spacing) : m_particles(particles), m_h(spacing) {
     const std::vector<int> real = real_particles();
     if (real.empty()) return;
     build_buckets(real);
@@ -101,8 +100,7 @@ class LatticeIndex {
   /// around it. Members are stored contiguously, sorted by (bucket, index).
   void build_buckets(const std::vector<int>& real) {
     m_origin = m_particles.position[static_cast<std::size_t>(real.front())];
-    for (const int p : real)
-      m_origin = m_origin.cwiseMin(m_particles.position[static_cast<std::size_t>(p)]);
+    for (const int p : real) m_origin = m_origin.cwiseMin(m_particles.position[static_cast<std::size_t>(p)]);
     std::vector<std::pair<Key, int>> keyed;
     keyed.reserve(real.size());
     for (const int p : real) keyed.emplace_back(bucket_of(p), p);
@@ -161,8 +159,7 @@ Vec2 interpolate(const LatticeIndex& index, const ParticleTable& particles, cons
 
   const std::array<int, 4> corner = {index.at(body, i0, j0), index.at(body, i0 + 1, j0),
                                      index.at(body, i0, j0 + 1), index.at(body, i0 + 1, j0 + 1)};
-  const std::array<double, 4> bilinear = {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty,
-                                          tx * ty};
+  const std::array<double, 4> bilinear = {(1 - tx) * (1 - ty), tx * (1 - ty), (1 - tx) * ty, tx * ty};
   double missing_weight = 0.0;
   for (std::size_t k = 0; k < 4; ++k) {
     if (corner[k] < 0) missing_weight += bilinear[k];
@@ -192,17 +189,14 @@ Vec2 interpolate(const LatticeIndex& index, const ParticleTable& particles, cons
 
 }  // namespace
 
-std::vector<ProbeSample> probe_line(const ResultsReader& results, int step, Vec2 a, Vec2 b,
-                                    int n_points) {
+std::vector<ProbeSample> probe_line(const ResultsReader& results, int step, Vec2 a, Vec2 b, int n_points) {
   if (n_points < 1) {
-    throw InputError("probe: the number of points must be at least 1, got " +
-                     std::to_string(n_points));
+    throw InputError("probe: the number of points must be at least 1, got " + std::to_string(n_points));
   }
   const ParticleTable& particles = results.particles();
   const double h = particles.spacing;
   if (!(h > 0.0) || !std::isfinite(h)) {
-    throw InputError("probe: the results file has no valid particle spacing (got " +
-                     std::to_string(h) + ")");
+    throw InputError("probe: the results file has no valid particle spacing (got " + std::to_string(h) + ")");
   }
   const VectorXd u = results.displacement(step);
   const LatticeIndex index(particles, h);

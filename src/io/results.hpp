@@ -17,23 +17,23 @@ namespace peristat {
 
 /// Reference configuration, written once under /particles.
 struct ParticleTable {
-  std::vector<Vec2> position;      ///< N reference positions
-  std::vector<double> volume;      ///< N volumes [m^3]
-  std::vector<int> body;           ///< N body indices (Scene::bodies order)
-  std::vector<int> fictitious;     ///< N flags, 1 for fictitious-layer particles
+  std::vector<Vec2> position;           ///< N reference positions
+  std::vector<double> volume;           ///< N volumes [m^3]
+  std::vector<int> body;                ///< N body indices (Scene::bodies order)
+  std::vector<int> fictitious;          ///< N flags, 1 for fictitious-layer particles
   std::vector<std::string> body_names;  ///< written as attribute /particles/body_names
-  double spacing = 0.0;            ///< dx, attribute of /particles
+  double spacing = 0.0;                 ///< dx, attribute of /particles
   std::size_t size() const { return position.size(); }
 };
 
 /// One converged load step.
 struct StepRecord {
-  int index = 0;                    ///< 1-based step number -> group /steps/%06d
+  int index = 0;  ///< 1-based step number -> group /steps/%06d
   double load_factor = 0.0;
   int newton_iterations = 0;
   int active_set_iterations = 0;
-  double residual_norm = 0.0;       ///< final relative residual
-  double wall_seconds = 0.0;        ///< wall time of this step
+  double residual_norm = 0.0;               ///< final relative residual
+  double wall_seconds = 0.0;                ///< wall time of this step
   const VectorXd* displacement = nullptr;   ///< 2N, interleaved (ux0, uy0, ux1, ...)
   const VectorXd* damage = nullptr;         ///< N, only where failure is modelled
   const VectorXd* contact_force = nullptr;  ///< 2N, only where contact is modelled
@@ -101,7 +101,6 @@ struct ProbeSample {
 /// point, using the non-fictitious particles of the body of the nearest particle; where
 /// corners are missing, inverse-distance weights of those present; NaN where no particle
 /// of any body lies within one spacing.
-std::vector<ProbeSample> probe_line(const ResultsReader& results, int step, Vec2 a, Vec2 b,
-                                    int n_points);
+std::vector<ProbeSample> probe_line(const ResultsReader& results, int step, Vec2 a, Vec2 b, int n_points);
 
 }  // namespace peristat

@@ -47,8 +47,7 @@ void require_layout(const h5::File& file) {
   const hid_t root = file.id();
   const bool ok = file.attribute_exists(root, "scene") && file.link_exists(root, "particles") &&
                   file.link_exists(root, "particles/position") &&
-                  file.link_exists(root, "particles/volume") &&
-                  file.link_exists(root, "particles/body") &&
+                  file.link_exists(root, "particles/volume") && file.link_exists(root, "particles/body") &&
                   file.link_exists(root, "particles/fictitious") && file.link_exists(root, "steps");
   if (!ok) {
     throw InputError("'" + file.path() +
@@ -65,13 +64,11 @@ std::string shape_text(const std::vector<hsize_t>& dims) {
   return text;
 }
 
-void require_shape(const h5::File& file, const std::string& dataset,
-                   const std::vector<hsize_t>& want) {
+void require_shape(const h5::File& file, const std::string& dataset, const std::vector<hsize_t>& want) {
   const std::vector<hsize_t> got = file.shape(file.id(), dataset);
   if (got != want) {
-    throw InputError("'" + file.path() + "': dataset /" + dataset + " has shape [" +
-                     shape_text(got) + "], expected [" + shape_text(want) +
-                     "] (is this a peristat results file?)");
+    throw InputError("'" + file.path() + "': dataset /" + dataset + " has shape [" + shape_text(got) +
+                     "], expected [" + shape_text(want) + "] (is this a peristat results file?)");
   }
 }
 
@@ -128,8 +125,8 @@ namespace {
 /// "steps/000007" after checking that step K is present.
 std::string step_path(const std::string& file, const std::vector<int>& steps, int step) {
   if (!std::binary_search(steps.begin(), steps.end(), step)) {
-    throw InputError("step " + std::to_string(step) + " is not in '" + file + "' (" +
-                     describe_steps(steps) + ")");
+    throw InputError("step " + std::to_string(step) + " is not in '" + file + "' (" + describe_steps(steps) +
+                     ")");
   }
   return "steps/" + io::step_group_name(step);
 }

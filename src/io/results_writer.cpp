@@ -5,8 +5,8 @@
 #include <stdexcept>
 
 #include "io/h5.hpp"
-#include "io/layout.hpp"
 #include "io/json.hpp"
+#include "io/layout.hpp"
 #include "io/results.hpp"
 #include "io/safe_write.hpp"
 #include "io/xdmf.hpp"
@@ -18,8 +18,8 @@ namespace fs = std::filesystem;
 
 /// Attribute names every step group carries; counts and timings may not reuse them.
 const std::set<std::string>& fixed_step_attributes() {
-  static const std::set<std::string> names = {
-      "load_factor", "newton_iterations", "active_set_iterations", "residual_norm", "wall_seconds"};
+  static const std::set<std::string> names = {"load_factor", "newton_iterations", "active_set_iterations",
+                                              "residual_norm", "wall_seconds"};
   return names;
 }
 
@@ -57,17 +57,17 @@ StepSummary summarise(const StepRecord& step) {
 void check_particles(const ParticleTable& p) {
   const std::size_t n = p.size();
   if (p.volume.size() != n || p.body.size() != n || p.fictitious.size() != n) {
-    throw std::invalid_argument(
-        "ResultsWriter: particle table columns differ in length (position " + std::to_string(n) +
-        ", volume " + std::to_string(p.volume.size()) + ", body " + std::to_string(p.body.size()) +
-        ", fictitious " + std::to_string(p.fictitious.size()) + ")");
+    throw std::invalid_argument("ResultsWriter: particle table columns differ in length (position " +
+                                std::to_string(n) + ", volume " + std::to_string(p.volume.size()) +
+                                ", body " + std::to_string(p.body.size()) + ", fictitious " +
+                                std::to_string(p.fictitious.size()) + ")");
   }
 }
 
 void check_field(const VectorXd* field, std::size_t expected, const char* name, int index) {
   if (field != nullptr && static_cast<std::size_t>(field->size()) != expected) {
-    throw std::invalid_argument("ResultsWriter: step " + std::to_string(index) + ": " + name +
-                                " has " + std::to_string(field->size()) + " entries, expected " +
+    throw std::invalid_argument("ResultsWriter: step " + std::to_string(index) + ": " + name + " has " +
+                                std::to_string(field->size()) + " entries, expected " +
                                 std::to_string(expected));
   }
 }
@@ -89,8 +89,7 @@ void check_attribute_names(const StepRecord& step) {
 
 void check_step(const StepRecord& step, std::size_t n, const std::vector<StepSummary>& written) {
   if (step.index < 1) {
-    throw std::invalid_argument("ResultsWriter: step index must be >= 1, got " +
-                                std::to_string(step.index));
+    throw std::invalid_argument("ResultsWriter: step index must be >= 1, got " + std::to_string(step.index));
   }
   for (const StepSummary& s : written) {
     if (s.index == step.index) {
@@ -99,8 +98,7 @@ void check_step(const StepRecord& step, std::size_t n, const std::vector<StepSum
     }
   }
   if (step.displacement == nullptr) {
-    throw std::invalid_argument("ResultsWriter: step " + std::to_string(step.index) +
-                                " has no displacement");
+    throw std::invalid_argument("ResultsWriter: step " + std::to_string(step.index) + " has no displacement");
   }
   check_field(step.displacement, 2 * n, "displacement", step.index);
   check_field(step.damage, n, "damage", step.index);
@@ -267,9 +265,8 @@ struct ResultsWriter::Impl {
   }
 };
 
-ResultsWriter::ResultsWriter(const std::string& dir, const std::string& name,
-                             const std::string& scene_text, const ParticleTable& particles,
-                             const std::string& run_info_json)
+ResultsWriter::ResultsWriter(const std::string& dir, const std::string& name, const std::string& scene_text,
+                             const ParticleTable& particles, const std::string& run_info_json)
     : m_impl(nullptr) {
   if (name.empty()) throw std::invalid_argument("ResultsWriter: empty scene name");
   check_particles(particles);
@@ -291,7 +288,9 @@ ResultsWriter::ResultsWriter(const std::string& dir, const std::string& name,
   m_impl = impl.release();
 }
 
-ResultsWriter::~ResultsWriter() { delete m_impl; }
+ResultsWriter::~ResultsWriter() {
+  delete m_impl;
+}
 
 void ResultsWriter::write_step(const StepRecord& step) {
   check_step(step, m_impl->n_particles, m_impl->steps);
@@ -303,7 +302,8 @@ void ResultsWriter::write_step(const StepRecord& step) {
 }
 
 void ResultsWriter::finish(const std::string& status, const std::string& message) {
-  static const std::set<std::string> allowed = {"running", "completed", "no_convergence", "interrupted", "error"};
+  static const std::set<std::string> allowed = {"running", "completed", "no_convergence", "interrupted",
+                                                "error"};
   if (allowed.count(status) == 0) {
     throw std::invalid_argument("ResultsWriter::finish: unknown status '" + status + "'");
   }
@@ -313,6 +313,8 @@ void ResultsWriter::finish(const std::string& status, const std::string& message
   m_impl->write_summary();
 }
 
-std::string ResultsWriter::h5_path() const { return m_impl->h5().string(); }
+std::string ResultsWriter::h5_path() const {
+  return m_impl->h5().string();
+}
 
 }  // namespace peristat

@@ -1,13 +1,13 @@
 #include "io/safe_write.hpp"
 
-#include <pthread.h>
-
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
 #include <system_error>
+
+#include <pthread.h>
 
 namespace peristat::io {
 
@@ -16,8 +16,7 @@ void write_file_atomically(const std::string& path, std::string_view content) {
   {
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
     if (!out) {
-      throw std::runtime_error("cannot open '" + temporary +
-                               "' for writing: " + std::strerror(errno));
+      throw std::runtime_error("cannot open '" + temporary + "' for writing: " + std::strerror(errno));
     }
     out.write(content.data(), static_cast<std::streamsize>(content.size()));
     out.flush();
@@ -26,8 +25,7 @@ void write_file_atomically(const std::string& path, std::string_view content) {
   std::error_code error;
   std::filesystem::rename(temporary, path, error);
   if (error) {
-    throw std::runtime_error("cannot rename '" + temporary + "' to '" + path +
-                             "': " + error.message());
+    throw std::runtime_error("cannot rename '" + temporary + "' to '" + path + "': " + error.message());
   }
 }
 

@@ -1,10 +1,10 @@
 // Private to src/io: the two tools that keep result files valid when a run is stopped.
 #pragma once
 
-#include <signal.h>
-
 #include <string>
 #include <string_view>
+
+#include <signal.h>
 
 namespace peristat::io {
 

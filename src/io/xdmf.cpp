@@ -66,8 +66,7 @@ class GridWriter {
   void end() { m_out << "      </Grid>\n"; }
 
   void scalar(const std::string& name, const std::string& dataset, bool is_int) {
-    m_out << "        <Attribute Name=\"" << name
-          << "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
+    m_out << "        <Attribute Name=\"" << name << "\" AttributeType=\"Scalar\" Center=\"Node\">\n"
           << "          " << (is_int ? int_item(m_n, dataset) : float_item(m_n, dataset)) << "\n"
           << "        </Attribute>\n";
   }
@@ -77,22 +76,19 @@ class GridWriter {
   /// a JOIN/HyperSlab function gave the same result there but was dropped by the Xdmf 3
   /// readers, which read this plain form as a 2-component array).
   void vector2(const std::string& name, const std::string& dataset) {
-    m_out << "        <Attribute Name=\"" << name
-          << "\" AttributeType=\"Vector\" Center=\"Node\">\n"
+    m_out << "        <Attribute Name=\"" << name << "\" AttributeType=\"Vector\" Center=\"Node\">\n"
           << "          " << float_item(m_n + " 2", dataset) << "\n"
           << "        </Attribute>\n";
   }
 
  private:
   std::string float_item(const std::string& dims, const std::string& dataset) const {
-    return "<DataItem Dimensions=\"" + dims +
-           "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" + m_h5 + ":" + dataset +
-           "</DataItem>";
+    return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" +
+           m_h5 + ":" + dataset + "</DataItem>";
   }
   std::string int_item(const std::string& dims, const std::string& dataset) const {
-    return "<DataItem Dimensions=\"" + dims +
-           "\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">" + m_h5 + ":" + dataset +
-           "</DataItem>";
+    return "<DataItem Dimensions=\"" + dims + "\" NumberType=\"Int\" Precision=\"4\" Format=\"HDF\">" + m_h5 +
+           ":" + dataset + "</DataItem>";
   }
 
   std::ostringstream& m_out;

@@ -24,8 +24,8 @@ double weighted_volume(std::span<const Vec2> xi, std::span<const double> weight)
 }
 
 FamilyResult osb_family(const OsbConstants& material, double m, std::span<const Vec2> xi,
-                        std::span<const double> weight, std::span<const Vec2> eta,
-                        const FamilyOutputs& out, bool want_tangent) {
+                        std::span<const double> weight, std::span<const Vec2> eta, const FamilyOutputs& out,
+                        bool want_tangent) {
   FamilyResult result;
   const std::size_t n = xi.size();
   if (n == 0 || m <= 0.0) {

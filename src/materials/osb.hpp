@@ -26,10 +26,10 @@ using Sym2 = std::array<double, 3>;
 
 /// Outputs of one family, written into caller-owned arrays of the family's size.
 struct FamilyOutputs {
-  std::span<double> t;          ///< dW/de_b: scalar force state times bond weight [Pa m^2 / m]
-  std::span<Vec2> direction;    ///< M_b: unit current bond direction (reference one if small)
-  std::span<Vec2> s;            ///< b_b M_b with b_b = omega w_b |xi_b| (rank-one vectors)
-  std::span<Sym2> k_bond;       ///< alpha omega w_b M M^T + (t_b / y_b)(I - M M^T) (finite only)
+  std::span<double> t;        ///< dW/de_b: scalar force state times bond weight [Pa m^2 / m]
+  std::span<Vec2> direction;  ///< M_b: unit current bond direction (reference one if small)
+  std::span<Vec2> s;          ///< b_b M_b with b_b = omega w_b |xi_b| (rank-one vectors)
+  std::span<Sym2> k_bond;     ///< alpha omega w_b M M^T + (t_b / y_b)(I - M M^T) (finite only)
 };
 
 struct FamilyResult {
@@ -52,7 +52,7 @@ double weighted_volume(std::span<const Vec2> xi, std::span<const double> weight)
 ///   beta = (c/m)^2 (k' + alpha m / 9) - 2 alpha c / (3 m),
 /// so the tangent with respect to eta_a, eta_b is delta_ab k_bond_a + beta s_a s_b^T.
 FamilyResult osb_family(const OsbConstants& material, double m, std::span<const Vec2> xi,
-                        std::span<const double> weight, std::span<const Vec2> eta,
-                        const FamilyOutputs& out, bool want_tangent);
+                        std::span<const double> weight, std::span<const Vec2> eta, const FamilyOutputs& out,
+                        bool want_tangent);
 
 }  // namespace peristat

@@ -13,7 +13,9 @@ const char* const example = "expected KEY=VALUE with KEY a dotted path, e.g. sol
   throw InputError(SourceLocation{"--set", 0, key}, message);
 }
 
-std::string name_of(const std::string& path) { return path.empty() ? "the scene" : path; }
+std::string name_of(const std::string& path) {
+  return path.empty() ? "the scene" : path;
+}
 
 std::string trim(const std::string& s) {
   const auto first = std::find_if_not(s.begin(), s.end(), [](unsigned char c) { return std::isspace(c); });
@@ -49,17 +51,19 @@ std::size_t list_index(const YAML::Node& list, const std::string& part, const st
   const bool digits = std::all_of(part.begin(), part.end(), [](unsigned char c) { return std::isdigit(c); });
   const std::string size = std::to_string(list.size());
   if (!digits || part.size() > 9)
-    fail(path, "\"" + part + "\" is not a list index: " + name_of(parent) + " is a list of " + size + " entries");
+    fail(path,
+         "\"" + part + "\" is not a list index: " + name_of(parent) + " is a list of " + size + " entries");
   const std::size_t index = std::stoul(part);
   if (index >= list.size())
-    fail(path, "index " + part + " is out of range: " + name_of(parent) + " is a list of " + size + " entries");
+    fail(path,
+         "index " + part + " is out of range: " + name_of(parent) + " is a list of " + size + " entries");
   return index;
 }
 
 void require_container(const YAML::Node& node, const std::string& parent, const std::string& path) {
   if (node.IsScalar())
-    fail(path, "cannot set a key below " + name_of(parent) +
-                   ", which holds the value \"" + node.Scalar() + "\", not a map");
+    fail(path, "cannot set a key below " + name_of(parent) + ", which holds the value \"" + node.Scalar() +
+                   "\", not a map");
 }
 
 }  // namespace
@@ -85,8 +89,10 @@ void apply_override(YAML::Node& root, const Override& override_, schema::Source&
     const bool last = i + 1 == parts.size();
     if (node.IsSequence()) {
       const std::size_t index = list_index(node, parts[i], parent, path);
-      if (last) node[index] = value;
-      else node.reset(node[index]);
+      if (last)
+        node[index] = value;
+      else
+        node.reset(node[index]);
       continue;
     }
     if (last) {

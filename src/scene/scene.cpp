@@ -1,7 +1,5 @@
 #include "scene/scene.hpp"
 
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -9,6 +7,8 @@
 #include <fstream>
 #include <sstream>
 #include <tuple>
+
+#include <yaml-cpp/yaml.h>
 
 #include "scene/geometry.hpp"
 #include "scene/overrides.hpp"
@@ -43,8 +43,8 @@ Material read_material(const Field& field) {
   mat.nu = schema::in_open_range(m.require("nu", "nu, Poisson's ratio, -1 < nu < 0.5"), -1.0, 0.5);
   mat.thickness = schema::positive(m.require("thickness", "thickness [m], a number > 0"));
   if (auto f = m.find("kinematics"))
-    mat.kinematics = schema::choice(*f, {"finite", "small"}) == "small" ? Kinematics::small
-                                                                       : Kinematics::finite;
+    mat.kinematics =
+        schema::choice(*f, {"finite", "small"}) == "small" ? Kinematics::small : Kinematics::finite;
   mat.where = field.where();
   return mat;
 }
@@ -68,8 +68,8 @@ Quadrature read_quadrature(const Field& field) {
 }
 
 Discretization read_discretization(const Field& field) {
-  const Map m = checked_map(field, {"spacing", "horizon_factor", "fictitious_layers",
-                                    "quadrature", "origin"});
+  const Map m =
+      checked_map(field, {"spacing", "horizon_factor", "fictitious_layers", "quadrature", "origin"});
   Discretization d;
   d.spacing = schema::positive(m.require("spacing", "spacing, the lattice spacing dx [m], a number > 0"));
   if (auto f = m.find("horizon_factor")) d.horizon_factor = schema::at_least(*f, 1.0);
@@ -204,9 +204,9 @@ int read_edge(const Field& field, const ParsedBody& p) {
   }
   long long k = -1;
   if (!YAML::convert<long long>::decode(field.node(), k) || k < 0 || k >= n) {
-    const std::string expected = p.body.is_rectangle
-        ? "bottom, right, top, left or 0..3"
-        : "an integer 0.." + std::to_string(n - 1) + " (edge k runs from vertex k to k+1)";
+    const std::string expected = p.body.is_rectangle ? "bottom, right, top, left or 0..3"
+                                                     : "an integer 0.." + std::to_string(n - 1) +
+                                                           " (edge k runs from vertex k to k+1)";
     field.fail("unknown edge \"" + s + "\" of body " + p.body.name + ": expected " + expected);
   }
   const int edge = static_cast<int>(k);
@@ -280,8 +280,8 @@ void read_krylov(const Field& field, LinearOptions& o) {
 }
 
 NewtonOptions read_newton(const Field& field) {
-  const Map m = checked_map(field, {"rtol", "atol", "stol", "max_iterations", "line_search",
-                                    "line_search_max", "tangent"});
+  const Map m = checked_map(
+      field, {"rtol", "atol", "stol", "max_iterations", "line_search", "line_search_max", "tangent"});
   NewtonOptions o;
   if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
   if (auto f = m.find("atol")) o.atol = schema::at_least(*f, 0.0);
@@ -291,7 +291,7 @@ NewtonOptions read_newton(const Field& field) {
   if (auto f = m.find("line_search_max")) o.line_search_max = schema::int_at_least(*f, 0);
   if (auto f = m.find("tangent"))
     o.tangent = schema::choice(*f, {"consistent", "initial"}) == "initial" ? TangentKind::initial
-                                                                          : TangentKind::consistent;
+                                                                           : TangentKind::consistent;
   return o;
 }
 
@@ -333,7 +333,8 @@ std::string read_name(const Field& field) {
     return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '.' || c == '-';
   });
   if (!ok)
-    field.fail("invalid name \"" + name + "\": expected letters, digits, '_', '.' and '-' only "
+    field.fail("invalid name \"" + name +
+               "\": expected letters, digits, '_', '.' and '-' only "
                "(results are written to <out>/<name>.h5)");
   return name;
 }
@@ -343,9 +344,8 @@ void read_sections(const Map& top, Scene& scene) {
   scene.materials = read_materials(top.require("materials", "materials, a map name -> {E, nu, thickness}"));
   scene.discretization =
       read_discretization(top.require("discretization", "discretization, a map with at least spacing"));
-  const std::vector<ParsedBody> bodies =
-      read_bodies(top.require("bodies", "bodies, a map name -> {material, rectangle | polygon}"),
-                  scene.materials);
+  const std::vector<ParsedBody> bodies = read_bodies(
+      top.require("bodies", "bodies, a map name -> {material, rectangle | polygon}"), scene.materials);
   for (const ParsedBody& p : bodies) scene.bodies.push_back(p.body);
   if (auto f = top.find("cracks"))
     for (const Field& item : schema::list(*f)) scene.cracks.push_back(read_crack(item, bodies));
@@ -360,8 +360,8 @@ void read_sections(const Map& top, Scene& scene) {
 Scene read_scene(const Field& root) {
   if (root.node().IsNull())
     root.fail("the scene is empty: expected a map with at least name, materials, discretization, bodies");
-  const Map top = checked_map(root, {"name", "materials", "discretization", "bodies", "cracks",
-                                     "boundary", "loading", "solver", "output"});
+  const Map top = checked_map(root, {"name", "materials", "discretization", "bodies", "cracks", "boundary",
+                                     "loading", "solver", "output"});
   Scene scene;
   read_sections(top, scene);
   return scene;

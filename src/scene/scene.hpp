@@ -17,9 +17,9 @@ enum class Kinematics { finite, small };
 
 struct Material {
   std::string name;
-  double E = 0.0;          ///< Young's modulus [Pa], > 0, required
-  double nu = 0.0;         ///< Poisson's ratio, in (-1, 0.5), required
-  double thickness = 0.0;  ///< plate thickness [m], > 0, required
+  double E = 0.0;                              ///< Young's modulus [Pa], > 0, required
+  double nu = 0.0;                             ///< Poisson's ratio, in (-1, 0.5), required
+  double thickness = 0.0;                      ///< plate thickness [m], > 0, required
   Kinematics kinematics = Kinematics::finite;  ///< "finite" (default) or "small"
   SourceLocation where;
 };
@@ -32,7 +32,7 @@ struct Polygon {
 
 struct Body {
   std::string name;
-  std::string material;   ///< key into Scene::materials
+  std::string material;  ///< key into Scene::materials
   Polygon shape;
   /// For a `rectangle:` body the edges are also named: bottom = 0, right = 1, top = 2,
   /// left = 3 (the counter-clockwise order from the lower-left corner).
@@ -66,9 +66,9 @@ struct BoundaryCondition {
   enum class Selector { edge, surround, region };
   std::string body;
   Selector selector = Selector::edge;
-  int edge = -1;           ///< polygon edge index (selector edge)
-  std::string edge_name;   ///< as written: "left", "3", ... (for messages)
-  int layers = 3;          ///< fictitious layers (default discretization.fictitious_layers)
+  int edge = -1;          ///< polygon edge index (selector edge)
+  std::string edge_name;  ///< as written: "left", "3", ... (for messages)
+  int layers = 3;         ///< fictitious layers (default discretization.fictitious_layers)
   Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();  ///< selector region
   std::optional<AffineValue> ux, uy;          ///< at least one is set
   SourceLocation where;
@@ -82,27 +82,27 @@ struct BoundaryCondition {
 enum class Quadrature { isotropic, partial, full };
 
 struct Discretization {
-  double spacing = 0.0;           ///< dx [m], > 0, required
-  double horizon_factor = 3.0;    ///< m: delta = m * dx, >= 1
-  int fictitious_layers = 3;      ///< default layer count of edge conditions, >= 1
+  double spacing = 0.0;         ///< dx [m], > 0, required
+  double horizon_factor = 3.0;  ///< m: delta = m * dx, >= 1
+  int fictitious_layers = 3;    ///< default layer count of edge conditions, >= 1
   Quadrature quadrature = Quadrature::isotropic;
-  Vec2 origin = Vec2::Zero();     ///< lattice points sit at origin + (i + 1/2, j + 1/2) dx
+  Vec2 origin = Vec2::Zero();  ///< lattice points sit at origin + (i + 1/2, j + 1/2) dx
   SourceLocation where;
 };
 
 struct Loading {
-  int steps = 1;          ///< equal load steps to load factor 1, >= 1
-  int max_cutbacks = 6;   ///< halvings of a failing step before giving up, >= 0
+  int steps = 1;         ///< equal load steps to load factor 1, >= 1
+  int max_cutbacks = 6;  ///< halvings of a failing step before giving up, >= 0
 };
 
 enum class TangentKind { consistent, initial };
 
 struct NewtonOptions {
-  double rtol = 1e-10;        ///< relative residual ||r_free|| / ||f_int|| (docs/theory/newton.md)
-  double atol = 1e-14;        ///< absolute residual floor [N]
-  double stol = 0.0;          ///< increment tolerance ||du|| / ||u||; 0 = not used
+  double rtol = 1e-10;  ///< relative residual ||r_free|| / ||f_int|| (docs/theory/newton.md)
+  double atol = 1e-14;  ///< absolute residual floor [N]
+  double stol = 0.0;    ///< increment tolerance ||du|| / ||u||; 0 = not used
   int max_iterations = 25;
-  bool line_search = true;    ///< backtracking on the residual norm
+  bool line_search = true;  ///< backtracking on the residual norm
   int line_search_max = 8;
   TangentKind tangent = TangentKind::consistent;  ///< initial: factorise once per run
 };
@@ -114,9 +114,9 @@ struct AdrOptions {
 
 /// Linear solver (key solver.linear) and its iterative settings (solver.krylov.*).
 struct LinearOptions {
-  std::string type = "cholmod";       ///< cholmod | umfpack | klu | ldlt | cg | bicgstab
-  double rtol = 1e-10;                ///< Krylov relative residual
-  int max_iterations = 2000;          ///< Krylov iteration cap
+  std::string type = "cholmod";  ///< cholmod | umfpack | klu | ldlt | cg | bicgstab
+  double rtol = 1e-10;           ///< Krylov relative residual
+  int max_iterations = 2000;     ///< Krylov iteration cap
   /// auto (bond with cg, ilut with bicgstab) | bond | cholmod | ic | diagonal (cg);
   /// ilut | diagonal (bicgstab)
   std::string preconditioner = "auto";
@@ -133,13 +133,13 @@ struct SolverOptions {
 };
 
 struct OutputOptions {
-  int every = 1;             ///< write every k-th converged step (the last is always written)
+  int every = 1;  ///< write every k-th converged step (the last is always written)
 };
 
 struct Scene {
-  std::string name;          ///< results are DIR/<name>.h5; [A-Za-z0-9_.-]+
-  std::string path;          ///< the scene file
-  std::string text;          ///< the scene as run (YAML, after --set overrides)
+  std::string name;  ///< results are DIR/<name>.h5; [A-Za-z0-9_.-]+
+  std::string path;  ///< the scene file
+  std::string text;  ///< the scene as run (YAML, after --set overrides)
   std::map<std::string, Material> materials;
   std::vector<Body> bodies;
   std::vector<Crack> cracks;

@@ -13,7 +13,9 @@ int line_of(const YAML::Node& node, int fallback) {
   return line >= 0 ? line + 1 : fallback;
 }
 
-bool is_quoted(const YAML::Node& node) { return node.Tag() == "!"; }
+bool is_quoted(const YAML::Node& node) {
+  return node.Tag() == "!";
+}
 
 std::string list_names(std::initializer_list<std::string_view> names) {
   std::string s;
@@ -57,8 +59,7 @@ std::vector<Field> map_entries(const Field& field, Check check) {
     Field entry(field.source(), it->second, join(field.key(), name), line_of(it->first, field.line()));
     for (const Field& seen : entries) {
       if (leaf(seen.key()) == name)
-        entry.fail("duplicate key \"" + name + "\": already given at line " +
-                   std::to_string(seen.line()));
+        entry.fail("duplicate key \"" + name + "\": already given at line " + std::to_string(seen.line()));
     }
     check(name, entry);
     entries.push_back(entry);
@@ -67,16 +68,14 @@ std::vector<Field> map_entries(const Field& field, Check check) {
 }
 
 bool is_name_char(char c) {
-  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-         c == '_' || c == '-';
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
 }
 
 }  // namespace
 
 bool Source::is_overridden(const std::string& key) const {
   for (const std::string& p : overridden) {
-    if (key == p || (key.size() > p.size() && key.starts_with(p) && key[p.size()] == '.'))
-      return true;
+    if (key == p || (key.size() > p.size() && key.starts_with(p) && key[p.size()] == '.')) return true;
   }
   return false;
 }
@@ -95,7 +94,9 @@ SourceLocation Field::where() const {
   return {m_source->file, m_line, m_key};
 }
 
-void Field::fail(const std::string& message) const { throw InputError(where(), message); }
+void Field::fail(const std::string& message) const {
+  throw InputError(where(), message);
+}
 
 std::string Field::found() const {
   if (!m_node.IsDefined() || m_node.IsNull()) return "nothing (null)";
@@ -113,8 +114,7 @@ std::optional<Field> Map::find(std::string_view name) const {
 Field Map::require(std::string_view name, std::string_view what) const {
   if (auto f = find(name)) return *f;
   Field missing(m_self.source(), YAML::Node(), join(m_self.key(), name), m_self.line());
-  missing.fail("missing required key \"" + std::string(name) + "\": expected " +
-               std::string(what));
+  missing.fail("missing required key \"" + std::string(name) + "\": expected " + std::string(what));
 }
 
 Map checked_map(const Field& field, std::initializer_list<std::string_view> allowed) {
@@ -153,8 +153,7 @@ std::vector<Field> list(const Field& field) {
 double number(const Field& field) {
   const std::string& s = plain_scalar(field, "a number");
   double x = 0.0;
-  if (!YAML::convert<double>::decode(field.node(), x))
-    field.fail("expected a number, found \"" + s + "\"");
+  if (!YAML::convert<double>::decode(field.node(), x)) field.fail("expected a number, found \"" + s + "\"");
   if (!std::isfinite(x)) field.fail("expected a finite number, found \"" + s + "\"");
   return x;
 }

@@ -2,14 +2,14 @@
 // Private to src/scene: nothing outside this folder sees yaml-cpp.
 #pragma once
 
-#include <yaml-cpp/yaml.h>
-
 #include <initializer_list>
 #include <optional>
 #include <set>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <yaml-cpp/yaml.h>
 
 #include "core/error.hpp"
 #include "core/types.hpp"
@@ -77,17 +77,17 @@ Map checked_map(const Field& field, std::initializer_list<std::string_view> allo
 Map named_map(const Field& field, std::string_view what);
 
 std::vector<Field> list(const Field& field);
-double number(const Field& field);        ///< finite, unquoted
+double number(const Field& field);  ///< finite, unquoted
 long long integer(const Field& field);
 bool boolean(const Field& field);
-std::string text(const Field& field);     ///< any scalar, as written
+std::string text(const Field& field);  ///< any scalar, as written
 std::string choice(const Field& field, std::initializer_list<std::string_view> options);
-Vec2 point(const Field& field);           ///< [x, y]
+Vec2 point(const Field& field);  ///< [x, y]
 
 /// Range checks; the message reads "value 0.7 is out of range: expected <what>".
-double positive(const Field& field);                        ///< > 0
-double at_least(const Field& field, double lo);             ///< >= lo
-int int_at_least(const Field& field, int lo);               ///< integer >= lo
+double positive(const Field& field);                             ///< > 0
+double at_least(const Field& field, double lo);                  ///< >= lo
+int int_at_least(const Field& field, int lo);                    ///< integer >= lo
 double in_open_range(const Field& field, double lo, double hi);  ///< lo < x < hi
 [[noreturn]] void out_of_range(const Field& field, const std::string& expected);
 

@@ -5,27 +5,22 @@
 //   peristat_bench factor N MATRIX ORDERING          CHOLMOD analyse + factorise of the
 //       tangent (MATRIX = tangent) or its bond part (MATRIX = bond) with ORDERING = default |
 //       amd | metis | nesdis.
-#include <sys/resource.h>
-
-#include <Eigen/CholmodSupport>
-#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <sys/resource.h>
 #include <vector>
 
+#include <Eigen/CholmodSupport>
 #include <omp.h>
 
 #include "assembly/quasi_static.hpp"
+#include "core/clock.hpp"
 #include "solvers/load_stepping.hpp"
 
 using namespace peristat;
 
 namespace {
-
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 double peak_mb() {
   rusage u{};
@@ -57,14 +52,15 @@ std::vector<Override> overrides_from(int argc, char** argv, int first) {
 }
 
 int tension(int n, const std::vector<Override>& overrides) {
-  const double t0 = now();
+  const double t0 = wall_seconds();
   const Scene scene = parse_scene_text(plate_scene(n), "bench_plate.yaml", overrides);
   const Model model = discretise(scene);
-  const double t_discretise = now() - t0;
+  const double t_discretise = wall_seconds() - t0;
   QuasiStaticProblem problem(model, scene);
-  const double t_model = now() - t0;
+  const double t_model = wall_seconds() - t0;
   const long long nonzeros = problem.pattern().matrix.nonZeros();
-  std::fprintf(stderr, "discretise %.2f s, problem set-up (pattern) %.2f s\n", t_discretise, t_model - t_discretise);
+  std::fprintf(stderr, "discretise %.2f s, problem set-up (pattern) %.2f s\n", t_discretise,
+               t_model - t_discretise);
   auto linear = make_linear_solver(scene.solver.linear);
   NewtonSolver newton(problem, *linear, scene.solver.newton);
   VectorXd x = VectorXd::Zero(problem.n_unknowns());
@@ -83,16 +79,17 @@ int tension(int n, const std::vector<Override>& overrides) {
     solve += s.seconds_solve;
     last = s;
   };
-  const double t1 = now();
+  const double t1 = wall_seconds();
   const RunReport run = run_load_steps(problem, newton, x, scene.loading, cb);
-  const double t_solve = now() - t1;
+  const double t_solve = wall_seconds() - t1;
   const double per_it = newton_its > 0 ? t_solve / newton_its : 0.0;
-  std::printf("n,particles,unknowns,nonzeros,linear,threads,model_s,solve_s,total_s,newton_its,krylov_its,"
-              "factorizations,evaluate_s,factorize_s,linsolve_s,assembly_share,final_residual,peak_mb,completed\n");
+  std::printf(
+      "n,particles,unknowns,nonzeros,linear,threads,model_s,solve_s,total_s,newton_its,krylov_its,"
+      "factorizations,evaluate_s,factorize_s,linsolve_s,assembly_share,final_residual,peak_mb,completed\n");
   std::printf("%d,%d,%d,%lld,%s,%d,%.3f,%.3f,%.3f,%d,%d,%d,%.3f,%.3f,%.3f,%.3f,%.2e,%.0f,%d\n", n,
-              model.particles.size(), problem.n_unknowns(), nonzeros,
-              linear->name().c_str(), omp_get_max_threads(), t_model, t_solve, t_model + t_solve, newton_its, lin_its,
-              facts, evaluate, factorize, solve, per_it > 0 ? (evaluate / newton_its) / per_it : 0.0,
+              model.particles.size(), problem.n_unknowns(), nonzeros, linear->name().c_str(),
+              omp_get_max_threads(), t_model, t_solve, t_model + t_solve, newton_its, lin_its, facts,
+              evaluate, factorize, solve, per_it > 0 ? (evaluate / newton_its) / per_it : 0.0,
               last.final_residual, peak_mb(), run.completed ? 1 : 0);
   return run.completed ? 0 : 3;
 }
@@ -114,27 +111,31 @@ int factor(int n, const std::string& which, const std::string& ordering) {
   cholmod_common& c = llt.cholmod();
   if (ordering != "default") {
     c.nmethods = 1;
-    c.method[0].ordering = ordering == "amd" ? CHOLMOD_AMD : ordering == "metis" ? CHOLMOD_METIS : CHOLMOD_NESDIS;
+    c.method[0].ordering = ordering == "amd"     ? CHOLMOD_AMD
+                           : ordering == "metis" ? CHOLMOD_METIS
+                                                 : CHOLMOD_NESDIS;
     c.postorder = 1;
   }
-  const double t0 = now();
+  const double t0 = wall_seconds();
   llt.analyzePattern(A);
-  const double t1 = now();
+  const double t1 = wall_seconds();
   llt.factorize(A);
-  const double t2 = now();
+  const double t2 = wall_seconds();
   VectorXd sol = llt.solve(-r);
-  const double t3 = now();
-  std::printf("n=%d matrix=%s ordering=%s nnz=%lld analyse=%.2fs factorise=%.2fs solve=%.3fs factor_nnz=%.0f "
-              "flops=%.3g peak=%.0fMB info=%d\n",
-              n, which.c_str(), ordering.c_str(), (long long)A.nonZeros(), t1 - t0, t2 - t1, t3 - t2, c.lnz, c.fl,
-              peak_mb(), (int)llt.info());
+  const double t3 = wall_seconds();
+  std::printf(
+      "n=%d matrix=%s ordering=%s nnz=%lld analyse=%.2fs factorise=%.2fs solve=%.3fs factor_nnz=%.0f "
+      "flops=%.3g peak=%.0fMB info=%d\n",
+      n, which.c_str(), ordering.c_str(), (long long)A.nonZeros(), t1 - t0, t2 - t1, t3 - t2, c.lnz, c.fl,
+      peak_mb(), (int)llt.info());
   return 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc >= 3 && std::strcmp(argv[1], "tension") == 0) return tension(std::atoi(argv[2]), overrides_from(argc, argv, 3));
+  if (argc >= 3 && std::strcmp(argv[1], "tension") == 0)
+    return tension(std::atoi(argv[2]), overrides_from(argc, argv, 3));
   if (argc >= 5 && std::strcmp(argv[1], "factor") == 0) return factor(std::atoi(argv[2]), argv[3], argv[4]);
   std::fprintf(stderr,
                "usage: peristat_bench tension N [--set KEY=VALUE]...\n"

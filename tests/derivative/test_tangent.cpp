@@ -1,8 +1,8 @@
 // Finite-difference checks of the assembled residual and tangent (DESIGN.md section 5:
 // "prove every tangent"). A deformed, pre-cracked plate; random states and directions.
-#include <gtest/gtest.h>
-
 #include <random>
+
+#include <gtest/gtest.h>
 
 #include "assembly/quasi_static.hpp"
 #include "support/scenes.hpp"

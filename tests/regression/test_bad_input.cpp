@@ -1,13 +1,13 @@
 // End to end: `peristat run` on bad input prints one "peristat: error: FILE:LINE: KEY: ..."
 // line on stderr, exits with status 2 and writes no results.
-#include <gtest/gtest.h>
-#include <sys/wait.h>
-
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <sys/wait.h>
+
+#include <gtest/gtest.h>
 
 namespace {
 
@@ -16,26 +16,26 @@ namespace fs = std::filesystem;
 // The minimal valid scene; the tests edit one line and assert on line numbers (1-based,
 // given in the comments).
 const std::string k_minimal =
-    "name: minimal\n"                                        // 1
-    "materials:\n"                                           // 2
-    "  plate:\n"                                             // 3
-    "    E: 1.0e9\n"                                         // 4
-    "    nu: 0.3\n"                                          // 5
-    "    thickness: 1.0e-3\n"                                // 6
-    "discretization:\n"                                      // 7
-    "  spacing: 1.0e-3\n"                                    // 8
-    "bodies:\n"                                              // 9
-    "  plate:\n"                                             // 10
-    "    material: plate\n"                                  // 11
-    "    rectangle: {min: [0, 0], max: [0.02, 0.01]}\n"      // 12
-    "boundary:\n"                                            // 13
-    "  - body: plate\n"                                      // 14
-    "    edge: left\n"                                       // 15
-    "    ux: 0\n"                                            // 16
-    "    uy: 0\n"                                            // 17
-    "  - body: plate\n"                                      // 18
-    "    edge: right\n"                                      // 19
-    "    ux: 1.0e-5\n";                                      // 20
+    "name: minimal\n"                                    // 1
+    "materials:\n"                                       // 2
+    "  plate:\n"                                         // 3
+    "    E: 1.0e9\n"                                     // 4
+    "    nu: 0.3\n"                                      // 5
+    "    thickness: 1.0e-3\n"                            // 6
+    "discretization:\n"                                  // 7
+    "  spacing: 1.0e-3\n"                                // 8
+    "bodies:\n"                                          // 9
+    "  plate:\n"                                         // 10
+    "    material: plate\n"                              // 11
+    "    rectangle: {min: [0, 0], max: [0.02, 0.01]}\n"  // 12
+    "boundary:\n"                                        // 13
+    "  - body: plate\n"                                  // 14
+    "    edge: left\n"                                   // 15
+    "    ux: 0\n"                                        // 16
+    "    uy: 0\n"                                        // 17
+    "  - body: plate\n"                                  // 18
+    "    edge: right\n"                                  // 19
+    "    ux: 1.0e-5\n";                                  // 20
 
 std::string replace(std::string text, const std::string& from, const std::string& to) {
   const auto at = text.find(from);
@@ -69,8 +69,8 @@ class BadInput : public ::testing::Test {
 
   Outcome run(const std::string& scene, const std::string& extra) {
     const fs::path err = m_dir / "stderr.txt";
-    const std::string command = "'" PERISTAT_EXE "' run '" + scene + "' --out '" + out_dir().string() +
-                                "' " + extra + " > /dev/null 2> '" + err.string() + "'";
+    const std::string command = "'" PERISTAT_EXE "' run '" + scene + "' --out '" + out_dir().string() + "' " +
+                                extra + " > /dev/null 2> '" + err.string() + "'";
     const int status = std::system(command.c_str());
     Outcome o;
     if (status != -1 && WIFEXITED(status)) o.exit_status = WEXITSTATUS(status);
@@ -142,8 +142,9 @@ TEST_F(BadInput, SpacingNotPositive) {
 }
 
 TEST_F(BadInput, HorizonFactorBelowOne) {
-  expect_rejected(run_text(replace(k_minimal, "  spacing: 1.0e-3\n", "  spacing: 1.0e-3\n  horizon_factor: 0.5\n")),
-                  at(9, "discretization.horizon_factor"), "expected horizon_factor >= 1");
+  expect_rejected(
+      run_text(replace(k_minimal, "  spacing: 1.0e-3\n", "  spacing: 1.0e-3\n  horizon_factor: 0.5\n")),
+      at(9, "discretization.horizon_factor"), "expected horizon_factor >= 1");
 }
 
 TEST_F(BadInput, EmptyBodies) {
@@ -153,23 +154,25 @@ TEST_F(BadInput, EmptyBodies) {
 
 TEST_F(BadInput, OverlappingBodies) {
   const std::string two = replace(k_minimal, "    rectangle: {min: [0, 0], max: [0.02, 0.01]}\n",
-                                  "    rectangle: {min: [0, 0], max: [0.02, 0.01]}\n"   // 12
-                                  "  other:\n"                                          // 13
-                                  "    material: plate\n"                               // 14
+                                  "    rectangle: {min: [0, 0], max: [0.02, 0.01]}\n"  // 12
+                                  "  other:\n"                                         // 13
+                                  "    material: plate\n"                              // 14
                                   "    rectangle: {min: [0.01, 0], max: [0.03, 0.01]}\n");
   const Outcome o = run_text(two);
   EXPECT_EQ(o.exit_status, 2) << "stderr: " << o.stderr_text;
   // The discretisation may blame either body; it names the one it reports, at its line.
-  const bool names_a_body = o.stderr_text.find("peristat: error: " + at(10, "bodies.plate")) != std::string::npos ||
-                            o.stderr_text.find("peristat: error: " + at(13, "bodies.other")) != std::string::npos;
+  const bool names_a_body =
+      o.stderr_text.find("peristat: error: " + at(10, "bodies.plate")) != std::string::npos ||
+      o.stderr_text.find("peristat: error: " + at(13, "bodies.other")) != std::string::npos;
   EXPECT_TRUE(names_a_body) << "stderr: " << o.stderr_text;
   EXPECT_NE(o.stderr_text.find("overlap"), std::string::npos) << "stderr: " << o.stderr_text;
   expect_no_results();
 }
 
 TEST_F(BadInput, ConditionSelectingNoParticle) {
-  expect_rejected(run_text(replace(k_minimal, "    edge: right\n", "    region: {min: [1, 1], max: [2, 2]}\n")),
-                  at(18, "boundary.1"), "selects no particle");
+  expect_rejected(
+      run_text(replace(k_minimal, "    edge: right\n", "    region: {min: [1, 1], max: [2, 2]}\n")),
+      at(18, "boundary.1"), "selects no particle");
 }
 
 TEST_F(BadInput, CrackOutsideEveryBody) {

@@ -1,9 +1,9 @@
 // The cases and the program's contracts, end to end through the command line, in smoke
 // mode (coarse spacing) so the suite stays fast.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <sstream>
+
+#include <gtest/gtest.h>
 
 #include "io/results.hpp"
 #include "support/cli.hpp"
@@ -15,7 +15,8 @@ const std::string kTension = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_
 
 TEST(TensionPlateCase, SmokeRunMatchesUniaxialSolution) {
   const auto dir = test::fresh_directory("tension");
-  const auto r = test::run_cli("run " + kTension + " --out " + dir.string() + " --set discretization.spacing=4e-3");
+  const auto r =
+      test::run_cli("run " + kTension + " --out " + dir.string() + " --set discretization.spacing=4e-3");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   EXPECT_NE(r.out.find("step 2/2"), std::string::npos) << "progress shows the load steps";
   for (const char* f : {"tension_plate.h5", "tension_plate.xdmf", "summary.json"})
@@ -26,7 +27,8 @@ TEST(TensionPlateCase, SmokeRunMatchesUniaxialSolution) {
   // ux = eps x with eps = 1e-3. Tolerance 2% of the end displacement (1e-4 m): at dx = 4 mm
   // the loaded layers and the free edges, each a horizon (12 mm) wide, bend the profile
   // (measured: 0.7%, 7.1e-7 m at x = 0.03 and 0.07).
-  const auto p = test::run_cli("probe " + (dir / "tension_plate.h5").string() + " --line 0.03 0.05 0.07 0.05 --points 5");
+  const auto p = test::run_cli("probe " + (dir / "tension_plate.h5").string() +
+                               " --line 0.03 0.05 0.07 0.05 --points 5");
   ASSERT_EQ(p.exit_code, 0) << p.err;
   std::istringstream csv(p.out);
   std::string line;
@@ -63,7 +65,8 @@ TEST(ExitCodes, NoConvergenceIsThreeAndLeavesAValidFile) {
 
 TEST(ExitCodes, QuietRunPrintsNothing) {
   const auto dir = test::fresh_directory("quiet");
-  const auto r = test::run_cli("run " + kTension + " --quiet --out " + dir.string() + " --set discretization.spacing=5e-3");
+  const auto r = test::run_cli("run " + kTension + " --quiet --out " + dir.string() +
+                               " --set discretization.spacing=5e-3");
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(r.out.empty()) << r.out;
   std::filesystem::remove_all(dir);

@@ -1,12 +1,11 @@
 #include "support/cli.hpp"
 
-#include <sys/wait.h>
-
 #include <atomic>
 #include <cstdlib>
 #include <fstream>
 #include <random>
 #include <sstream>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace peristat::test {
@@ -30,7 +29,8 @@ std::string read_file(const std::filesystem::path& path) {
 CliResult run_cli(const std::string& arguments) {
   const auto dir = fresh_directory("cli");
   const auto out = dir / "stdout", err = dir / "stderr";
-  const std::string cmd = std::string(PERISTAT_EXE) + " " + arguments + " > " + out.string() + " 2> " + err.string();
+  const std::string cmd =
+      std::string(PERISTAT_EXE) + " " + arguments + " > " + out.string() + " 2> " + err.string();
   const int status = std::system(cmd.c_str());
   CliResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;

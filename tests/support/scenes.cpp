@@ -21,14 +21,17 @@ std::string plate_yaml(const PlateSpec& s) {
   return y.str();
 }
 
-Scene scene_from_yaml(const std::string& text) { return parse_scene_text(text, "test.yaml"); }
+Scene scene_from_yaml(const std::string& text) {
+  return parse_scene_text(text, "test.yaml");
+}
 
 std::string tension_boundary(double strain, const PlateSpec& s) {
   std::ostringstream y;
   y.precision(17);
   const double L = s.nx * s.dx, H = s.ny * s.dx;
   y << "  - {body: plate, edge: left, ux: 0}\n"
-    << "  - {body: plate, edge: right, ux: " << strain * L << "}\n"
+    << "  - {body: plate, edge: right, ux: " << strain * L
+    << "}\n"
     // uy = 0 on the two real particles nearest mid-height at the left end: no rigid motion
     << "  - {body: plate, region: {min: [0, " << 0.5 * H - s.dx << "], max: [" << s.dx << ", "
     << 0.5 * H + s.dx << "]}, uy: 0}\n";

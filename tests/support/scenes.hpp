@@ -8,16 +8,16 @@
 namespace peristat::test {
 
 struct PlateSpec {
-  int nx = 20, ny = 10;            ///< particles along x and y
+  int nx = 20, ny = 10;  ///< particles along x and y
   double dx = 1e-3;
   double E = 1e9, nu = 0.3, thickness = 1e-3;
   double m = 3.0;
   std::string kinematics = "finite";
   std::string quadrature = "isotropic";
   int steps = 1;
-  std::string boundary;            ///< YAML list items under `boundary:` (indented 2)
-  std::string cracks;              ///< YAML list items under `cracks:` (indented 2)
-  std::string solver;              ///< YAML mapping items under `solver:` (indented 2)
+  std::string boundary;  ///< YAML list items under `boundary:` (indented 2)
+  std::string cracks;    ///< YAML list items under `cracks:` (indented 2)
+  std::string solver;    ///< YAML mapping items under `solver:` (indented 2)
 };
 
 /// A single rectangular plate [0, nx dx] x [0, ny dx].

@@ -29,7 +29,8 @@ Eigen::Vector3d fit_affine(const Solved& s, int component, const Vec2& lo, const
   std::vector<Index> pick;
   for (Index i = 0; i < p.size(); ++i) {
     const Vec2& X = p.position[i];
-    if (!p.fictitious[i] && (X.array() >= lo.array()).all() && (X.array() <= hi.array()).all()) pick.push_back(i);
+    if (!p.fictitious[i] && (X.array() >= lo.array()).all() && (X.array() <= hi.array()).all())
+      pick.push_back(i);
   }
   Eigen::MatrixXd A(pick.size(), 3);
   VectorXd b(pick.size());

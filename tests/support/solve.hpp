@@ -13,8 +13,8 @@ struct Solved {
   Scene scene;
   Model model;
   std::unique_ptr<QuasiStaticProblem> problem;
-  VectorXd x;                      ///< unknowns at the end
-  VectorXd u;                      ///< full displacement (2N)
+  VectorXd x;  ///< unknowns at the end
+  VectorXd u;  ///< full displacement (2N)
   std::vector<StepReport> steps;
   RunReport run;
 };

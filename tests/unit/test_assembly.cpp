@@ -1,10 +1,9 @@
 // The parallel assembly is deterministic: one thread and two threads give bit-identical
 // residuals and tangents (each entry is summed by one thread in a fixed order).
-#include <gtest/gtest.h>
-
-#include <omp.h>
-
 #include <random>
+
+#include <gtest/gtest.h>
+#include <omp.h>
 
 #include "assembly/quasi_static.hpp"
 #include "support/scenes.hpp"

@@ -1,9 +1,9 @@
 // Load stepping with cut-backs on a problem whose behaviour is known exactly: a single
 // unknown with r(x) = x - lambda that "fails" (non-finite residual) beyond a load factor.
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <limits>
+
+#include <gtest/gtest.h>
 
 #include "solvers/load_stepping.hpp"
 

@@ -1,20 +1,19 @@
 // Results files (DESIGN.md section 4): layout, read-back, crash safety, probe_line.
-#include <gtest/gtest.h>
-#include <pthread.h>
-#include <signal.h>
-#include <sys/types.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <hdf5.h>  // the raw API, to check the contract paths independently of the reader
+#include <pthread.h>
+#include <signal.h>
 
 #include "io/results.hpp"
 
@@ -132,9 +131,7 @@ class RawFile {
   RawFile& operator=(const RawFile&) = delete;
   hid_t id() const { return m_id; }
 
-  bool exists(const std::string& link) const {
-    return H5Lexists(m_id, link.c_str(), H5P_DEFAULT) > 0;
-  }
+  bool exists(const std::string& link) const { return H5Lexists(m_id, link.c_str(), H5P_DEFAULT) > 0; }
   bool has_attribute(const std::string& object, const std::string& name) const {
     return H5Aexists_by_name(m_id, object.c_str(), name.c_str(), H5P_DEFAULT) > 0;
   }
@@ -276,8 +273,7 @@ TEST_F(ResultsTest, HdfLayoutFollowsTheContract) {
       EXPECT_EQ(file.dims(g + "/contact_force"), (std::vector<hsize_t>{6, 2}));
       EXPECT_EQ(file.doubles(g + "/contact_force")[7], f.contact_force[7]);
     }
-    EXPECT_EQ(file.doubles(g + "/residual_history"),
-              (std::vector<double>{1.0, 1e-4 * k, 1e-10 * k}));
+    EXPECT_EQ(file.doubles(g + "/residual_history"), (std::vector<double>{1.0, 1e-4 * k, 1e-10 * k}));
     EXPECT_EQ(file.attribute(g, "load_factor"), 0.25 * k);
     EXPECT_EQ(file.attribute(g, "newton_iterations"), 3 + k);
     EXPECT_EQ(file.attribute(g, "active_set_iterations"), k);
@@ -308,8 +304,7 @@ TEST_F(ResultsTest, SummaryJsonHoldsStepsStatusAndEscapes) {
   EXPECT_EQ(count_of(summary, R"("step": )"), 4u) << summary;
   EXPECT_NE(summary.find(R"("scene": "small")"), std::string::npos);
   EXPECT_NE(summary.find(R"("status": "no_convergence")"), std::string::npos);
-  EXPECT_NE(summary.find(R"("message": "step 5: \"stalled\"\n\tsee log")"), std::string::npos)
-      << summary;
+  EXPECT_NE(summary.find(R"("message": "step 5: \"stalled\"\n\tsee log")"), std::string::npos) << summary;
   EXPECT_NE(summary.find(kRunInfo), std::string::npos) << "run info is stored verbatim";
   EXPECT_NE(summary.find(R"("residual_history": [1, 1e-04, 1e-10])"), std::string::npos) << summary;
   EXPECT_NE(summary.find(R"("residual_history": [1, null, null])"), std::string::npos);
@@ -543,8 +538,7 @@ TEST_F(ProbeTest, IsDeterministicAndChecksItsArguments) {
   const auto second = probe_line(results, 1, Vec2(-1, -1), Vec2(5, 3), 57);
   ASSERT_EQ(first.size(), second.size());
   for (std::size_t i = 0; i < first.size(); ++i) {
-    EXPECT_TRUE((first[i].ux == second[i].ux) ||
-                (std::isnan(first[i].ux) && std::isnan(second[i].ux)));
+    EXPECT_TRUE((first[i].ux == second[i].ux) || (std::isnan(first[i].ux) && std::isnan(second[i].ux)));
   }
   EXPECT_THROW(probe_line(results, 1, Vec2(0, 0), Vec2(1, 1), 0), std::runtime_error);
   expect_error_naming([&] { probe_line(results, 2, Vec2(0, 0), Vec2(1, 1), 5); },

@@ -1,9 +1,9 @@
 // Scene parser: a full scene round-trips, defaults hold, every bad input names file,
 // line and key, and --set overrides reach the tree before validation.
-#include <gtest/gtest.h>
-
 #include <filesystem>
 #include <fstream>
+
+#include <gtest/gtest.h>
 
 #include "scene/scene.hpp"
 
@@ -223,7 +223,9 @@ void expect_full_scene(const Scene& s) {
 
 // ---- valid scenes ----------------------------------------------------------------------
 
-TEST(SceneParse, FullSceneHasEveryField) { expect_full_scene(parse(k_full)); }
+TEST(SceneParse, FullSceneHasEveryField) {
+  expect_full_scene(parse(k_full));
+}
 
 TEST(SceneParse, EmittedTextParsesToTheSameScene) {
   const Scene first = parse(k_full);
@@ -293,8 +295,7 @@ TEST(SceneParse, ClockwisePolygonIsReversedAndEdgesKeepTheirSegments) {
     const int j = s.boundary[0].edge;
     const Vec2 a = v[j], b = v[(j + 1) % 4];
     const Vec2 p = written[k], q = written[(k + 1) % 4];
-    EXPECT_TRUE((a == p && b == q) || (a == q && b == p))
-        << "user edge " << k << " became stored edge " << j;
+    EXPECT_TRUE((a == p && b == q) || (a == q && b == p)) << "user edge " << k << " became stored edge " << j;
     EXPECT_EQ(s.boundary[0].edge_name, std::to_string(k));
   }
 }
@@ -332,8 +333,8 @@ TEST(SceneErrors, UnknownKeyAtTopLevelListsTheAllowedKeys) {
 }
 
 TEST(SceneErrors, UnknownKeyInNestedMaps) {
-  expect_error(replace(k_minimal, "    E: 1.0e9", "    Young: 1.0e9"),
-               "scene.yaml:4: materials.plate.Young", "expected one of E, nu, thickness, kinematics");
+  expect_error(replace(k_minimal, "    E: 1.0e9", "    Young: 1.0e9"), "scene.yaml:4: materials.plate.Young",
+               "expected one of E, nu, thickness, kinematics");
   expect_error(replace(k_minimal, "  spacing: 1.0e-3", "  spacing: 1.0e-3\n  horizon: 3"),
                "scene.yaml:9: discretization.horizon", "unknown key");
   expect_error(replace(k_minimal, "    ux: 1.0e-5", "    uz: 1.0e-5"), "scene.yaml:20: boundary.1.uz",
@@ -353,8 +354,7 @@ TEST(SceneErrors, WrongTypes) {
                "scene.yaml:8: discretization.spacing", "expected a number, found a list");
   expect_error(k_head + k_bodies + "boundary: {body: plate}\n", "scene.yaml:13: boundary",
                "expected a list, found a map");
-  expect_error(k_head + k_bodies + "boundary:\n  - plate\n", "scene.yaml:14: boundary.0",
-               "expected a map");
+  expect_error(k_head + k_bodies + "boundary:\n  - plate\n", "scene.yaml:14: boundary.0", "expected a map");
   expect_error(k_minimal + "loading: {steps: 2.5}\n", "scene.yaml:21: loading.steps",
                "expected an integer, found \"2.5\"");
   expect_error(k_minimal + "solver:\n  newton: {line_search: maybe}\n",
@@ -394,10 +394,8 @@ TEST(SceneErrors, MaterialRanges) {
                "out of range");
   expect_error(replace(k_minimal, "nu: 0.3", "nu: 0.7"), "scene.yaml:5: materials.plate.nu",
                "value 0.7 is out of range: expected -1 < nu < 0.5");
-  expect_error(replace(k_minimal, "nu: 0.3", "nu: 0.5"), "scene.yaml:5: materials.plate.nu",
-               "out of range");
-  expect_error(replace(k_minimal, "nu: 0.3", "nu: -1"), "scene.yaml:5: materials.plate.nu",
-               "out of range");
+  expect_error(replace(k_minimal, "nu: 0.3", "nu: 0.5"), "scene.yaml:5: materials.plate.nu", "out of range");
+  expect_error(replace(k_minimal, "nu: 0.3", "nu: -1"), "scene.yaml:5: materials.plate.nu", "out of range");
   expect_error(replace(k_minimal, "thickness: 1.0e-3", "thickness: 0.0"),
                "scene.yaml:6: materials.plate.thickness", "expected thickness > 0");
   expect_error(replace(k_minimal, "    thickness: 1.0e-3", "    thickness: 1.0e-3\n    kinematics: large"),
@@ -423,16 +421,17 @@ TEST(SceneErrors, SolverAndLoadingRanges) {
                "expected rtol > 0");
   expect_error(k_minimal + "solver:\n  newton:\n    atol: -1e-3\n", "scene.yaml:23: solver.newton.atol",
                "expected atol >= 0");
-  expect_error(k_minimal + "solver:\n  adr: {max_iterations: 0}\n", "scene.yaml:22: solver.adr.max_iterations",
-               "expected max_iterations >= 1");
+  expect_error(k_minimal + "solver:\n  adr: {max_iterations: 0}\n",
+               "scene.yaml:22: solver.adr.max_iterations", "expected max_iterations >= 1");
   expect_error(k_minimal + "output: {every: 0}\n", "scene.yaml:21: output.every", "expected every >= 1");
 }
 
 TEST(SceneErrors, EmptySections) {
   expect_error(k_head + "bodies: {}\n", "scene.yaml:9: bodies", "expected at least one body");
   expect_error(k_head + "bodies:\n", "scene.yaml:9: bodies", "expected at least one body");
-  const std::string no_materials = replace(k_minimal,
-      "materials:\n  plate:\n    E: 1.0e9\n    nu: 0.3\n    thickness: 1.0e-3\n", "materials: {}\n");
+  const std::string no_materials =
+      replace(k_minimal, "materials:\n  plate:\n    E: 1.0e9\n    nu: 0.3\n    thickness: 1.0e-3\n",
+              "materials: {}\n");
   expect_error(no_materials, "scene.yaml:2: materials", "expected at least one material");
   expect_error("", "scene.yaml:1", "the scene is empty");
   expect_error("- a\n- b\n", "scene.yaml:1", "expected a map");
@@ -441,8 +440,8 @@ TEST(SceneErrors, EmptySections) {
 TEST(SceneErrors, NamesAndReferences) {
   expect_error(replace(k_minimal, "name: minimal", "name: my run"), "scene.yaml:1: name",
                "invalid name \"my run\"");
-  expect_error(replace(k_minimal, "material: plate", "material: steel"), "scene.yaml:11: bodies.plate.material",
-               "unknown material \"steel\": expected one of plate");
+  expect_error(replace(k_minimal, "material: plate", "material: steel"),
+               "scene.yaml:11: bodies.plate.material", "unknown material \"steel\": expected one of plate");
   expect_error(replace(k_minimal, "  - body: plate\n    edge: right", "  - body: plat\n    edge: right"),
                "scene.yaml:18: boundary.1.body", "unknown body \"plat\": expected one of plate");
   expect_error(replace(k_minimal, "edge: left", "edge: lft"), "scene.yaml:15: boundary.0.edge",
@@ -450,15 +449,14 @@ TEST(SceneErrors, NamesAndReferences) {
   expect_error(replace(k_minimal, "edge: left", "edge: 4"), "scene.yaml:15: boundary.0.edge", "unknown edge");
   const std::string triangle =
       "bodies:\n  plate:\n    material: plate\n    polygon: [[0, 0], [1, 0], [0, 1]]\n";
-  expect_error(k_head + triangle + k_boundary, "scene.yaml:15: boundary.0.edge",
-               "expected an integer 0..2");
+  expect_error(k_head + triangle + k_boundary, "scene.yaml:15: boundary.0.edge", "expected an integer 0..2");
   expect_error(replace(k_minimal, "  plate:\n    material", "  my plate:\n    material"),
                "scene.yaml:10: bodies.my plate", "invalid body name");
 }
 
 TEST(SceneErrors, DegenerateShapes) {
-  expect_error(replace(k_minimal, "max: [0.02, 0.01]", "max: [0, 0.01]"), "scene.yaml:12: bodies.plate.rectangle",
-               "degenerate rectangle");
+  expect_error(replace(k_minimal, "max: [0.02, 0.01]", "max: [0, 0.01]"),
+               "scene.yaml:12: bodies.plate.rectangle", "degenerate rectangle");
   const std::string head_bodies = k_head + "bodies:\n  plate:\n    material: plate\n";
   expect_error(head_bodies + "    polygon: [[0, 0], [1, 1], [2, 2]]\n", "scene.yaml:12: bodies.plate.polygon",
                "degenerate polygon");
@@ -468,8 +466,9 @@ TEST(SceneErrors, DegenerateShapes) {
                "scene.yaml:12: bodies.plate.polygon", "edges 0 and 2 intersect");
   expect_error(head_bodies + "    polygon: [[0, 0], [1, 0], [1, 0], [0, 1]]\n",
                "scene.yaml:12: bodies.plate.polygon", "vertices 1 and 2 coincide");
-  expect_error(head_bodies + "    rectangle: {min: [0, 0], max: [1, 1]}\n    polygon: [[0, 0], [1, 0], [0, 1]]\n",
-               "scene.yaml:13: bodies.plate.polygon", "found both");
+  expect_error(
+      head_bodies + "    rectangle: {min: [0, 0], max: [1, 1]}\n    polygon: [[0, 0], [1, 0], [0, 1]]\n",
+      "scene.yaml:13: bodies.plate.polygon", "found both");
 }
 
 TEST(SceneErrors, BoundaryConditionShape) {
@@ -479,10 +478,11 @@ TEST(SceneErrors, BoundaryConditionShape) {
                "expected exactly one of edge, surround, region, found 0");
   expect_error(replace(k_minimal, "    edge: right\n", "    edge: right\n    surround: true\n"),
                "scene.yaml:18: boundary.1", "found 2");
-  expect_error(replace(k_minimal, "    edge: right\n", "    region: {min: [0, 0], max: [1, 1]}\n    layers: 2\n"),
-               "scene.yaml:20: boundary.1.layers", "not allowed with region");
-  expect_error(replace(k_minimal, "    edge: right\n", "    surround: false\n"), "scene.yaml:19: boundary.1.surround",
-               "expected true");
+  expect_error(
+      replace(k_minimal, "    edge: right\n", "    region: {min: [0, 0], max: [1, 1]}\n    layers: 2\n"),
+      "scene.yaml:20: boundary.1.layers", "not allowed with region");
+  expect_error(replace(k_minimal, "    edge: right\n", "    surround: false\n"),
+               "scene.yaml:19: boundary.1.surround", "expected true");
   expect_error(replace(k_minimal, "    edge: right\n", "    region: {min: [1, 0], max: [0, 1]}\n"),
                "scene.yaml:19: boundary.1.region", "degenerate region");
   expect_error(replace(k_minimal, "    edge: left\n", "    edge: left\n    layers: 0\n"),
@@ -490,8 +490,9 @@ TEST(SceneErrors, BoundaryConditionShape) {
 }
 
 TEST(SceneErrors, CrackOutsideEveryBody) {
-  expect_error(k_minimal + "cracks:\n  - {from: [0.001, 0.005], to: [0.01, 0.005]}\n"
-                           "  - {from: [0.05, 0.05], to: [0.06, 0.06]}\n",
+  expect_error(k_minimal +
+                   "cracks:\n  - {from: [0.001, 0.005], to: [0.01, 0.005]}\n"
+                   "  - {from: [0.05, 0.05], to: [0.06, 0.06]}\n",
                "scene.yaml:23: cracks.1", "crack lies outside every body");
   expect_error(k_minimal + "cracks:\n  - {from: [0.01, 0.005], to: [0.01, 0.005]}\n",
                "scene.yaml:22: cracks.0", "zero length");
@@ -500,8 +501,8 @@ TEST(SceneErrors, CrackOutsideEveryBody) {
 }
 
 TEST(SceneErrors, DuplicateKeys) {
-  expect_error(replace(k_minimal, "    nu: 0.3\n", "    nu: 0.3\n    E: 2.0e9\n"), "scene.yaml:6: materials.plate.E",
-               "duplicate key \"E\": already given at line 4");
+  expect_error(replace(k_minimal, "    nu: 0.3\n", "    nu: 0.3\n    E: 2.0e9\n"),
+               "scene.yaml:6: materials.plate.E", "duplicate key \"E\": already given at line 4");
   expect_error(k_minimal + "bodies:\n  other: {material: plate, rectangle: {min: [1, 1], max: [2, 2]}}\n",
                "scene.yaml:21: bodies", "duplicate key");
 }
@@ -559,17 +560,14 @@ TEST(SceneOverrides, MissingMapsAreCreated) {
 }
 
 TEST(SceneOverrides, EveryContractKeyWorks) {
-  const Scene s = parse(k_minimal, {parse_override("discretization.spacing=5e-4"),
-                                    parse_override("discretization.horizon_factor=4"),
-                                    parse_override("loading.steps=7"),
-                                    parse_override("solver.type=adr"),
-                                    parse_override("solver.linear=umfpack"),
-                                    parse_override("solver.newton.rtol=1e-7"),
-                                    parse_override("solver.adr.rtol=1e-5"),
-                                    parse_override("solver.adr.max_iterations=123"),
-                                    parse_override("materials.plate.kinematics=small"),
-                                    parse_override("materials.plate.E=2e9"),
-                                    parse_override("materials.plate.nu=0.2")});
+  const Scene s =
+      parse(k_minimal,
+            {parse_override("discretization.spacing=5e-4"), parse_override("discretization.horizon_factor=4"),
+             parse_override("loading.steps=7"), parse_override("solver.type=adr"),
+             parse_override("solver.linear=umfpack"), parse_override("solver.newton.rtol=1e-7"),
+             parse_override("solver.adr.rtol=1e-5"), parse_override("solver.adr.max_iterations=123"),
+             parse_override("materials.plate.kinematics=small"), parse_override("materials.plate.E=2e9"),
+             parse_override("materials.plate.nu=0.2")});
   EXPECT_EQ(s.discretization.spacing, 5e-4);
   EXPECT_EQ(s.discretization.horizon_factor, 4.0);
   EXPECT_EQ(s.loading.steps, 7);
@@ -585,17 +583,20 @@ TEST(SceneOverrides, EveryContractKeyWorks) {
 }
 
 TEST(SceneOverrides, ErrorsInOverriddenKeysSayDashDashSet) {
-  expect_error(k_minimal, "--set: solver.lnear", "unknown key \"lnear\"", {parse_override("solver.lnear=umfpack")});
+  expect_error(k_minimal, "--set: solver.lnear", "unknown key \"lnear\"",
+               {parse_override("solver.lnear=umfpack")});
   expect_error(k_minimal, "--set: materials.plate.nu", "value 0.7 is out of range",
                {parse_override("materials.plate.nu=0.7")});
-  expect_error(k_minimal, "--set: contact", "unknown key \"contact\"", {parse_override("contact.friction=0.1")});
+  expect_error(k_minimal, "--set: contact", "unknown key \"contact\"",
+               {parse_override("contact.friction=0.1")});
   expect_error(k_minimal, "--set: materials.steel.nu", "missing required key",
                {parse_override("materials.steel.E=1e9")});
   expect_error(k_minimal, "--set: boundary.5", "index 5 is out of range: boundary is a list of 2 entries",
                {parse_override("boundary.5.ux=0")});
   expect_error(k_minimal, "--set: boundary.x", "not a list index", {parse_override("boundary.x=0")});
   expect_error(k_minimal, "--set: name.x", "not a map", {parse_override("name.x=1")});
-  expect_error(k_minimal, "--set: loading.steps", "cannot read the value", {parse_override("loading.steps=[1")});
+  expect_error(k_minimal, "--set: loading.steps", "cannot read the value",
+               {parse_override("loading.steps=[1")});
   // An error elsewhere still points into the file.
   expect_error(replace(k_minimal, "E: 1.0e9", "E: 0"), "scene.yaml:4: materials.plate.E", "out of range",
                {parse_override("loading.steps=3")});

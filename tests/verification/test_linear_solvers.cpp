@@ -8,13 +8,15 @@
 namespace peristat {
 namespace {
 
-VectorXd solve_with(const std::string& kinematics, const std::string& solver_yaml, int* factorizations = nullptr) {
+VectorXd solve_with(const std::string& kinematics, const std::string& solver_yaml,
+                    int* factorizations = nullptr) {
   test::PlateSpec spec;
   spec.nx = 30;
   spec.ny = 16;
   spec.kinematics = kinematics;
   spec.steps = 2;
-  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n  - {body: plate, edge: right, ux: 3.0e-4, uy: 5.0e-4}\n";
+  spec.boundary =
+      "  - {body: plate, edge: left, ux: 0, uy: 0}\n  - {body: plate, edge: right, ux: 3.0e-4, uy: 5.0e-4}\n";
   spec.cracks = "  - {from: [0.01, 0.005], to: [0.016, 0.011]}\n";
   spec.solver = solver_yaml + "  newton: {rtol: 1.0e-11}\n";
   auto s = test::solve_scene(test::plate_yaml(spec));

@@ -1,8 +1,8 @@
 // Newton's convergence rate (issue 2): quadratic with finite kinematics, shown on the
 // residual sequence itself; one iteration per step with small kinematics.
-#include <gtest/gtest.h>
-
 #include <cmath>
+
+#include <gtest/gtest.h>
 
 #include "support/scenes.hpp"
 #include "support/solve.hpp"

@@ -8,9 +8,9 @@
 // answer is the affine field everywhere, interior and boundary alike. With the default
 // three layers the incomplete families of the outermost fictitious particles disturb the
 // boundary (docs/verification.md reports the size of that disturbance).
-#include <gtest/gtest.h>
-
 #include <sstream>
+
+#include <gtest/gtest.h>
 
 #include "support/scenes.hpp"
 #include "support/solve.hpp"

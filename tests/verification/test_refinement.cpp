@@ -2,10 +2,10 @@
 // with m fixed (issue 2). The plate keeps its size (40 mm x 20 mm); the prescribed layers
 // carry the analytic ux = eps X on both ends, so the only error is the peridynamic one
 // (surface softening along the free edges, which is confined to a layer of width ~delta).
-#include <gtest/gtest.h>
-
 #include <cmath>
 #include <sstream>
+
+#include <gtest/gtest.h>
 
 #include "support/scenes.hpp"
 #include "support/solve.hpp"

@@ -57,8 +57,8 @@ TEST_P(Uniaxial, EffectiveModuliWithinOnePercent) {
   const Measured m = measure(nu, "isotropic", "small");
   RecordProperty("E_ratio", std::to_string(m.E / 70e9));
   RecordProperty("nu_ratio", std::to_string(m.nu / nu));
-  std::printf("nu = %.2f: E_eff / E = %.5f, nu_eff / nu = %.5f, |s_yy / s_xx| = %.2e\n", nu, m.E / 70e9, m.nu / nu,
-              m.sigma_yy_ratio);
+  std::printf("nu = %.2f: E_eff / E = %.5f, nu_eff / nu = %.5f, |s_yy / s_xx| = %.2e\n", nu, m.E / 70e9,
+              m.nu / nu, m.sigma_yy_ratio);
   EXPECT_NEAR(m.E / 70e9, 1.0, 0.01);
   EXPECT_NEAR(m.nu / nu, 1.0, 0.01);
   EXPECT_LT(m.sigma_yy_ratio, 0.01);  // the interior is in uniaxial stress

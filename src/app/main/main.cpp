@@ -19,7 +19,8 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--out", run.out, "output directory (default results/<scene name>)");
   run_cmd->add_option("--solver", run.solver, "newton or adr (overrides solver.type)");
   run_cmd->add_option("--set", run.overrides, "override a scene key: --set solver.linear=umfpack")
-      ->take_all()->allow_extra_args(false);
+      ->take_all()
+      ->allow_extra_args(false);
   run_cmd->add_flag("--quiet", run.quiet, "no progress output");
   run_cmd->add_option("--threads", run.threads, "OpenMP threads for assembly (default: all cores)")
       ->check(CLI::PositiveNumber);
@@ -28,7 +29,9 @@ int main(int argc, char** argv) {
   std::vector<std::string> check_overrides;
   CLI::App* check_cmd = app.add_subcommand("check", "validate a scene and print the model size");
   check_cmd->add_option("scene", check_scene, "scene file (YAML)")->required();
-  check_cmd->add_option("--set", check_overrides, "override a scene key")->take_all()->allow_extra_args(false);
+  check_cmd->add_option("--set", check_overrides, "override a scene key")
+      ->take_all()
+      ->allow_extra_args(false);
 
   ProbeArguments probe;
   std::vector<double> line;
