@@ -268,10 +268,23 @@ class Builder {
     Bonds& bonds = m_model.bonds;
     const Index n = p.size();
     const double reach = m_model.horizon + m_dx;
-    // Cracks near each particle: the crack's box grown by the stencil reach.
+    // mirror[k]: the stencil index of -offset[k], the offset of the reverse bond.
+    std::vector<int> mirror(s.offset.size());
+    for (std::size_t k = 0; k < s.offset.size(); ++k) {
+      const auto it =
+          std::find(s.offset.begin(), s.offset.end(), std::array<int, 2>{-s.offset[k][0], -s.offset[k][1]});
+      mirror[k] = static_cast<int>(it - s.offset.begin());
+    }
+    std::vector<int> stencil_index;  // per bond, while building
+    std::vector<const Crack*> near;  // cracks whose box, grown by the reach, holds particle i
+    const std::size_t capacity = static_cast<std::size_t>(n) * s.offset.size();  // an upper bound
+    bonds.neighbour.reserve(capacity);
+    bonds.xi.reserve(capacity);
+    bonds.weight.reserve(capacity);
+    stencil_index.reserve(capacity);
     bonds.start.assign(n + 1, 0);
     for (Index i = 0; i < n; ++i) {
-      std::vector<const Crack*> near;
+      near.clear();
       for (const Crack& crack : m_scene.cracks) {
         const Vec2 lo = crack.a.cwiseMin(crack.b).array() - reach;
         const Vec2 hi = crack.a.cwiseMax(crack.b).array() + reach;
@@ -291,23 +304,27 @@ class Builder {
         bonds.neighbour.push_back(j);
         bonds.xi.push_back(p.position[j] - p.position[i]);
         bonds.weight.push_back(s.weight[k]);
+        stencil_index.push_back(static_cast<int>(k));
       }
       bonds.start[i + 1] = static_cast<Index>(bonds.neighbour.size());
     }
-    // Reverse bonds: neighbours are in stencil order, so search the family of j.
+    // Reverse bonds: a family lists its bonds in increasing stencil index, so the bond
+    // j -> i (stencil index mirror[k]) is found by binary search in j's family.
     bonds.reverse.assign(bonds.neighbour.size(), -1);
+#pragma omp parallel for schedule(static)
     for (Index i = 0; i < n; ++i) {
       for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
         const Index j = bonds.neighbour[b];
-        for (Index r = bonds.start[j]; r < bonds.start[j + 1]; ++r) {
-          if (bonds.neighbour[r] == i) {
-            bonds.reverse[b] = r;
-            break;
-          }
-        }
-        PERISTAT_ASSERT(bonds.reverse[b] >= 0);
+        const auto first = stencil_index.begin() + bonds.start[j],
+                   last = stencil_index.begin() + bonds.start[j + 1];
+        const auto it = std::lower_bound(first, last, mirror[stencil_index[b]]);
+        PERISTAT_ASSERT(it != last && *it == mirror[stencil_index[b]]);
+        bonds.reverse[b] = static_cast<Index>(it - stencil_index.begin());
       }
     }
+    bonds.neighbour.shrink_to_fit();
+    bonds.xi.shrink_to_fit();
+    bonds.weight.shrink_to_fit();
   }
 
   void number_unknowns() {
