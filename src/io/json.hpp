@@ -27,6 +27,12 @@ class Writer {
   void value(std::string_view text);
   void value(const char* text) { value(std::string_view(text)); }
   void value(bool b) { raw(b ? "true" : "false"); }
+  /// key(name) then value(v).
+  template <class T>
+  void field(std::string_view name, const T& v) {
+    key(name);
+    value(v);
+  }
   void null();
   /// A flat array of numbers on one line: [1, 2.5, null].
   void numbers(const std::vector<double>& values);

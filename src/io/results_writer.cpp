@@ -157,18 +157,12 @@ void write_json_map(json::Writer& w, const std::map<std::string, double>& entrie
 
 void write_json_step(json::Writer& w, const StepSummary& s) {
   w.begin_object();
-  w.key("step");
-  w.value(s.index);
-  w.key("load_factor");
-  w.value(s.load_factor);
-  w.key("newton_iterations");
-  w.value(s.newton_iterations);
-  w.key("active_set_iterations");
-  w.value(s.active_set_iterations);
-  w.key("residual_norm");
-  w.value(s.residual_norm);
-  w.key("wall_seconds");
-  w.value(s.wall_seconds);
+  w.field("step", s.index);
+  w.field("load_factor", s.load_factor);
+  w.field("newton_iterations", s.newton_iterations);
+  w.field("active_set_iterations", s.active_set_iterations);
+  w.field("residual_norm", s.residual_norm);
+  w.field("wall_seconds", s.wall_seconds);
   w.key("residual_history");
   w.numbers(s.residual_history);
   w.key("counts");
