@@ -2,8 +2,6 @@
 
 #include <omp.h>
 
-#include "core/clock.hpp"
-
 namespace peristat {
 
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
@@ -31,7 +29,6 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
   m_kbond.assign(nbonds, Sym2{});
   m_s_self.assign(n, Vec2::Zero());
   m_beta_volume.assign(n, 0.0);
-  m_energy_density.assign(n, 0.0);
   m_u = VectorXd::Zero(2 * n);
   m_force = VectorXd::Zero(2 * n);
 }
@@ -73,7 +70,6 @@ void QuasiStaticProblem::commit(const VectorXd& /*x*/) {
 }
 
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {
-  const double t0 = wall_seconds();
   expand(x, m_u);
   compute_families(K != nullptr);
   gather_forces();
@@ -81,12 +77,7 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   r.resize(c.n_free);
   for (std::size_t d = 0; d < c.prescribed.size(); ++d)
     if (!c.prescribed[d]) r[c.free_index[d]] = m_force[d];
-  const double t1 = wall_seconds();
-  m_seconds_residual += t1 - t0;
-  if (K) {
-    gather_tangent(*K);
-    m_seconds_tangent += wall_seconds() - t1;
-  }
+  if (K) gather_tangent(*K);
 }
 
 void QuasiStaticProblem::compute_families(bool want_tangent) {
@@ -107,7 +98,6 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
     const FamilyResult res = osb_family(
         m_body_constants[p.body[i]], m_weighted_volume[i], std::span(bonds.xi).subspan(b0, nb),
         std::span(bonds.weight).subspan(b0, nb), std::span(m_eta).subspan(b0, nb), out, want_tangent);
-    m_energy_density[i] = res.energy_density;
     energy += p.volume[i] * res.energy_density;
     if (want_tangent) {
       Vec2 s = Vec2::Zero();

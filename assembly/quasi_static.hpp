@@ -47,9 +47,6 @@ class QuasiStaticProblem final : public Problem {
   double energy() const { return m_energy; }
   const Model& model() const { return m_model; }
   const TangentPattern& pattern() const { return m_pattern; }
-  /// Seconds spent in evaluate(): kernels + residual, and tangent assembly.
-  double seconds_residual() const { return m_seconds_residual; }
-  double seconds_tangent() const { return m_seconds_tangent; }
 
  private:
   void compute_families(bool want_tangent);
@@ -74,8 +71,6 @@ class QuasiStaticProblem final : public Problem {
   std::vector<Sym2> m_kbond;                  ///< per bond
   std::vector<Vec2> m_s_self;                 ///< per particle: -sum_b s_b
   std::vector<double> m_beta_volume;          ///< per particle: beta_i V_i
-  std::vector<double> m_energy_density;       ///< per particle
-  double m_seconds_residual = 0.0, m_seconds_tangent = 0.0;
 };
 
 }  // namespace peristat

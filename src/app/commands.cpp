@@ -136,6 +136,12 @@ int run_command(const RunArguments& args) {
   const Model model = discretise(scene);
   QuasiStaticProblem problem(model, scene);
   std::unique_ptr<LinearSolver> linear = make_linear_solver(scene.solver.linear);
+  if (linear->needs_symmetric() && !problem.tangent_symmetric()) {
+    throw InputError(SourceLocation{scene.path, 0, "solver.linear"},
+                     "'" + scene.solver.linear.type +
+                         "' needs a symmetric tangent and this scene's is not: "
+                         "use umfpack, klu or bicgstab");
+  }
   const ModelSize size = measure(model, problem.pattern());
   const double t_model = wall_seconds() - t_start;
   if (verbose) {
