@@ -7,7 +7,8 @@
 
 namespace peristat {
 
-TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double radius) {
+TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double radius,
+                             const ContactSystem* contact) {
   const double radius2 = radius * radius * (1.0 + 1e-9);
   const Index n = model.particles.size();
   const Bonds& bonds = model.bonds;
@@ -36,6 +37,8 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
         if (reach_kind != PatternReach::two_horizons) continue;
         for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c) add(bonds.neighbour[c]);
       }
+      if (contact)
+        for (auto e = contact->incident_begin(p); e != contact->incident_end(p); ++e) add(e->other);
       std::sort(r.begin(), r.end());
       for (Index q : r) seen[q] = 0;
     }

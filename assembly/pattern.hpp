@@ -5,6 +5,7 @@
 
 #include <vector>
 
+#include "contact/contact.hpp"
 #include "discretisation/model.hpp"
 
 namespace peristat {
@@ -30,8 +31,9 @@ enum class PatternReach {
 };
 
 /// Builds the pattern. Deterministic; O(N n^2) with n the family size.
-/// `radius` [m] is used with PatternReach::bonds_within only.
+/// `radius` [m] is used with PatternReach::bonds_within only. The candidate pairs of
+/// `contact`, when given, are coupled too.
 TangentPattern build_pattern(const Model& model, PatternReach reach = PatternReach::two_horizons,
-                             double radius = 0.0);
+                             double radius = 0.0, const ContactSystem* contact = nullptr);
 
 }  // namespace peristat

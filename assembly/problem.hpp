@@ -2,6 +2,8 @@
 // commit. Header-only and free of physics so solvers/ never includes materials or contact.
 #pragma once
 
+#include <cstdint>
+
 #include "core/types.hpp"
 
 namespace peristat {
@@ -29,7 +31,8 @@ class Problem {
   /// A matrix with the tangent's sparsity pattern (built once) and zero values.
   virtual SparseMatrix make_tangent() const = 0;
 
-  /// True when the tangent is symmetric (a Cholesky factorisation applies).
+  /// True when the tangent assembled by the last evaluate() that assembled one is symmetric
+  /// (a Cholesky factorisation or CG applies); contact pairs that slip make it unsymmetric.
   virtual bool tangent_symmetric() const = 0;
 
   /// True when the tangent does not depend on x (linear problem: factorise once).
@@ -41,6 +44,11 @@ class Problem {
   virtual SparseMatrix make_preconditioner() const { return {}; }
   /// Fills the values of P (from make_preconditioner()) at the state of the last evaluate().
   virtual void assemble_preconditioner(SparseMatrix& /*P*/) {}
+
+  /// A hash of the discrete state of the last evaluate() (the contact and friction active
+  /// set); 0 for a smooth problem. Newton counts the iterations that change it and
+  /// detects cycling.
+  virtual std::uint64_t state_signature() const { return 0; }
 
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;

@@ -6,7 +6,8 @@ namespace peristat {
 
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
     : m_model(model),
-      m_pattern(build_pattern(model)),
+      m_contact(scene.contact.enabled ? std::make_unique<ContactSystem>(model, scene) : nullptr),
+      m_pattern(build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get())),
       m_bond_radius(scene.solver.linear.bond_radius * scene.discretization.spacing) {
   m_linear = true;
   for (const Body& body : scene.bodies) {
@@ -44,7 +45,7 @@ SparseMatrix QuasiStaticProblem::make_tangent() const {
   if (m_pattern.matrix.rows() == n_unknowns() && m_pattern.matrix.nonZeros() > 0) {
     K.swap(m_pattern.matrix);
   } else {
-    TangentPattern fresh = build_pattern(m_model);
+    TangentPattern fresh = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get());
     K.swap(fresh.matrix);
   }
   return K;
@@ -65,14 +66,22 @@ Mat2 QuasiStaticProblem::stress(Index i) const {
   return P;
 }
 
-void QuasiStaticProblem::commit(const VectorXd& /*x*/) {
-  // Elastic bonds carry no history; contact and failure (later issues) commit here.
+void QuasiStaticProblem::commit(const VectorXd& x) {
+  // Elastic bonds carry no history; friction slip does (failure will, too).
+  if (!m_contact) return;
+  expand(x, m_u);
+  m_contact->commit(m_u);
 }
 
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {
   expand(x, m_u);
   compute_families(K != nullptr);
   gather_forces();
+  if (m_contact) {
+    m_contact->evaluate(m_u, K != nullptr);
+    m_contact->add_internal_force(m_force);
+    m_force_scale = m_force.norm();
+  }
   const Constraints& c = m_model.constraints;
   r.resize(c.n_free);
   for (std::size_t d = 0; d < c.prescribed.size(); ++d)
@@ -235,6 +244,14 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
         for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c)
           col.add_outer(bonds.neighbour[c], bVi, m_s[c], sr);
       }
+      // Contact pairs of p: d r_p / d u_p = J, d r_other / d u_p = -J.
+      if (m_contact) {
+        for (auto e = m_contact->incident_begin(p); e != m_contact->incident_end(p); ++e) {
+          const Mat2& J = m_contact->jacobian(e->pair);
+          col.add(p, J(0, 0), J(0, 1), J(1, 0), J(1, 1));
+          col.add(e->other, -J(0, 0), -J(0, 1), -J(1, 0), -J(1, 1));
+        }
+      }
       col.end();
     }
   }
@@ -242,8 +259,8 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
 
 SparseMatrix QuasiStaticProblem::make_preconditioner() const {
   if (!m_bond_pattern)
-    m_bond_pattern =
-        std::make_unique<TangentPattern>(build_pattern(m_model, PatternReach::bonds_within, m_bond_radius));
+    m_bond_pattern = std::make_unique<TangentPattern>(
+        build_pattern(m_model, PatternReach::bonds_within, m_bond_radius, m_contact.get()));
   return m_bond_pattern->matrix;
 }
 
@@ -280,6 +297,13 @@ void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
         const Vec2& M = m_direction[b];
         col.add_outer(p, k, M, M);
         col.add_outer(j, -k, M, M);
+      }
+      if (m_contact) {
+        for (auto e = m_contact->incident_begin(p); e != m_contact->incident_end(p); ++e) {
+          const Mat2 S = m_contact->preconditioner_block(e->pair);
+          col.add(p, S(0, 0), S(0, 1), S(1, 0), S(1, 1));
+          col.add(e->other, -S(0, 0), -S(0, 1), -S(1, 0), -S(1, 1));
+        }
       }
       col.end();
     }

@@ -8,6 +8,7 @@
 
 #include "assembly/pattern.hpp"
 #include "assembly/problem.hpp"
+#include "contact/contact.hpp"
 #include "discretisation/model.hpp"
 #include "materials/osb.hpp"
 
@@ -25,11 +26,14 @@ class QuasiStaticProblem final : public Problem {
   /// The first call hands over the pattern built at construction (no copy of a matrix that
   /// can hold hundreds of MB); later calls rebuild it.
   SparseMatrix make_tangent() const override;
-  bool tangent_symmetric() const override { return true; }
-  bool tangent_constant() const override { return m_linear; }
+  /// False while a pair slips with friction (the Jacobian of eq 14 is not symmetric).
+  bool tangent_symmetric() const override { return !m_contact || m_contact->symmetric(); }
+  bool tangent_constant() const override { return m_linear && !m_contact; }
+  std::uint64_t state_signature() const override { return m_contact ? m_contact->signature() : 0; }
   /// The bond-based part of the tangent restricted to bonds shorter than
   /// solver.krylov.bond_radius * dx: sum of V alpha' omega w M M^T with alpha' = 8 mu / m'
-  /// and m' the weighted volume of those bonds (docs/theory/newton.md, "Bond preconditioner").
+  /// and m' the weighted volume of those bonds (docs/theory/newton.md, "Bond preconditioner"),
+  /// plus k_n n n^T (+ k_t t t^T when sticking) of every contact pair in contact.
   SparseMatrix make_preconditioner() const override;
   void assemble_preconditioner(SparseMatrix& P) override;
   void commit(const VectorXd& x) override;
@@ -46,6 +50,8 @@ class QuasiStaticProblem final : public Problem {
   /// Total strain energy Pi [J] of the last evaluate.
   double energy() const { return m_energy; }
   const Model& model() const { return m_model; }
+  /// The contact candidates and their state, or null when the scene has no contact.
+  const ContactSystem* contact() const { return m_contact.get(); }
   const TangentPattern& pattern() const { return m_pattern; }
 
  private:
@@ -54,6 +60,7 @@ class QuasiStaticProblem final : public Problem {
   void gather_tangent(SparseMatrix& K) const;
 
   const Model& m_model;
+  std::unique_ptr<ContactSystem> m_contact;  ///< null without contact: no candidates, no cost
   mutable TangentPattern m_pattern;  ///< its matrix is moved out by the first make_tangent()
   mutable std::unique_ptr<TangentPattern> m_bond_pattern;  ///< built on first request
   double m_bond_radius = 0.0;                              ///< [m]

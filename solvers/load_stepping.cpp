@@ -31,6 +31,7 @@ RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, co
       step.newton_iterations += r.iterations;
       step.linear_iterations += r.linear_iterations;
       step.factorizations += r.factorizations;
+      step.active_set_changes += r.active_set_changes;
       step.seconds_evaluate += r.seconds_evaluate;
       step.seconds_factorize += r.seconds_factorize;
       step.seconds_solve += r.seconds_solve;

@@ -20,6 +20,7 @@ struct StepReport {
   int newton_iterations = 0;  ///< summed over sub-steps
   int linear_iterations = 0;
   int factorizations = 0;
+  int active_set_changes = 0;  ///< Newton iterations that changed the contact active set
   std::vector<double> residuals;  ///< relative residuals of all sub-steps, in order
   double final_residual = 0.0;
   double seconds_evaluate = 0.0, seconds_factorize = 0.0, seconds_solve = 0.0;

@@ -18,37 +18,51 @@ bool NewtonSolver::reuse_factor() const {
   return m_have_factor && (m_problem.tangent_constant() || m_options.tangent == TangentKind::initial);
 }
 
+LinearSolver& NewtonSolver::select_solver() {
+  m_linear.set_symmetric(m_K_symmetric);
+  if (!m_K_symmetric && m_linear.needs_symmetric() && m_unsymmetric) return *m_unsymmetric;
+  return m_linear;
+}
+
 void NewtonSolver::factorize(NewtonReport& report) {
   const double t0 = wall_seconds();
-  if (m_linear.uses_preconditioner_matrix()) {
+  LinearSolver& lin = select_solver();
+  if (lin.uses_preconditioner_matrix()) {
     if (m_P.rows() == 0) m_P = m_problem.make_preconditioner();
     m_problem.assemble_preconditioner(m_P);  // at the state of the last evaluate, like K
-    m_linear.set_preconditioner_matrix(m_P);
+    lin.set_preconditioner_matrix(m_P);
   }
-  if (!m_analyzed) {
-    m_linear.analyzePattern(m_K);
-    m_analyzed = true;
+  bool& analyzed = &lin == &m_linear ? m_analyzed : m_unsymmetric_analyzed;
+  if (!analyzed) {
+    lin.analyzePattern(m_K);
+    analyzed = true;
   }
-  m_linear.factorize(m_K);
-  m_have_factor = m_linear.info() == Eigen::Success;
+  lin.factorize(m_K);
+  m_factored = &lin;
+  m_have_factor = lin.info() == Eigen::Success;
   report.seconds_factorize += wall_seconds() - t0;
 }
 
+long NewtonSolver::factorizations() const {
+  return m_linear.factorizations() + (m_unsymmetric ? m_unsymmetric->factorizations() : 0);
+}
+
 void NewtonSolver::prepare(const VectorXd& x) {
-  const long f0 = m_linear.factorizations();
+  const long f0 = factorizations();
   const double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, &m_K);
+  m_K_symmetric = m_problem.tangent_symmetric();
   m_pending.seconds_evaluate += wall_seconds() - t0;
   factorize(m_pending);
-  m_pending.factorizations += static_cast<int>(m_linear.factorizations() - f0);
+  m_pending.factorizations += static_cast<int>(factorizations() - f0);
 }
 
 NewtonReport NewtonSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
   NewtonReport report = m_pending;
   m_pending = NewtonReport{};
-  const long f0 = m_linear.factorizations();
+  const long f0 = factorizations();
   report = solve_iterations(x, monitor, std::move(report));
-  report.factorizations += static_cast<int>(m_linear.factorizations() - f0);
+  report.factorizations += static_cast<int>(factorizations() - f0);
   return report;
 }
 
@@ -60,11 +74,17 @@ NewtonReport NewtonSolver::solve_iterations(VectorXd& x, const NewtonMonitor& mo
   auto converged = [&](double norm) { return norm <= std::max(o.rtol * m_problem.force_scale(), o.atol); };
 
   double t0 = wall_seconds();
-  m_problem.evaluate(x, m_r, (reuse_factor() || use_existing) ? nullptr : &m_K);
+  const bool assemble0 = !(reuse_factor() || use_existing);
+  m_problem.evaluate(x, m_r, assemble0 ? &m_K : nullptr);
+  if (assemble0) m_K_symmetric = m_problem.tangent_symmetric();
   report.seconds_evaluate += wall_seconds() - t0;
   double norm = m_r.norm();
   report.residuals.push_back(relative(norm));
   if (monitor) monitor(0, report.residuals.back(), 0.0);
+  // Discrete states (contact active set) of the accepted iterates, to count changes and
+  // to detect a cycle between two states.
+  std::uint64_t state[3] = {m_problem.state_signature(), 0, 0};
+  int two_cycles = 0;
 
   for (int it = 1;; ++it) {
     if (!std::isfinite(norm)) {
@@ -82,22 +102,28 @@ NewtonReport NewtonSolver::solve_iterations(VectorXd& x, const NewtonMonitor& mo
       report.reason = "no convergence in " + std::to_string(o.max_iterations) + " iterations";
       return report;
     }
+    if (two_cycles >= 3) {
+      report.reason = "the contact active set cycles between two states";
+      return report;
+    }
     if (!reuse_factor() && !use_existing) {
       factorize(report);
       if (!m_have_factor) {
-        report.reason = "factorisation failed: " + describe(m_linear.info());
+        report.reason = "factorisation failed: " + describe(m_factored->info());
         return report;
       }
     }
     t0 = wall_seconds();
     m_dx.setZero(m_r.size());
-    m_linear.solve(-m_r, m_dx);
+    LinearSolver& lin = m_factored ? *m_factored : m_linear;
+    lin.set_symmetric(m_K_symmetric);
+    lin.solve(-m_r, m_dx);
     report.seconds_solve += wall_seconds() - t0;
-    report.linear_iterations += m_linear.iterations();
+    report.linear_iterations += lin.iterations();
     ++report.iterations;
     use_existing = false;
-    if (m_linear.info() != Eigen::Success || !m_dx.allFinite()) {
-      report.reason = "linear solve failed: " + describe(m_linear.info());
+    if (lin.info() != Eigen::Success || !m_dx.allFinite()) {
+      report.reason = "linear solve failed: " + describe(lin.info());
       return report;
     }
 
@@ -107,6 +133,7 @@ NewtonReport NewtonSolver::solve_iterations(VectorXd& x, const NewtonMonitor& mo
       m_trial = x + alpha * m_dx;
       t0 = wall_seconds();
       m_problem.evaluate(m_trial, m_trial_r, reuse_factor() ? nullptr : &m_K);
+      if (!reuse_factor()) m_K_symmetric = m_problem.tangent_symmetric();
       report.seconds_evaluate += wall_seconds() - t0;
       const double trial_norm = m_trial_r.norm();
       const bool accept =
@@ -124,6 +151,13 @@ NewtonReport NewtonSolver::solve_iterations(VectorXd& x, const NewtonMonitor& mo
     }
     x.swap(m_trial);
     m_r.swap(m_trial_r);
+    state[2] = state[1];
+    state[1] = state[0];
+    state[0] = m_problem.state_signature();
+    if (state[0] != state[1]) {
+      ++report.active_set_changes;
+      if (it >= 2 && state[0] == state[2]) ++two_cycles;
+    }
     report.increments.push_back(alpha * m_dx.norm() / std::max(x.norm(), kTiny));
     report.residuals.push_back(relative(norm));
     if (monitor) monitor(it, report.residuals.back(), alpha);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,9 @@ struct NewtonReport {
   std::vector<double> increments;  ///< ||dx|| / max(||x||, tiny) of each accepted update
   int factorizations = 0;
   int linear_iterations = 0;      ///< Krylov iterations, summed
+  /// Iterations after which the problem's discrete state (contact active set) differed
+  /// from that of the previous iterate.
+  int active_set_changes = 0;
   double seconds_evaluate = 0.0;  ///< residual + tangent assembly
   double seconds_factorize = 0.0;
   double seconds_solve = 0.0;
@@ -47,14 +51,25 @@ class NewtonSolver {
   bool has_factor() const { return m_have_factor; }
   /// Forget the factorisation (after a failed solve, or when the pattern changed).
   void invalidate_factorization() { m_have_factor = false; }
+  /// The solver used while the problem's tangent is not symmetric and the main one needs a
+  /// symmetric matrix (CHOLMOD -> UMFPACK while a contact pair slips with friction).
+  void set_unsymmetric_solver(std::unique_ptr<LinearSolver> solver) { m_unsymmetric = std::move(solver); }
 
  private:
   NewtonReport solve_iterations(VectorXd& x, const NewtonMonitor& monitor, NewtonReport report);
   bool reuse_factor() const;
+  long factorizations() const;
   void factorize(NewtonReport& report);
+
+  /// The linear solver for the current tangent: m_linear, or m_unsymmetric when needed.
+  LinearSolver& select_solver();
 
   Problem& m_problem;
   LinearSolver& m_linear;
+  std::unique_ptr<LinearSolver> m_unsymmetric;
+  LinearSolver* m_factored = nullptr;  ///< the solver holding the current factor
+  bool m_unsymmetric_analyzed = false;
+  bool m_K_symmetric = true;  ///< whether the tangent held in m_K is symmetric
   NewtonOptions m_options;
   SparseMatrix m_K;
   SparseMatrix m_P;  ///< preconditioner matrix, when the linear solver uses one

@@ -22,6 +22,9 @@ void symmetric_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) {
   }
 }
 
+/// y = A x for a general A stored by columns (serial scatter).
+void general_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) { y.noalias() = A * x; }
+
 class FactorPreconditionedCG final : public LinearSolver {
  public:
   FactorPreconditionedCG(std::unique_ptr<LinearSolver> factor, FactorSource source, const LinearOptions& o)
@@ -38,12 +41,12 @@ class FactorPreconditionedCG final : public LinearSolver {
   void solve(const VectorXd& b, VectorXd& x) override {
     if (!m_have_factor) refresh_factor();
     if (m_info != Eigen::Success) return;
-    run_cg(b, x);
+    run(b, x);
     // One retry with a fresh factor when an old one no longer converges.
     if (m_info == Eigen::NoConvergence && !m_fresh) {
       refresh_factor();
       if (m_info != Eigen::Success) return;
-      run_cg(b, x);
+      run(b, x);
     }
     // Renew the factor at the next factorize() once iterations exceed twice (plus five)
     // those of the first solve with the current factor.
@@ -59,7 +62,9 @@ class FactorPreconditionedCG final : public LinearSolver {
   std::string name() const override {
     return m_source == FactorSource::preconditioner_matrix ? "cg+bond-cholmod" : "cg+cholmod";
   }
-  bool needs_symmetric() const override { return true; }
+  /// CG on symmetric matrices, GMRES with the same factor otherwise.
+  bool needs_symmetric() const override { return false; }
+  void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
   int iterations() const override { return m_iterations; }
   double error() const override { return m_error; }
   long factorizations() const override { return m_factor->factorizations(); }
@@ -80,18 +85,86 @@ class FactorPreconditionedCG final : public LinearSolver {
     m_fresh = true;
   }
 
-  // Preconditioned CG (Saad, Iterative Methods, alg. 9.1); stops at ||r|| <= rtol ||b||.
-  void run_cg(const VectorXd& b, VectorXd& x) {
+  void run(const VectorXd& b, VectorXd& x) {
     const Index n = static_cast<Index>(b.size());
     if (x.size() != n) x = VectorXd::Zero(n);
-    const double bnorm = b.norm();
     m_iterations = 0;
-    if (bnorm == 0.0) {
+    if (b.norm() == 0.0) {
       x.setZero();
       m_error = 0.0;
       m_info = Eigen::Success;
       return;
     }
+    if (m_symmetric)
+      run_cg(b, x);
+    else
+      run_gmres(b, x);
+  }
+
+  // Right-preconditioned restarted GMRES(m) (Saad, Iterative Methods, alg. 9.5) with
+  // modified Gram-Schmidt and Givens rotations; stops at ||b - A x|| <= rtol ||b||. The
+  // residual it minimises is the true one, so it falls monotonically within a cycle.
+  void run_gmres(const VectorXd& b, VectorXd& x) {
+    constexpr int m = 60;  // restart length: 60 basis vectors of the unknowns' size
+    const double bnorm = b.norm();
+    const Index n = static_cast<Index>(b.size());
+    if (m_basis.cols() != m + 1 || m_basis.rows() != n) m_basis.resize(n, m + 1);
+    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m + 1, m);  // (m+1) x m Hessenberg, small
+    VectorXd cs(m), sn(m), g(m + 1);
+    general_product(*m_A, x, m_q);
+    m_r = b - m_q;
+    double beta = m_r.norm();
+    m_error = beta / bnorm;
+    while (m_error > m_rtol && m_iterations < m_max_iterations) {
+      m_basis.col(0) = m_r / beta;
+      g.setZero();
+      g[0] = beta;
+      H.setZero();
+      int k = 0;
+      for (; k < m && m_iterations < m_max_iterations; ++k) {
+        m_factor->solve(m_basis.col(k), m_z);
+        general_product(*m_A, m_z, m_q);
+        for (int i = 0; i <= k; ++i) {
+          H(i, k) = m_basis.col(i).dot(m_q);
+          m_q -= H(i, k) * m_basis.col(i);
+        }
+        H(k + 1, k) = m_q.norm();
+        if (H(k + 1, k) > 0.0) m_basis.col(k + 1) = m_q / H(k + 1, k);
+        for (int i = 0; i < k; ++i) {  // previous rotations
+          const double t = cs[i] * H(i, k) + sn[i] * H(i + 1, k);
+          H(i + 1, k) = -sn[i] * H(i, k) + cs[i] * H(i + 1, k);
+          H(i, k) = t;
+        }
+        const double rr = std::hypot(H(k, k), H(k + 1, k));
+        cs[k] = rr > 0.0 ? H(k, k) / rr : 1.0;
+        sn[k] = rr > 0.0 ? H(k + 1, k) / rr : 0.0;
+        H(k, k) = rr;
+        H(k + 1, k) = 0.0;
+        g[k + 1] = -sn[k] * g[k];
+        g[k] = cs[k] * g[k];
+        ++m_iterations;
+        m_error = std::abs(g[k + 1]) / bnorm;
+        if (m_error <= m_rtol || rr == 0.0) {
+          ++k;
+          break;
+        }
+      }
+      // x += M^-1 V y with H y = g (upper triangular k x k).
+      const VectorXd y = H.topLeftCorner(k, k).triangularView<Eigen::Upper>().solve(g.head(k));
+      m_q = m_basis.leftCols(k) * y;
+      m_factor->solve(m_q, m_z);
+      x += m_z;
+      general_product(*m_A, x, m_q);
+      m_r = b - m_q;
+      beta = m_r.norm();
+      m_error = beta / bnorm;  // the true residual decides
+    }
+    m_info = m_error <= m_rtol && std::isfinite(m_error) ? Eigen::Success : Eigen::NoConvergence;
+  }
+
+  // Preconditioned CG (Saad, Iterative Methods, alg. 9.1); stops at ||r|| <= rtol ||b||.
+  void run_cg(const VectorXd& b, VectorXd& x) {
+    const double bnorm = b.norm();
     symmetric_product(*m_A, x, m_q);
     m_r = b - m_q;
     m_factor->solve(m_r, m_z);
@@ -120,11 +193,12 @@ class FactorPreconditionedCG final : public LinearSolver {
   int m_max_iterations;
   const SparseMatrix* m_A = nullptr;
   const SparseMatrix* m_P = nullptr;
-  bool m_analyzed = false, m_have_factor = false, m_refresh = true, m_fresh = false;
+  bool m_analyzed = false, m_have_factor = false, m_refresh = true, m_fresh = false, m_symmetric = true;
   int m_iterations = 0, m_fresh_iterations = 0;
   double m_error = 0.0;
   Eigen::ComputationInfo m_info = Eigen::Success;
   VectorXd m_r, m_z, m_p, m_q;  // work vectors, reused across solves
+  Eigen::MatrixXd m_basis;     // GMRES Krylov basis (unknowns x 61), reused
 };
 
 }  // namespace

@@ -42,6 +42,10 @@ class LinearSolver {
   virtual bool uses_preconditioner_matrix() const { return false; }
   /// P must stay alive and keep its pattern until the next call.
   virtual void set_preconditioner_matrix(const SparseMatrix& /*P*/) {}
+
+  /// Tells the solver whether the next matrices are symmetric. Solvers that handle both
+  /// (factor-preconditioned Krylov: CG or BiCGSTAB) pick their method by it.
+  virtual void set_symmetric(bool /*symmetric*/) {}
 };
 
 /// Creates the solver named by options.type (cholmod, umfpack, klu, ldlt, cg, bicgstab).

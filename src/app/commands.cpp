@@ -136,12 +136,6 @@ int run_command(const RunArguments& args) {
   const Model model = discretise(scene);
   QuasiStaticProblem problem(model, scene);
   std::unique_ptr<LinearSolver> linear = make_linear_solver(scene.solver.linear);
-  if (linear->needs_symmetric() && !problem.tangent_symmetric()) {
-    throw InputError(SourceLocation{scene.path, 0, "solver.linear"},
-                     "'" + scene.solver.linear.type +
-                         "' needs a symmetric tangent and this scene's is not: "
-                         "use umfpack, klu or bicgstab");
-  }
   const ModelSize size = measure(model, problem.pattern());
   const double t_model = wall_seconds() - t_start;
   if (verbose) {
@@ -156,6 +150,18 @@ int run_command(const RunArguments& args) {
                        run_info_json(scene, size, linear->name(), omp_get_max_threads()));
 
   NewtonSolver newton(problem, *linear, scene.solver.newton);
+  if (linear->needs_symmetric()) {  // used only while a contact pair slips with friction
+    LinearOptions lu = scene.solver.linear;
+    lu.type = "umfpack";
+    newton.set_unsymmetric_solver(make_linear_solver(lu));
+  }
+  const ContactSystem* contact = problem.contact();
+  VectorXd contact_force;
+  if (verbose && contact) {
+    std::printf("  contact        %d candidate pairs, radius %g m, %s law, friction %g\n", contact->size(),
+                contact->law().radius, scene.contact.normal == NormalLaw::paper ? "paper" : "pair",
+                contact->law().friction);
+  }
   VectorXd x = VectorXd::Zero(problem.n_unknowns());
   VectorXd u;
   problem.set_load_factor(0.0);
@@ -175,9 +181,14 @@ int run_command(const RunArguments& args) {
     check_interrupt();
     if (!verbose) return;
     if (it == 0)
-      std::printf("  newton %2d  residual %.3e\n", it, rel);
+      std::printf("  newton %2d  residual %.3e", it, rel);
     else
-      std::printf("  newton %2d  residual %.3e  step %.3g\n", it, rel, alpha);
+      std::printf("  newton %2d  residual %.3e  step %.3g", it, rel, alpha);
+    if (contact) {
+      const ContactCounts& c = contact->counts();
+      std::printf("  contact open %d stick %d slip %d", c.open, c.stick, c.slip);
+    }
+    std::printf("\n");
     std::fflush(stdout);
   };
   cb.on_cutback = [&](const std::string& reason, double next) {
@@ -190,7 +201,7 @@ int run_command(const RunArguments& args) {
     rec.index = s.step;
     rec.load_factor = s.load_factor;
     rec.newton_iterations = s.newton_iterations;
-    rec.active_set_iterations = 0;
+    rec.active_set_iterations = s.active_set_changes;
     rec.residual_norm = s.final_residual;
     rec.wall_seconds = s.wall_seconds;
     rec.displacement = &u;
@@ -199,10 +210,29 @@ int run_command(const RunArguments& args) {
                   {"cutbacks", s.cutbacks},
                   {"factorizations", s.factorizations},
                   {"linear_iterations", s.linear_iterations}};
+    if (contact) {
+      // The commit evaluated the pairs at this state (before updating the slip history).
+      contact->contact_force(contact_force);
+      rec.contact_force = &contact_force;
+      const ContactCounts& c = contact->counts();
+      rec.counts["contact_candidates"] = c.candidates;
+      rec.counts["contact_open"] = c.open;
+      rec.counts["contact_stick"] = c.stick;
+      rec.counts["contact_slip"] = c.slip;
+      rec.counts["active_set_changes"] = s.active_set_changes;
+      rec.counts["contact_min_distance"] = contact->min_distance();
+    }
     rec.timings = {
         {"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};
     const WriteGuard guard;
     writer.write_step(rec);
+    if (verbose && contact) {
+      const ContactCounts& c = contact->counts();
+      std::printf("  contact: %d open, %d stick, %d slip of %d pairs; active set changed in %d iterations; "
+                  "closest pair %.3g dx\n",
+                  c.open, c.stick, c.slip, c.candidates, s.active_set_changes,
+                  contact->min_distance() / model.spacing);
+    }
     if (verbose) {
       std::printf(
           "  converged: %d Newton iterations, %d factorisations, %d Krylov iterations; %.2f s "

@@ -260,6 +260,52 @@ BoundaryCondition read_condition(const Field& field, const std::vector<ParsedBod
   return bc;
 }
 
+// ---- contact ---------------------------------------------------------------------------
+
+NormalLaw read_normal_law(const Field& field) {
+  return schema::choice(field, {"paper", "pair"}) == "pair" ? NormalLaw::pair : NormalLaw::paper;
+}
+
+/// {bodies: [a, b]}: two distinct bodies of the scene; errors point at the offending name.
+ContactInterface read_interface(const Field& field, const std::vector<ParsedBody>& bodies) {
+  const Map m = checked_map(field, {"bodies"});
+  const Field names = m.require("bodies", "bodies: [a, b], the names of two entries of bodies");
+  const std::vector<Field> items = schema::list(names);
+  if (items.size() != 2)
+    names.fail("expected exactly two body names [a, b], found " +
+               (names.node().IsSequence() ? "a list of " + std::to_string(items.size()) : names.found()));
+  ContactInterface c;
+  c.body_a = find_body(items[0], bodies).body.name;
+  c.body_b = find_body(items[1], bodies).body.name;
+  if (c.body_a == c.body_b)
+    items[1].fail("body \"" + c.body_b + "\" is named twice: expected two different bodies");
+  c.where = field.where();
+  return c;
+}
+
+/// The section is present, so contact is on unless it says `enabled: false`.
+ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& bodies) {
+  const Map m = checked_map(field, {"enabled", "friction", "radius_factor", "normal", "stiffness",
+                                    "tangential_factor", "gate", "cracks", "interfaces"});
+  ContactOptions c;
+  c.enabled = true;
+  if (auto f = m.find("enabled")) c.enabled = schema::boolean(*f);
+  if (auto f = m.find("friction")) c.friction = schema::at_least(*f, 0.0);
+  if (auto f = m.find("radius_factor")) c.radius_factor = schema::positive(*f);
+  if (auto f = m.find("normal")) c.normal = read_normal_law(*f);
+  if (auto f = m.find("stiffness")) c.stiffness = schema::positive(*f);
+  if (auto f = m.find("tangential_factor")) c.tangential_factor = schema::positive(*f);
+  if (auto f = m.find("gate")) {
+    c.gate = schema::number(*f);
+    if (!(c.gate >= 0.0 && c.gate < 1.0)) schema::out_of_range(*f, "0 <= gate < 1");
+  }
+  if (auto f = m.find("cracks")) c.cracks = schema::boolean(*f);
+  if (auto f = m.find("interfaces"))
+    for (const Field& item : schema::list(*f)) c.interfaces.push_back(read_interface(item, bodies));
+  c.where = field.where();
+  return c;
+}
+
 // ---- loading, solver, output -----------------------------------------------------------
 
 Loading read_loading(const Field& field) {
@@ -352,6 +398,7 @@ void read_sections(const Map& top, Scene& scene) {
   if (auto f = top.find("boundary"))
     for (const Field& item : schema::list(*f))
       scene.boundary.push_back(read_condition(item, bodies, scene.discretization.fictitious_layers));
+  if (auto f = top.find("contact")) scene.contact = read_contact(*f, bodies);
   if (auto f = top.find("loading")) scene.loading = read_loading(*f);
   if (auto f = top.find("solver")) scene.solver = read_solver(*f);
   if (auto f = top.find("output")) scene.output = read_output(*f);
@@ -361,7 +408,7 @@ Scene read_scene(const Field& root) {
   if (root.node().IsNull())
     root.fail("the scene is empty: expected a map with at least name, materials, discretization, bodies");
   const Map top = checked_map(root, {"name", "materials", "discretization", "bodies", "cracks", "boundary",
-                                     "loading", "solver", "output"});
+                                     "contact", "loading", "solver", "output"});
   Scene scene;
   read_sections(top, scene);
   return scene;

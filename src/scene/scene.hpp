@@ -132,6 +132,39 @@ struct SolverOptions {
   AdrOptions adr;
 };
 
+/// How the normal contact force of a candidate pair is computed (docs/theory/contact.md).
+///  - paper: eqs 15-17 of Lu et al., p_c = E_c (|X.n| - |Y.n|) / |X.n| along the declared
+///    interface or crack normal n, active while |Y| < delta_c.
+///  - pair: a short-range repulsion along the current pair direction,
+///    F = C (delta_c - |Y|) / delta_c, zero at |Y| = delta_c (smooth switch-on).
+enum class NormalLaw { paper, pair };
+
+/// Two bodies declared in contact. They must share a boundary segment (the interface).
+struct ContactInterface {
+  std::string body_a, body_b;
+  SourceLocation where;
+};
+
+/// Contact between broken-bond pairs (pre-cracks) and across declared body interfaces.
+/// Absent section or enabled: false = no contact: no candidates, no cost.
+struct ContactOptions {
+  bool enabled = false;        ///< true when a `contact:` section is present, unless it says false
+  double friction = 0.0;       ///< Coulomb coefficient f_c >= 0; 0 builds no friction state
+  double radius_factor = 1.0;  ///< delta_c = radius_factor * dx, > 0
+  NormalLaw normal = NormalLaw::paper;
+  /// Contact modulus E_c [Pa]; 0 = from eq 17 with the two materials' E and nu.
+  double stiffness = 0.0;
+  /// Tangential (stick) penalty as a multiple of the normal pair stiffness, > 0.
+  double tangential_factor = 1.0;
+  /// Width of the switch-on ramp of the paper law as a fraction of delta_c, in [0, 1):
+  /// the force rises linearly from 0 at |Y| = delta_c to full at (1 - gate) delta_c, so no
+  /// pair switches on with a jump. 0 is the paper's sharp gate.
+  double gate = 0.1;
+  bool cracks = true;  ///< pre-crack faces are contact candidates
+  std::vector<ContactInterface> interfaces;
+  SourceLocation where;
+};
+
 struct OutputOptions {
   int every = 1;  ///< write every k-th converged step (the last is always written)
 };
@@ -146,6 +179,7 @@ struct Scene {
   std::vector<BoundaryCondition> boundary;
   Discretization discretization;
   Loading loading;
+  ContactOptions contact;
   SolverOptions solver;
   OutputOptions output;
 };

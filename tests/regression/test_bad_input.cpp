@@ -108,8 +108,8 @@ class BadInput : public ::testing::Test {
 };
 
 TEST_F(BadInput, UnknownKey) {
-  expect_rejected(run_text(k_minimal + "contact:\n  enabled: true\n"), at(21, "contact"),
-                  "unknown key \"contact\"");
+  expect_rejected(run_text(k_minimal + "fracture:\n  enabled: true\n"), at(21, "fracture"),
+                  "unknown key \"fracture\"");
 }
 
 TEST_F(BadInput, WrongType) {

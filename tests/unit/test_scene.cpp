@@ -328,8 +328,9 @@ TEST(SceneParse, ReadsAFileAndReportsAMissingOne) {
 // ---- bad input: every message starts with file:line: key ---------------------------------
 
 TEST(SceneErrors, UnknownKeyAtTopLevelListsTheAllowedKeys) {
-  expect_error(k_minimal + "contact:\n  enabled: true\n", "scene.yaml:21: contact",
-               "unknown key \"contact\": expected one of name, materials, discretization, bodies");
+  expect_error(k_minimal + "fracture:\n  enabled: true\n", "scene.yaml:21: fracture",
+               "unknown key \"fracture\": expected one of name, materials, discretization, bodies, "
+               "cracks, boundary, contact, loading, solver, output");
 }
 
 TEST(SceneErrors, UnknownKeyInNestedMaps) {
@@ -514,6 +515,249 @@ TEST(SceneErrors, YamlSyntaxErrorsGiveTheLine) {
   expect_error(k_minimal + "---\nname: second\n", "scene.yaml:22", "found 2 YAML documents");
 }
 
+// ---- contact ---------------------------------------------------------------------------
+
+// Three bodies: left and right share the segment x = 0.01, top sits on both.
+const std::string k_contact_bodies =  // lines 9-18
+    "bodies:\n"
+    "  left:\n"
+    "    material: plate\n"
+    "    rectangle: {min: [0, 0], max: [0.01, 0.01]}\n"
+    "  right:\n"
+    "    material: plate\n"
+    "    rectangle: {min: [0.01, 0], max: [0.02, 0.01]}\n"
+    "  top:\n"
+    "    material: plate\n"
+    "    rectangle: {min: [0, 0.01], max: [0.02, 0.02]}\n";
+const std::string k_contact_rest =  // lines 19-28
+    "cracks:\n"
+    "  - {from: [0.002, 0.005], to: [0.008, 0.005]}\n"
+    "boundary:\n"
+    "  - body: left\n"
+    "    edge: left\n"
+    "    ux: 0\n"
+    "    uy: 0\n"
+    "  - body: right\n"
+    "    edge: right\n"
+    "    ux: 1.0e-5\n";
+const std::string k_contact_section =  // lines 29-40
+    "contact:\n"
+    "  enabled: true\n"
+    "  friction: 0.8\n"
+    "  radius_factor: 0.8\n"
+    "  normal: pair\n"
+    "  stiffness: 31.0e9\n"
+    "  tangential_factor: 2.0\n"
+    "  gate: 0.25\n"
+    "  cracks: false\n"
+    "  interfaces:\n"
+    "    - bodies: [left, right]\n"
+    "    - bodies: [top, left]\n";
+const std::string k_no_contact = k_head + k_contact_bodies + k_contact_rest;
+const std::string k_contact = k_no_contact + k_contact_section;
+
+void expect_default_contact_values(const ContactOptions& c) {
+  EXPECT_EQ(c.friction, 0.0);
+  EXPECT_EQ(c.radius_factor, 1.0);
+  EXPECT_EQ(c.normal, NormalLaw::paper);
+  EXPECT_EQ(c.stiffness, 0.0);
+  EXPECT_EQ(c.tangential_factor, 1.0);
+  EXPECT_EQ(c.gate, 0.1);
+  EXPECT_TRUE(c.cracks);
+  EXPECT_TRUE(c.interfaces.empty());
+}
+
+void expect_full_contact(const ContactOptions& c) {
+  EXPECT_TRUE(c.enabled);
+  EXPECT_EQ(c.friction, 0.8);
+  EXPECT_EQ(c.radius_factor, 0.8);
+  EXPECT_EQ(c.normal, NormalLaw::pair);
+  EXPECT_EQ(c.stiffness, 31.0e9);
+  EXPECT_EQ(c.tangential_factor, 2.0);
+  EXPECT_EQ(c.gate, 0.25);
+  EXPECT_FALSE(c.cracks);
+  ASSERT_EQ(c.interfaces.size(), 2u);
+  EXPECT_EQ(c.interfaces[0].body_a, "left");
+  EXPECT_EQ(c.interfaces[0].body_b, "right");
+  EXPECT_EQ(c.interfaces[1].body_a, "top");
+  EXPECT_EQ(c.interfaces[1].body_b, "left");
+}
+
+TEST(SceneContact, AbsentSectionMeansNoContact) {
+  for (const std::string& text : {k_minimal, k_no_contact}) {
+    const ContactOptions c = parse(text).contact;
+    EXPECT_FALSE(c.enabled);
+    expect_default_contact_values(c);
+  }
+}
+
+TEST(SceneContact, FullSectionHasEveryField) {
+  const Scene s = parse(k_contact);
+  expect_full_contact(s.contact);
+  EXPECT_EQ(s.contact.where.describe(), "scene.yaml:29: contact");
+  EXPECT_EQ(s.contact.interfaces[0].where.describe(), "scene.yaml:39: contact.interfaces.0");
+  EXPECT_EQ(s.contact.interfaces[1].where.describe(), "scene.yaml:40: contact.interfaces.1");
+  EXPECT_EQ(s.cracks.size(), 1u);
+  EXPECT_EQ(s.bodies.size(), 3u);
+}
+
+TEST(SceneContact, EmittedTextParsesToTheSameContact) {
+  expect_full_contact(parse(parse(k_contact).text).contact);
+  EXPECT_FALSE(parse(parse(k_contact, {parse_override("contact.enabled=false")}).text).contact.enabled);
+}
+
+TEST(SceneContact, PresentSectionIsEnabledWithDefaults) {
+  for (const char* section : {"contact:\n", "contact: {}\n", "contact:\n  enabled: true\n"}) {
+    const ContactOptions c = parse(k_minimal + section).contact;
+    EXPECT_TRUE(c.enabled) << section;
+    expect_default_contact_values(c);
+    EXPECT_EQ(c.where.describe(), "scene.yaml:21: contact");
+  }
+  EXPECT_FALSE(parse(replace(k_contact, "  enabled: true\n", "  enabled: false\n")).contact.enabled);
+  EXPECT_TRUE(parse(replace(k_contact, "  enabled: true\n", "")).contact.enabled);
+  // Without `stiffness` the modulus is left to the materials (eq 17).
+  EXPECT_EQ(parse(replace(k_contact, "  stiffness: 31.0e9\n", "")).contact.stiffness, 0.0);
+  EXPECT_EQ(parse(replace(k_contact, "normal: pair", "normal: paper")).contact.normal, NormalLaw::paper);
+  EXPECT_EQ(parse(replace(k_contact, "gate: 0.25", "gate: 0")).contact.gate, 0.0);
+  EXPECT_EQ(parse(replace(k_contact, "friction: 0.8", "friction: 0")).contact.friction, 0.0);
+}
+
+TEST(SceneContact, EnabledWithNothingToDoIsValid) {
+  // No cracks, no interfaces: contact is on but has no candidates.
+  const ContactOptions a = parse(k_minimal + "contact:\n  enabled: true\n").contact;
+  EXPECT_TRUE(a.enabled);
+  EXPECT_TRUE(a.interfaces.empty());
+  // Cracks present but excluded, no interfaces.
+  const std::string no_interfaces =
+      replace(k_contact, "    - bodies: [left, right]\n    - bodies: [top, left]\n", "");
+  const ContactOptions b = parse(no_interfaces).contact;
+  EXPECT_TRUE(b.enabled);
+  EXPECT_FALSE(b.cracks);
+  EXPECT_TRUE(b.interfaces.empty());
+  // Cracks are candidates but there are none.
+  EXPECT_TRUE(parse(k_minimal + "contact: {cracks: true, interfaces: []}\n").contact.enabled);
+}
+
+TEST(SceneContact, Ranges) {
+  expect_error(replace(k_contact, "friction: 0.8", "friction: -0.1"), "scene.yaml:31: contact.friction",
+               "value -0.1 is out of range: expected friction >= 0");
+  expect_error(replace(k_contact, "radius_factor: 0.8", "radius_factor: 0"),
+               "scene.yaml:32: contact.radius_factor", "value 0 is out of range: expected radius_factor > 0");
+  expect_error(replace(k_contact, "radius_factor: 0.8", "radius_factor: -1"),
+               "scene.yaml:32: contact.radius_factor", "expected radius_factor > 0");
+  expect_error(replace(k_contact, "stiffness: 31.0e9", "stiffness: 0"), "scene.yaml:34: contact.stiffness",
+               "expected stiffness > 0");
+  expect_error(replace(k_contact, "tangential_factor: 2.0", "tangential_factor: 0"),
+               "scene.yaml:35: contact.tangential_factor", "expected tangential_factor > 0");
+  expect_error(replace(k_contact, "gate: 0.25", "gate: 1"), "scene.yaml:36: contact.gate",
+               "value 1 is out of range: expected 0 <= gate < 1");
+  expect_error(replace(k_contact, "gate: 0.25", "gate: -0.1"), "scene.yaml:36: contact.gate",
+               "expected 0 <= gate < 1");
+}
+
+TEST(SceneContact, ChoicesAndTypes) {
+  expect_error(replace(k_contact, "normal: pair", "normal: hertz"), "scene.yaml:33: contact.normal",
+               "value \"hertz\" is not allowed: expected one of paper, pair");
+  expect_error(replace(k_contact, "enabled: true", "enabled: maybe"), "scene.yaml:30: contact.enabled",
+               "expected true or false, found \"maybe\"");
+  expect_error(replace(k_contact, "cracks: false", "cracks: 1.5"), "scene.yaml:37: contact.cracks",
+               "expected true or false");
+  expect_error(replace(k_contact, "friction: 0.8", "friction: high"), "scene.yaml:31: contact.friction",
+               "expected a number, found \"high\"");
+  expect_error(k_minimal + "contact: true\n", "scene.yaml:21: contact", "expected a map");
+  expect_error(k_minimal + "contact:\n  interfaces: {bodies: [a, b]}\n", "scene.yaml:22: contact.interfaces",
+               "expected a list, found a map");
+}
+
+TEST(SceneContact, UnknownKeys) {
+  expect_error(replace(k_contact, "  gate: 0.25\n", "  gate: 0.25\n  mu: 0.3\n"), "scene.yaml:37: contact.mu",
+               "unknown key \"mu\": expected one of enabled, friction, radius_factor, normal, stiffness, "
+               "tangential_factor, gate, cracks, interfaces");
+  expect_error(replace(k_contact, "    - bodies: [top, left]\n", "    - {bodies: [top, left], gap: 0}\n"),
+               "scene.yaml:40: contact.interfaces.1.gap", "unknown key \"gap\": expected one of bodies");
+  expect_error(replace(k_contact, "    - bodies: [top, left]\n", "    - {pair: [top, left]}\n"),
+               "scene.yaml:40: contact.interfaces.1.pair", "unknown key");
+  expect_error(replace(k_contact, "    - bodies: [top, left]\n", "    - {}\n"),
+               "scene.yaml:40: contact.interfaces.1.bodies", "missing required key \"bodies\"");
+  expect_error(replace(k_contact, "  friction: 0.8\n", "  friction: 0.8\n  friction: 0.1\n"),
+               "scene.yaml:32: contact.friction", "duplicate key \"friction\": already given at line 31");
+}
+
+TEST(SceneContact, InterfaceBodies) {
+  expect_error(replace(k_contact, "[top, left]", "[top, middle]"),
+               "scene.yaml:40: contact.interfaces.1.bodies.1",
+               "unknown body \"middle\": expected one of left, right, top");
+  expect_error(replace(k_contact, "[left, right]", "[lft, right]"),
+               "scene.yaml:39: contact.interfaces.0.bodies.0", "unknown body \"lft\"");
+  expect_error(replace(k_contact, "[top, left]", "[left, left]"),
+               "scene.yaml:40: contact.interfaces.1.bodies.1",
+               "body \"left\" is named twice: expected two different bodies");
+  expect_error(replace(k_contact, "[top, left]", "[top, left, right]"),
+               "scene.yaml:40: contact.interfaces.1.bodies",
+               "expected exactly two body names [a, b], found a list of 3");
+  expect_error(replace(k_contact, "[top, left]", "[top]"), "scene.yaml:40: contact.interfaces.1.bodies",
+               "found a list of 1");
+  expect_error(replace(k_contact, "[top, left]", "top"), "scene.yaml:40: contact.interfaces.1.bodies",
+               "expected a list, found \"top\"");
+  expect_error(replace(k_contact, "[top, left]", ""), "scene.yaml:40: contact.interfaces.1.bodies",
+               "expected exactly two body names [a, b], found nothing (null)");
+}
+
+TEST(SceneContact, Overrides) {
+  const Scene s =
+      parse(k_contact, {parse_override("contact.friction=0.01"), parse_override("contact.enabled=false"),
+                        parse_override("contact.radius_factor=0.8"), parse_override("contact.normal=paper"),
+                        parse_override("contact.gate=0"), parse_override("contact.cracks=true"),
+                        parse_override("contact.interfaces.1.bodies=[top, right]")});
+  EXPECT_EQ(s.contact.friction, 0.01);
+  EXPECT_FALSE(s.contact.enabled);
+  EXPECT_EQ(s.contact.radius_factor, 0.8);
+  EXPECT_EQ(s.contact.normal, NormalLaw::paper);
+  EXPECT_EQ(s.contact.gate, 0.0);
+  EXPECT_TRUE(s.contact.cracks);
+  ASSERT_EQ(s.contact.interfaces.size(), 2u);
+  EXPECT_EQ(s.contact.interfaces[1].body_b, "right");
+  EXPECT_EQ(s.contact.interfaces[1].where.describe(), "scene.yaml:40: contact.interfaces.1");
+  EXPECT_EQ(parse(k_contact, {parse_override("contact.normal=pair")}).contact.normal, NormalLaw::pair);
+  EXPECT_EQ(parse(k_contact, {parse_override("contact.radius_factor=1.5")}).contact.radius_factor, 1.5);
+}
+
+TEST(SceneContact, OverrideOnAnAbsentSectionCreatesIt) {
+  // As for every section, --set creates a missing map, and a present section is enabled.
+  const Scene on = parse(k_minimal, {parse_override("contact.enabled=true")});
+  EXPECT_TRUE(on.contact.enabled);
+  expect_default_contact_values(on.contact);
+  EXPECT_EQ(on.contact.where.describe(), "--set: contact");
+  const Scene friction = parse(k_minimal, {parse_override("contact.friction=0.01")});
+  EXPECT_TRUE(friction.contact.enabled);
+  EXPECT_EQ(friction.contact.friction, 0.01);
+  EXPECT_NE(friction.text.find("contact:"), std::string::npos) << friction.text;
+  EXPECT_FALSE(parse(k_minimal, {parse_override("contact.enabled=false")}).contact.enabled);
+  EXPECT_FALSE(
+      parse(k_minimal, {parse_override("contact.friction=0.01"), parse_override("contact.enabled=false")})
+          .contact.enabled);
+}
+
+TEST(SceneContact, OverrideErrorsSayDashDashSet) {
+  expect_error(k_contact, "--set: contact.friction", "expected friction >= 0",
+               {parse_override("contact.friction=-1")});
+  expect_error(k_contact, "--set: contact.radius_factor", "expected radius_factor > 0",
+               {parse_override("contact.radius_factor=0")});
+  expect_error(k_contact, "--set: contact.normal", "expected one of paper, pair",
+               {parse_override("contact.normal=hertz")});
+  expect_error(k_contact, "--set: contact.gate", "expected 0 <= gate < 1",
+               {parse_override("contact.gate=1")});
+  expect_error(k_contact, "--set: contact.interfaces.0.bodies.1", "named twice",
+               {parse_override("contact.interfaces.0.bodies=[right, right]")});
+  expect_error(k_minimal, "--set: contact.mu", "unknown key \"mu\"", {parse_override("contact.mu=0.3")});
+  expect_error(k_minimal, "--set: contact.interfaces.0.bodies.1",
+               "unknown body \"right\": expected one of plate",
+               {parse_override("contact.interfaces=[{bodies: [plate, right]}]")});
+  expect_error(
+      k_minimal, "--set: contact.interfaces.2", "index 2 is out of range",
+      {parse_override("contact.interfaces=[]"), parse_override("contact.interfaces.2.bodies=[a, b]")});
+}
+
 // ---- --set overrides -------------------------------------------------------------------
 
 TEST(SceneOverrides, ParseOverrideSplitsAtTheFirstEquals) {
@@ -587,8 +831,8 @@ TEST(SceneOverrides, ErrorsInOverriddenKeysSayDashDashSet) {
                {parse_override("solver.lnear=umfpack")});
   expect_error(k_minimal, "--set: materials.plate.nu", "value 0.7 is out of range",
                {parse_override("materials.plate.nu=0.7")});
-  expect_error(k_minimal, "--set: contact", "unknown key \"contact\"",
-               {parse_override("contact.friction=0.1")});
+  expect_error(k_minimal, "--set: fracture", "unknown key \"fracture\"",
+               {parse_override("fracture.critical_stretch=0.1")});
   expect_error(k_minimal, "--set: materials.steel.nu", "missing required key",
                {parse_override("materials.steel.E=1e9")});
   expect_error(k_minimal, "--set: boundary.5", "index 5 is out of range: boundary is a list of 2 entries",

@@ -1,0 +1,357 @@
+#include "contact/contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/error.hpp"
+
+namespace peristat {
+
+PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip, const ContactLaw& law,
+                        bool want_jacobian) {
+  PairResult out;
+  const Vec2 Y = X + du;
+  const double r = Y.norm();
+  const double rc = law.radius;
+  if (r >= rc) return out;
+  const Vec2& n = pair.normal;
+  const double a = pair.gap0, C = pair.stiffness;
+
+  // Normal force F >= 0 and its gradient dF/dY.
+  double F = 0.0;
+  Vec2 dF = Vec2::Zero();
+  Vec2 along = n;  // direction of the normal force on j
+  Mat2 Jn = Mat2::Zero();
+  if (law.normal == NormalLaw::paper) {
+    // Eq 16: stretch of the virtual bond along the interface normal, compression positive.
+    const double s = 1.0 - n.dot(Y) / a;
+    if (s <= 0.0) return out;
+    // Switch-on ramp h(|Y|): 0 at delta_c, 1 from (1 - gate) delta_c inwards.
+    double h = 1.0;
+    Vec2 dh = Vec2::Zero();
+    if (law.gate > 0.0) {
+      const double width = law.gate * rc, rho = (rc - r) / width;
+      if (rho < 1.0) {
+        h = rho;
+        dh = -Y / (r * width);
+      }
+    }
+    F = C * s * h;
+    dF = C * (-h / a * n + s * dh);
+    if (want_jacobian) Jn = -n * dF.transpose();
+  } else {
+    // Pair law: along the current pair direction, zero at delta_c.
+    if (r <= std::numeric_limits<double>::min()) return out;
+    const Vec2 e = Y / r;
+    F = C * (rc - r) / rc;
+    dF = -C / rc * e;
+    along = e;
+    if (want_jacobian) Jn = (C / rc) * e * e.transpose() - (F / r) * (Mat2::Identity() - e * e.transpose());
+  }
+  if (F <= 0.0) return out;
+  out.normal_force = F;
+  out.g = -F * along;
+  if (want_jacobian) out.J = Jn;
+
+  // Coulomb friction along t by a return map on w - w_p (eq 14).
+  out.status = PairStatus::slip;  // frictionless pairs slide freely
+  if (law.friction > 0.0) {
+    const Vec2 t(-n.y(), n.x());
+    const double kt = law.tangential_factor * C / a;
+    const double trial = kt * (t.dot(du) - slip);
+    const double limit = law.friction * F;
+    if (std::abs(trial) <= limit) {
+      out.status = PairStatus::stick;
+      out.tangential = trial;
+      if (want_jacobian) out.J += kt * t * t.transpose();
+    } else {
+      const double sign = trial > 0.0 ? 1.0 : -1.0;
+      out.tangential = sign * limit;
+      if (want_jacobian) out.J += (sign * law.friction) * t * dF.transpose();
+    }
+    out.g += out.tangential * t;
+  }
+  return out;
+}
+
+namespace {
+
+double distance_to_segment(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 d = b - a;
+  const double len2 = d.squaredNorm();
+  const double s = len2 > 0.0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + s * d)).norm();
+}
+
+/// A straight piece of interface with the unit normal pointing from body A into body B.
+struct Segment {
+  Vec2 a, b, normal;
+};
+
+/// The boundary segments shared by polygons A and B (collinear, overlapping edges).
+std::vector<Segment> shared_segments(const Polygon& A, const Polygon& B, double tol) {
+  std::vector<Segment> out;
+  const auto& va = A.vertices;
+  const auto& vb = B.vertices;
+  for (std::size_t k = 0; k < va.size(); ++k) {
+    const Vec2 p0 = va[k], p1 = va[(k + 1) % va.size()];
+    const Vec2 d = p1 - p0;
+    const double len = d.norm();
+    const Vec2 e = d / len, outward(e.y(), -e.x());  // counter-clockwise polygon
+    for (std::size_t m = 0; m < vb.size(); ++m) {
+      const Vec2 q0 = vb[m], q1 = vb[(m + 1) % vb.size()];
+      if (std::abs(outward.dot(q0 - p0)) > tol || std::abs(outward.dot(q1 - p0)) > tol) continue;
+      const double s0 = std::max(0.0, std::min(e.dot(q0 - p0), e.dot(q1 - p0)));
+      const double s1 = std::min(len, std::max(e.dot(q0 - p0), e.dot(q1 - p0)));
+      if (s1 - s0 > tol) out.push_back({p0 + s0 * e, p0 + s1 * e, outward});
+    }
+  }
+  return out;
+}
+
+/// Dense map from lattice coordinates to particle index.
+class Grid {
+ public:
+  explicit Grid(const Particles& p) {
+    if (p.size() == 0) return;
+    m_lo = m_hi = p.lattice[0];
+    for (const auto& l : p.lattice)
+      for (int c = 0; c < 2; ++c) {
+        m_lo[c] = std::min(m_lo[c], l[c]);
+        m_hi[c] = std::max(m_hi[c], l[c]);
+      }
+    m_nx = m_hi[0] - m_lo[0] + 1;
+    m_cells.assign(static_cast<std::size_t>(m_nx) * (m_hi[1] - m_lo[1] + 1), -1);
+    for (Index i = 0; i < p.size(); ++i) m_cells[cell(p.lattice[i][0], p.lattice[i][1])] = i;
+  }
+  Index at(int x, int y) const {
+    if (m_cells.empty() || x < m_lo[0] || x > m_hi[0] || y < m_lo[1] || y > m_hi[1]) return -1;
+    return m_cells[cell(x, y)];
+  }
+
+ private:
+  std::size_t cell(int x, int y) const {
+    return static_cast<std::size_t>(y - m_lo[1]) * m_nx + static_cast<std::size_t>(x - m_lo[0]);
+  }
+  std::array<int, 2> m_lo{0, 0}, m_hi{0, 0};
+  int m_nx = 0;
+  std::vector<Index> m_cells;
+};
+
+/// Contact modulus of eq 17 (or the scene's override).
+double contact_modulus(const Material& m1, const Material& m2, double override_value) {
+  if (override_value > 0.0) return override_value;
+  return 1.0 / ((1.0 - m1.nu * m1.nu) / m1.E + (1.0 - m2.nu * m2.nu) / m2.E);
+}
+
+}  // namespace
+
+ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(model) {
+  const ContactOptions& o = scene.contact;
+  const double dx = model.spacing;
+  m_law.normal = o.normal;
+  m_law.radius = o.radius_factor * dx;
+  m_law.gate = o.gate;
+  m_law.friction = o.friction;
+  m_law.tangential_factor = o.tangential_factor;
+
+  const Particles& p = model.particles;
+  const Index n = p.size();
+  const double band = m_law.radius * (1.0 + 1e-9);
+  const double min_gap = 0.2 * dx;  // pairs nearly parallel to the interface are skipped
+  const double delta3 = std::pow(model.horizon, 3);
+  const Grid grid(p);
+
+  auto material_of = [&](Index i) -> const Material& {
+    return scene.materials.at(scene.bodies[p.body[i]].material);
+  };
+  auto add_pair = [&](Index i, Index j, const Vec2& normal) {
+    const Vec2 X = p.position[j] - p.position[i];
+    const double proj = normal.dot(X);
+    if (std::abs(proj) < min_gap) return;
+    ContactPair c;
+    c.i = i;
+    c.j = j;
+    c.normal = proj > 0.0 ? normal : Vec2(-normal);
+    c.gap0 = std::abs(proj);
+    const Material &mi = material_of(i), &mj = material_of(j);
+    const double thickness = 0.5 * (mi.thickness + mj.thickness);
+    c.stiffness = 3.0 * contact_modulus(mi, mj, o.stiffness) * p.volume[i] * p.volume[j] / (delta3 * thickness);
+    m_pairs.push_back(c);
+  };
+  auto for_partners = [&](Index i, auto&& visit) {
+    for (const auto& off : model.stencil.offset) {
+      const Index j = grid.at(p.lattice[i][0] + off[0], p.lattice[i][1] + off[1]);
+      if (j > i && !p.fictitious[j]) visit(j);
+    }
+  };
+
+  // Crack faces: the bonds cut by a pre-crack, both ends within delta_c of that crack.
+  if (o.cracks) {
+    for (Index i = 0; i < n; ++i) {
+      if (p.fictitious[i]) continue;
+      for (const Crack& crack : scene.cracks) {
+        if (distance_to_segment(p.position[i], crack.a, crack.b) > band) continue;
+        const Vec2 d = (crack.b - crack.a).normalized();
+        const Vec2 normal(-d.y(), d.x());
+        for_partners(i, [&](Index j) {
+          if (p.body[j] != p.body[i] || distance_to_segment(p.position[j], crack.a, crack.b) > band) return;
+          if (bond_crosses_crack(p.position[i], p.position[j], crack.a, crack.b)) add_pair(i, j, normal);
+        });
+      }
+    }
+  }
+
+  // Declared interfaces: particles of the two bodies, both within delta_c of a shared segment.
+  for (const ContactInterface& itf : o.interfaces) {
+    int a = -1, b = -1;
+    for (std::size_t k = 0; k < scene.bodies.size(); ++k) {
+      if (scene.bodies[k].name == itf.body_a) a = static_cast<int>(k);
+      if (scene.bodies[k].name == itf.body_b) b = static_cast<int>(k);
+    }
+    PERISTAT_ASSERT(a >= 0 && b >= 0);
+    double extent = 0.0;
+    for (const Vec2& v : scene.bodies[a].shape.vertices) extent = std::max(extent, v.cwiseAbs().maxCoeff());
+    const std::vector<Segment> segments =
+        shared_segments(scene.bodies[a].shape, scene.bodies[b].shape, 1e-9 * std::max(extent, dx));
+    if (segments.empty()) {
+      throw InputError(itf.where, "bodies '" + itf.body_a + "' and '" + itf.body_b +
+                                      "' share no boundary segment: an interface needs a common edge");
+    }
+    auto nearest = [&](const Vec2& x, double& dist) -> const Segment& {
+      std::size_t best = 0;
+      dist = std::numeric_limits<double>::max();
+      for (std::size_t k = 0; k < segments.size(); ++k) {
+        const double d = distance_to_segment(x, segments[k].a, segments[k].b);
+        if (d < dist) {
+          dist = d;
+          best = k;
+        }
+      }
+      return segments[best];
+    };
+    for (Index i = 0; i < n; ++i) {
+      if (p.fictitious[i] || (p.body[i] != a && p.body[i] != b)) continue;
+      double di = 0.0;
+      nearest(p.position[i], di);
+      if (di > band) continue;
+      for_partners(i, [&](Index j) {
+        if (p.body[j] == p.body[i] || (p.body[j] != a && p.body[j] != b)) return;
+        double dj = 0.0;
+        nearest(p.position[j], dj);
+        if (dj > band) return;
+        double dm = 0.0;
+        add_pair(i, j, nearest(0.5 * (p.position[i] + p.position[j]), dm).normal);
+      });
+    }
+  }
+
+  std::sort(m_pairs.begin(), m_pairs.end(),
+            [](const ContactPair& x, const ContactPair& y) { return x.i != y.i ? x.i < y.i : x.j < y.j; });
+  m_pairs.erase(std::unique(m_pairs.begin(), m_pairs.end(),
+                            [](const ContactPair& x, const ContactPair& y) { return x.i == y.i && x.j == y.j; }),
+                m_pairs.end());
+  const Index np = size();
+  m_result.assign(np, PairResult{});
+  if (m_law.friction > 0.0) m_slip.assign(np, 0.0);
+  m_counts.candidates = np;
+  m_counts.open = np;
+
+  // Incidence CSR: the pairs of each particle.
+  m_incident_start.assign(n + 1, 0);
+  for (const ContactPair& c : m_pairs) {
+    ++m_incident_start[c.i + 1];
+    ++m_incident_start[c.j + 1];
+  }
+  for (Index q = 0; q < n; ++q) m_incident_start[q + 1] += m_incident_start[q];
+  m_incident.resize(m_incident_start[n]);
+  std::vector<Index> fill(m_incident_start.begin(), m_incident_start.end() - 1);
+  for (Index k = 0; k < np; ++k) {
+    m_incident[fill[m_pairs[k].i]++] = {k, m_pairs[k].j, -1};
+    m_incident[fill[m_pairs[k].j]++] = {k, m_pairs[k].i, +1};
+  }
+}
+
+void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
+  const Particles& p = m_model.particles;
+  const Index np = size();
+  const bool friction = !m_slip.empty();
+#pragma omp parallel for schedule(static)
+  for (Index k = 0; k < np; ++k) {
+    const ContactPair& c = m_pairs[k];
+    const Vec2 du(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
+    m_result[k] = contact_pair(c, p.position[c.j] - p.position[c.i], du, friction ? m_slip[k] : 0.0, m_law,
+                               want_jacobian);
+  }
+  ContactCounts counts;
+  counts.candidates = np;
+  std::uint64_t hash = 1469598103934665603ull;  // FNV-1a over the statuses
+  double dmin = std::numeric_limits<double>::infinity();
+  bool symmetric = true;
+  for (Index k = 0; k < np; ++k) {
+    const PairStatus s = m_result[k].status;
+    const Mat2& J = m_result[k].J;
+    symmetric = symmetric && std::abs(J(0, 1) - J(1, 0)) <= 1e-12 * J.cwiseAbs().maxCoeff();
+    counts.open += s == PairStatus::open;
+    counts.stick += s == PairStatus::stick;
+    counts.slip += s == PairStatus::slip;
+    hash = (hash ^ static_cast<std::uint64_t>(s)) * 1099511628211ull;
+    const ContactPair& c = m_pairs[k];
+    const Vec2 Y = p.position[c.j] - p.position[c.i] +
+                   Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
+    dmin = std::min(dmin, Y.norm());
+  }
+  m_counts = counts;
+  m_signature = hash;
+  if (want_jacobian) m_symmetric = symmetric;  // describes the last Jacobian computed
+  m_min_distance = np > 0 ? dmin : 0.0;
+}
+
+void ContactSystem::add_internal_force(VectorXd& force) const {
+  const Index n = m_model.particles.size();
+#pragma omp parallel for schedule(static)
+  for (Index q = 0; q < n; ++q) {
+    for (const Incidence* e = incident_begin(q); e != incident_end(q); ++e) {
+      const Vec2& g = m_result[e->pair].g;
+      force[2 * q] += e->sign * g.x();
+      force[2 * q + 1] += e->sign * g.y();
+    }
+  }
+}
+
+void ContactSystem::contact_force(VectorXd& out) const {
+  out.setZero(2 * m_model.particles.size());
+  add_internal_force(out);
+  out = -out;
+}
+
+Mat2 ContactSystem::preconditioner_block(Index k) const {
+  const PairResult& r = m_result[k];
+  if (r.status == PairStatus::open) return Mat2::Zero();
+  const ContactPair& c = m_pairs[k];
+  const Vec2 t(-c.normal.y(), c.normal.x());
+  const double kn = c.stiffness / c.gap0;
+  Mat2 S = kn * c.normal * c.normal.transpose();
+  if (r.status == PairStatus::stick) S += m_law.tangential_factor * kn * t * t.transpose();
+  return S;
+}
+
+void ContactSystem::commit(const VectorXd& u) {
+  evaluate(u, false);
+  if (m_slip.empty()) return;
+  const Index np = size();
+  for (Index k = 0; k < np; ++k) {
+    const ContactPair& c = m_pairs[k];
+    const Vec2 t(-c.normal.y(), c.normal.x());
+    const double w = t.dot(Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]));
+    const PairResult& r = m_result[k];
+    const double kt = m_law.tangential_factor * c.stiffness / c.gap0;
+    if (r.status == PairStatus::open)
+      m_slip[k] = w;  // an open pair stores no tangential force
+    else if (r.status == PairStatus::slip)
+      m_slip[k] = w - r.tangential / kt;
+  }
+}
+
+}  // namespace peristat

@@ -1,0 +1,117 @@
+// Contact between particles that hold no bond: the faces of pre-cracks and declared body
+// interfaces (paper section 3, eqs 12-17; DESIGN.md section 5). A pair kernel computes the
+// normal force (paper law or a smooth pair law), Coulomb friction by a return map on the
+// tangential slip since the last converged step (eq 14), and the consistent Jacobian of
+// both. ContactSystem owns the candidate pairs, their committed slip and the state of the
+// last evaluation. Derivations: docs/theory/contact.md.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/types.hpp"
+#include "discretisation/model.hpp"
+#include "scene/scene.hpp"
+
+namespace peristat {
+
+/// State of a pair: open (no force), stick (tangential penalty) or slip (f_c F_n). Pairs of a
+/// frictionless scene are open or slip.
+enum class PairStatus : std::uint8_t { open = 0, stick = 1, slip = 2 };
+
+/// A candidate pair i < j, fixed for the run (small-sliding assumption: partners are found
+/// in the reference configuration, within one horizon).
+struct ContactPair {
+  Index i = 0, j = 0;
+  Vec2 normal = Vec2::Zero();  ///< unit interface normal, oriented so that normal . (X_j - X_i) > 0
+  double gap0 = 0.0;           ///< a = normal . (X_j - X_i) > 0, reference normal distance [m]
+  double stiffness = 0.0;      ///< C = 3 E_c V_i V_j / (delta^3 t_h) [N], force at unit stretch
+};
+
+/// The pair law's parameters, shared by all pairs.
+struct ContactLaw {
+  NormalLaw normal = NormalLaw::paper;
+  double radius = 0.0;             ///< delta_c [m]
+  double gate = 0.0;               ///< switch-on ramp width as a fraction of delta_c
+  double friction = 0.0;           ///< f_c
+  double tangential_factor = 1.0;  ///< k_t = tangential_factor * C / a
+};
+
+/// Output of the pair kernel. g is the pair's internal force dPi/d(u_j - u_i): the force on
+/// particle j is -g, on particle i it is +g. J = dg/d(u_j - u_i) (not symmetric in slip).
+struct PairResult {
+  PairStatus status = PairStatus::open;
+  double normal_force = 0.0;  ///< F_n >= 0 [N]
+  double tangential = 0.0;    ///< tau [N] along t = (-n_y, n_x): force on j is -tau t
+  Vec2 g = Vec2::Zero();
+  Mat2 J = Mat2::Zero();
+};
+
+/// The pair kernel. `du` = u_j - u_i, `slip` = committed plastic slip w_p of the pair.
+PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip, const ContactLaw& law,
+                        bool want_jacobian);
+
+/// Counts of the last evaluation.
+struct ContactCounts {
+  Index candidates = 0, open = 0, stick = 0, slip = 0;
+  Index active() const { return stick + slip; }
+};
+
+class ContactSystem {
+ public:
+  /// Builds the candidate pairs the scene asks for (crack faces if contact.cracks, declared
+  /// interfaces). Throws InputError when a declared interface has no common boundary.
+  ContactSystem(const Model& model, const Scene& scene);
+
+  const std::vector<ContactPair>& pairs() const { return m_pairs; }
+  const ContactLaw& law() const { return m_law; }
+  Index size() const { return static_cast<Index>(m_pairs.size()); }
+
+  /// Evaluates every pair at the full displacement u (2N, interleaved).
+  void evaluate(const VectorXd& u, bool want_jacobian);
+  /// Adds the contact part of dPi/du (2N) of the last evaluation.
+  void add_internal_force(VectorXd& force) const;
+  /// The contact force acting on each particle (2N) [N] of the last evaluation.
+  void contact_force(VectorXd& out) const;
+  /// Accepts the last evaluation as converged: slip history is updated.
+  void commit(const VectorXd& u);
+
+  /// Pairs touching particle p: (pair index, +1 if p is j, -1 if p is i), from the CSR
+  /// `pairs_of(p)`: entries m_incident[m_incident_start[p] .. m_incident_start[p+1]).
+  struct Incidence {
+    Index pair;
+    Index other;
+    int sign;  ///< +1: p is j; -1: p is i
+  };
+  const Incidence* incident_begin(Index p) const { return m_incident.data() + m_incident_start[p]; }
+  const Incidence* incident_end(Index p) const { return m_incident.data() + m_incident_start[p + 1]; }
+  const Mat2& jacobian(Index pair) const { return m_result[pair].J; }
+  /// A positive semi-definite stand-in for the Jacobian in a preconditioner matrix:
+  /// (C/a) n n^T for a pair in contact, plus k_t t t^T when it sticks.
+  Mat2 preconditioner_block(Index pair) const;
+
+  /// True when every pair's Jacobian in the last evaluation that computed them is symmetric: no pair slips with
+  /// friction and none is on the switch-on ramp of the paper law.
+  bool symmetric() const { return m_symmetric; }
+  const ContactCounts& counts() const { return m_counts; }
+  /// A hash of every pair's status in the last evaluation (detects active-set cycling).
+  std::uint64_t signature() const { return m_signature; }
+  /// Smallest current distance |Y| over the candidate pairs at the last evaluation [m].
+  double min_distance() const { return m_min_distance; }
+
+ private:
+  const Model& m_model;
+  ContactLaw m_law;
+  std::vector<ContactPair> m_pairs;
+  std::vector<double> m_slip;  ///< committed w_p per pair (empty without friction)
+  std::vector<PairResult> m_result;
+  std::vector<Index> m_incident_start;
+  std::vector<Incidence> m_incident;
+  ContactCounts m_counts;
+  std::uint64_t m_signature = 0;
+  bool m_symmetric = true;
+  double m_min_distance = 0.0;
+};
+
+}  // namespace peristat

@@ -1,0 +1,149 @@
+// Finite-difference checks of the contact pair kernel in every state (open, on the switch-on
+// ramp, fully in contact; stick; slip either way; both normal laws) and of the assembled
+// tangent of a plate whose crack is closed and sheared (docs/theory/contact.md).
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "assembly/quasi_static.hpp"
+#include "contact/contact.hpp"
+#include "support/scenes.hpp"
+
+namespace peristat {
+namespace {
+
+constexpr double dx = 1e-3;
+
+struct Case {
+  const char* name;
+  NormalLaw normal;
+  double gate, friction;
+  Vec2 du;  ///< relative displacement in units of dx, in the frame (t, n) of the pair
+  PairStatus status;
+  bool on_ramp;  ///< |Y| within the switch-on ramp distance (paper law)
+};
+
+// Central differences of g(du) against J, h = 1e-7 dx: truncation O(h^2 g''') ~ 1e-12
+// relative, round-off ~1e-9 relative; tolerance 1e-6 of max |J|. Pairs with a normal at an
+// odd angle so that every component of J is exercised.
+TEST(ContactKernel, JacobianMatchesFiniteDifferencesInEveryState) {
+  const double angle = 0.37;
+  const Vec2 n(std::cos(angle), std::sin(angle)), t(-n.y(), n.x());
+  ContactPair pair;
+  pair.normal = n;
+  pair.gap0 = dx;
+  pair.stiffness = 2.5e4;
+  const Vec2 X = dx * n + 0.2 * dx * t;  // reference: one spacing across, a little offset
+  const double slip = 0.01 * dx;         // committed slip w_p
+  const std::vector<Case> cases = {
+      {"open (beyond the radius)", NormalLaw::paper, 0.1, 0.5, {0.0, 0.05}, PairStatus::open, false},
+      {"open (stretched normal)", NormalLaw::paper, 0.1, 0.5, {-0.2, 0.01}, PairStatus::open, true},
+      {"ramp, stick", NormalLaw::paper, 0.1, 0.5, {0.012, -0.07}, PairStatus::stick, true},
+      {"ramp, slip", NormalLaw::paper, 0.1, 0.2, {0.1, -0.05}, PairStatus::slip, true},
+      {"full, stick", NormalLaw::paper, 0.1, 0.5, {0.05, -0.2}, PairStatus::stick, false},
+      {"full, slip +", NormalLaw::paper, 0.1, 0.3, {0.15, -0.15}, PairStatus::slip, false},
+      {"full, slip -", NormalLaw::paper, 0.1, 0.3, {-0.5, -0.15}, PairStatus::slip, false},
+      {"sharp gate, slip", NormalLaw::paper, 0.0, 0.3, {-0.4, -0.1}, PairStatus::slip, false},
+      {"frictionless", NormalLaw::paper, 0.1, 0.0, {-0.4, -0.15}, PairStatus::slip, false},
+      {"pair law, stick", NormalLaw::pair, 0.0, 0.5, {0.05, -0.1}, PairStatus::stick, false},
+      {"pair law, slip", NormalLaw::pair, 0.0, 0.2, {0.3, -0.2}, PairStatus::slip, false},
+      {"pair law, open", NormalLaw::pair, 0.0, 0.5, {0.1, 0.1}, PairStatus::open, false},
+  };
+  for (const Case& c : cases) {
+    ContactLaw law;
+    law.normal = c.normal;
+    law.radius = 1.05 * dx;
+    law.gate = c.gate;
+    law.friction = c.friction;
+    law.tangential_factor = 1.0;
+    const Vec2 du = dx * (c.du.x() * t + c.du.y() * n);
+    const PairResult r = contact_pair(pair, X, du, slip, law, true);
+    ASSERT_EQ(r.status, c.status) << c.name;
+    const double dist = (X + du).norm();
+    const bool ramp = c.gate > 0.0 && dist > (1.0 - c.gate) * law.radius && dist < law.radius;
+    ASSERT_EQ(ramp, c.on_ramp) << c.name << ": |Y| = " << dist / dx << " dx";
+    if (r.status == PairStatus::open) {
+      EXPECT_EQ(r.g.norm(), 0.0) << c.name;
+      EXPECT_EQ(r.J.norm(), 0.0) << c.name;
+      continue;
+    }
+    // Coulomb's law holds: |tau| <= f_c F_n, with equality in slip.
+    if (r.status == PairStatus::slip) {
+      EXPECT_NEAR(std::abs(r.tangential), c.friction * r.normal_force, 1e-12);
+    } else {
+      EXPECT_LE(std::abs(r.tangential), c.friction * r.normal_force);
+    }
+    const double h = 1e-7 * dx;
+    Mat2 fd;
+    for (int k = 0; k < 2; ++k) {
+      Vec2 e = Vec2::Zero();
+      e[k] = h;
+      const PairResult p = contact_pair(pair, X, du + e, slip, law, false);
+      const PairResult m = contact_pair(pair, X, du - e, slip, law, false);
+      ASSERT_EQ(p.status, r.status) << c.name << ": the difference crosses a kink";
+      ASSERT_EQ(m.status, r.status) << c.name << ": the difference crosses a kink";
+      fd.col(k) = (p.g - m.g) / (2 * h);
+    }
+    const double scale = r.J.cwiseAbs().maxCoeff();
+    EXPECT_LT((fd - r.J).cwiseAbs().maxCoeff(), 1e-6 * scale) << c.name << "\nJ =\n" << r.J << "\nfd =\n" << fd;
+    // Repulsion: the normal part of the force on j points away from i.
+    EXPECT_LT(r.g.dot(c.normal == NormalLaw::paper ? n : Vec2((X + du).normalized())), 0.0) << c.name;
+  }
+}
+
+// The assembled tangent of a plate with a vertical crack closed by a compression of the
+// faces and sheared by random tangential motion: contact and friction blocks included.
+// Same tolerance argument as derivative.Tangent (1e-6 of max |K|).
+TEST(ContactTangent, AssembledTangentMatchesFiniteDifferences) {
+  // Friction coefficients chosen so that both stick and slip occur for this seed.
+  for (const auto& [normal, friction] : {std::pair{"paper", "0.2"}, std::pair{"pair", "0.05"}}) {
+    test::PlateSpec spec;
+    spec.nx = 12;
+    spec.ny = 8;
+    spec.dx = dx;
+    spec.kinematics = "finite";
+    spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
+    spec.cracks = "  - {from: [0.0061, -0.001], to: [0.0061, 0.009]}\n";
+    std::string yaml = test::plate_yaml(spec);
+    yaml += std::string("contact:\n  friction: ") + friction + "\n  radius_factor: 1.2\n  normal: " + normal + "\n";
+    const Scene scene = test::scene_from_yaml(yaml);
+    const Model model = discretise(scene);
+    QuasiStaticProblem problem(model, scene);
+    problem.set_load_factor(1.0);
+    ASSERT_GT(problem.contact()->size(), 0);
+
+    // Compress across the crack (x strain -8 %) plus random motion of 2 % dx.
+    std::mt19937 gen(11);
+    std::uniform_real_distribution<double> d(-1.0, 1.0);
+    const Index n = problem.n_unknowns();
+    VectorXd x(n);
+    for (Index p = 0; p < model.particles.size(); ++p)
+      for (int c = 0; c < 2; ++c)
+        if (const Index k = model.constraints.free_index[2 * p + c]; k >= 0)
+          x[k] = (c == 0 ? -0.08 * model.particles.position[p].x() : 0.0) + 0.02 * dx * d(gen);
+
+    SparseMatrix K = problem.make_tangent();
+    VectorXd r, rp, rm;
+    problem.evaluate(x, r, &K);
+    const ContactCounts counts = problem.contact()->counts();
+    EXPECT_GT(counts.stick, 0) << normal;
+    EXPECT_GT(counts.slip, 0) << normal;
+    EXPECT_FALSE(problem.tangent_symmetric()) << normal << ": slipping pairs make it unsymmetric";
+    const Eigen::MatrixXd Kd(K);  // tiny model
+    const double scale = Kd.cwiseAbs().maxCoeff();
+    const double h = 1e-7 * dx;
+    double worst = 0.0;
+    for (Index j = 0; j < n; ++j) {
+      VectorXd xp = x, xm = x;
+      xp[j] += h;
+      xm[j] -= h;
+      problem.evaluate(xp, rp, nullptr);
+      problem.evaluate(xm, rm, nullptr);
+      worst = std::max(worst, ((rp - rm) / (2 * h) - Kd.col(j)).cwiseAbs().maxCoeff() / scale);
+    }
+    EXPECT_LT(worst, 1e-6) << normal;
+  }
+}
+
+}  // namespace
+}  // namespace peristat
