@@ -2,11 +2,23 @@
 
 #include <omp.h>
 
+#include "core/clock.hpp"
+
 namespace peristat {
+
+namespace {
+std::unique_ptr<ContactSystem> make_contact(const Model& model, const Scene& scene, double& seconds) {
+  if (!scene.contact.enabled) return nullptr;
+  const double t0 = wall_seconds();
+  auto contact = std::make_unique<ContactSystem>(model, scene);
+  seconds = wall_seconds() - t0;
+  return contact;
+}
+}  // namespace
 
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
     : m_model(model),
-      m_contact(scene.contact.enabled ? std::make_unique<ContactSystem>(model, scene) : nullptr),
+      m_contact(make_contact(model, scene, m_contact_setup_seconds)),
       m_pattern(build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get())),
       m_bond_radius(scene.solver.linear.bond_radius * scene.discretization.spacing) {
   m_linear = true;
@@ -78,9 +90,11 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   compute_families(K != nullptr);
   gather_forces();
   if (m_contact) {
+    const double t0 = wall_seconds();
     m_contact->evaluate(m_u, K != nullptr);
     m_contact->add_internal_force(m_force);
     m_force_scale = m_force.norm();
+    m_contact_seconds += wall_seconds() - t0;
   }
   const Constraints& c = m_model.constraints;
   r.resize(c.n_free);

@@ -52,6 +52,10 @@ class QuasiStaticProblem final : public Problem {
   const Model& model() const { return m_model; }
   /// The contact candidates and their state, or null when the scene has no contact.
   const ContactSystem* contact() const { return m_contact.get(); }
+  /// Wall time spent building the contact candidates, and evaluating the pairs (summed over
+  /// every evaluate so far) [s].
+  double contact_setup_seconds() const { return m_contact_setup_seconds; }
+  double contact_seconds() const { return m_contact_seconds; }
   const TangentPattern& pattern() const { return m_pattern; }
 
  private:
@@ -60,6 +64,7 @@ class QuasiStaticProblem final : public Problem {
   void gather_tangent(SparseMatrix& K) const;
 
   const Model& m_model;
+  double m_contact_setup_seconds = 0.0;      ///< declared first: m_contact's initialiser sets it
   std::unique_ptr<ContactSystem> m_contact;  ///< null without contact: no candidates, no cost
   mutable TangentPattern m_pattern;  ///< its matrix is moved out by the first make_tangent()
   mutable std::unique_ptr<TangentPattern> m_bond_pattern;  ///< built on first request
@@ -68,6 +73,7 @@ class QuasiStaticProblem final : public Problem {
   std::vector<OsbConstants> m_body_constants;              ///< per body
   std::vector<double> m_weighted_volume;                   ///< m_i (eq 4), intact bonds at the start
   bool m_linear = false;
+  double m_contact_seconds = 0.0;
   double m_lambda = 0.0;
 
   // State of the last evaluate.

@@ -20,7 +20,13 @@ bool NewtonSolver::reuse_factor() const {
 
 LinearSolver& NewtonSolver::select_solver() {
   m_linear.set_symmetric(m_K_symmetric);
-  if (!m_K_symmetric && m_linear.needs_symmetric() && m_unsymmetric) return *m_unsymmetric;
+  if (m_K_symmetric || !m_linear.needs_symmetric()) return m_linear;
+  if (!m_unsymmetric) {  // first slip with a symmetric-only solver: UMFPACK takes over
+    LinearOptions lu;
+    lu.type = "umfpack";
+    m_unsymmetric = make_linear_solver(lu);
+  }
+  return *m_unsymmetric;
   return m_linear;
 }
 

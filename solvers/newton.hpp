@@ -1,6 +1,8 @@
 // Newton's method with backtracking line search on a Problem (docs/theory/newton.md).
 // Keeps the tangent's pattern and the symbolic factorisation across iterations and load
 // steps; factorises once per run when the tangent is constant or `tangent: initial`.
+// While the tangent is unsymmetric (contact pairs slipping with friction) a symmetric-only
+// solver (CHOLMOD, LDLT) hands over to UMFPACK.
 #pragma once
 
 #include <functional>
@@ -51,9 +53,6 @@ class NewtonSolver {
   bool has_factor() const { return m_have_factor; }
   /// Forget the factorisation (after a failed solve, or when the pattern changed).
   void invalidate_factorization() { m_have_factor = false; }
-  /// The solver used while the problem's tangent is not symmetric and the main one needs a
-  /// symmetric matrix (CHOLMOD -> UMFPACK while a contact pair slips with friction).
-  void set_unsymmetric_solver(std::unique_ptr<LinearSolver> solver) { m_unsymmetric = std::move(solver); }
 
  private:
   NewtonReport solve_iterations(VectorXd& x, const NewtonMonitor& monitor, NewtonReport report);
@@ -61,7 +60,8 @@ class NewtonSolver {
   long factorizations() const;
   void factorize(NewtonReport& report);
 
-  /// The linear solver for the current tangent: m_linear, or m_unsymmetric when needed.
+  /// The linear solver for the current tangent: m_linear, or UMFPACK (m_unsymmetric, made on
+  /// first need) while the tangent is unsymmetric and m_linear needs a symmetric matrix.
   LinearSolver& select_solver();
 
   Problem& m_problem;
