@@ -112,6 +112,21 @@ TEST_F(BadInput, UnknownKey) {
                   "unknown key \"fracture\"");
 }
 
+// A contact interface between bodies that do not touch: found only when the candidates are
+// built (after parsing), still exit code 2 naming the interface's line.
+TEST_F(BadInput, ContactInterfaceWithoutCommonEdge) {
+  const std::string text = replace(k_minimal, "    rectangle: {min: [0, 0], max: [0.02, 0.01]}\n",
+                                   "    rectangle: {min: [0, 0], max: [0.02, 0.01]}\n"
+                                   "  other:\n"
+                                   "    material: plate\n"
+                                   "    rectangle: {min: [0.03, 0], max: [0.05, 0.01]}\n") +
+                           "  - {body: other, edge: left, ux: 0, uy: 0}\n"
+                           "contact:\n"
+                           "  interfaces:\n"
+                           "    - {bodies: [plate, other]}\n";
+  expect_rejected(run_text(text), at(27, "contact.interfaces.0"), "share no boundary segment");
+}
+
 TEST_F(BadInput, WrongType) {
   expect_rejected(run_text(replace(k_minimal, "E: 1.0e9", "E: stiff")), at(4, "materials.plate.E"),
                   "expected a number");
