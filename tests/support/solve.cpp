@@ -18,8 +18,9 @@ std::unique_ptr<Solved> solve_scene(const std::string& yaml) {
   LoadSteppingCallbacks cb;
   cb.on_step = [&](const StepReport& r, const VectorXd&) { s->steps.push_back(r); };
   s->run = run_load_steps(*s->problem, newton, s->x, s->scene.loading, cb);
-  VectorXd r;
-  s->problem->evaluate(s->x, r, nullptr);  // leave the problem's state at the solution
+  // Newton's last evaluation was at the converged x, so the problem's state (stresses,
+  // contact forces and pair states) is that of the solution. Evaluating again here would
+  // see the committed slip and report slipping pairs as sticking at the limit.
   s->problem->expand(s->x, s->u);
   return s;
 }
