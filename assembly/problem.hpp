@@ -50,6 +50,11 @@ class Problem {
   /// detects cycling.
   virtual std::uint64_t state_signature() const { return 0; }
 
+  /// Adds to `row_sums` (per unknown) a bound of the absolute row sums of tangent terms that
+  /// may switch on later in a step and are absent from the current tangent (contact pairs
+  /// not yet in contact). ADR's fictitious density covers them.
+  virtual void add_stiffness_bound(VectorXd& /*row_sums*/) const {}
+
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;
 };

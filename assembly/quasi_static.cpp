@@ -324,4 +324,16 @@ void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
   }
 }
 
+void QuasiStaticProblem::add_stiffness_bound(VectorXd& row_sums) const {
+  if (!m_contact) return;
+  const std::vector<Index>& free = m_model.constraints.free_index;
+  for (Index k = 0; k < m_contact->size(); ++k) {
+    const ContactPair& c = m_contact->pairs()[k];
+    const double b = 4.0 * m_contact->stiffness_bound(k);
+    for (Index p : {c.i, c.j})
+      for (int d = 0; d < 2; ++d)
+        if (const Index f = free[2 * p + d]; f >= 0) row_sums[f] += b;
+  }
+}
+
 }  // namespace peristat

@@ -37,6 +37,9 @@ class QuasiStaticProblem final : public Problem {
   SparseMatrix make_preconditioner() const override;
   void assemble_preconditioner(SparseMatrix& P) override;
   void commit(const VectorXd& x) override;
+  /// Every candidate pair, whatever its state: 4 x ContactSystem::stiffness_bound on the two
+  /// components of both particles (a 2 x 2 block appears twice in a row, +J and -J).
+  void add_stiffness_bound(VectorXd& row_sums) const override;
 
   /// Full displacement (2N, interleaved) of x at the current load factor.
   void expand(const VectorXd& x, VectorXd& u) const;

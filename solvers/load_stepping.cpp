@@ -7,7 +7,7 @@
 
 namespace peristat {
 
-RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, const Loading& loading,
+RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, const Loading& loading,
                          const LoadSteppingCallbacks& cb) {
   RunReport run;
   const int n = loading.steps;
@@ -22,12 +22,12 @@ RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, co
     double increment = target - lambda;
     int halvings = 0;  // current depth below the nominal increment
     while (lambda < target - 1e-12 * nominal) {
-      if (!newton.has_factor()) newton.prepare(x);  // tangent of the converged state
+      if (!solver.has_factor()) solver.prepare(x);  // tangent of the converged state
       const double next = std::min(lambda + increment, target);
       problem.set_load_factor(next);
       if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
       trial = x;
-      const NewtonReport r = newton.solve(trial, cb.on_iteration);
+      const NewtonReport r = solver.solve(trial, cb.on_iteration);
       step.newton_iterations += r.iterations;
       step.linear_iterations += r.linear_iterations;
       step.factorizations += r.factorizations;
@@ -36,7 +36,8 @@ RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, co
       step.seconds_factorize += r.seconds_factorize;
       step.seconds_solve += r.seconds_solve;
       step.residuals.insert(step.residuals.end(), r.residuals.begin(), r.residuals.end());
-      if (r.converged) {
+      if (r.converged || r.accepted_unconverged) {
+        if (!r.converged) ++step.unconverged;
         x.swap(trial);
         lambda = next;
         problem.commit(x);
@@ -51,13 +52,13 @@ RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, co
       ++step.cutbacks;
       ++halvings;
       problem.set_load_factor(lambda);
-      newton.invalidate_factorization();  // the factor may belong to a diverged iterate
-      if (halvings > loading.max_cutbacks) {
+      solver.invalidate_factorization();  // the factor may belong to a diverged iterate
+      if (halvings > loading.max_cutbacks || !solver.cutback_helps()) {
         char buf[256];
         std::snprintf(buf, sizeof buf,
                       "load step %d/%d did not converge at load factor %.6g after %d cut-backs "
                       "(last attempt: %s)",
-                      k, n, next, loading.max_cutbacks, r.reason.c_str());
+                      k, n, next, step.cutbacks - 1, r.reason.c_str());
         run.message = buf;
         return run;
       }

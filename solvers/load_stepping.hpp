@@ -7,7 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "solvers/newton.hpp"
+#include "scene/scene.hpp"
+#include "solvers/step_solver.hpp"
 
 namespace peristat {
 
@@ -21,6 +22,7 @@ struct StepReport {
   int linear_iterations = 0;
   int factorizations = 0;
   int active_set_changes = 0;  ///< Newton iterations that changed the contact active set
+  int unconverged = 0;         ///< sub-steps kept unconverged (ADR `on_budget: accept`)
   std::vector<double> residuals;  ///< relative residuals of all sub-steps, in order
   double final_residual = 0.0;
   double seconds_evaluate = 0.0, seconds_factorize = 0.0, seconds_solve = 0.0;
@@ -45,7 +47,7 @@ struct LoadSteppingCallbacks {
 };
 
 /// Runs the load steps from the committed state x (normally zero at load factor 0).
-RunReport run_load_steps(Problem& problem, NewtonSolver& newton, VectorXd& x, const Loading& loading,
+RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, const Loading& loading,
                          const LoadSteppingCallbacks& callbacks);
 
 }  // namespace peristat

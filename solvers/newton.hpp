@@ -13,46 +13,27 @@
 #include "assembly/problem.hpp"
 #include "scene/scene.hpp"
 #include "solvers/linear/linear_solver.hpp"
+#include "solvers/step_solver.hpp"
 
 namespace peristat {
 
-/// Outcome of one Newton solve, like Eigen's info() but with the history.
-struct NewtonReport {
-  bool converged = false;
-  std::string reason;              ///< why it stopped (converged, max iterations, ...)
-  int iterations = 0;              ///< linear solves performed
-  std::vector<double> residuals;   ///< relative residual at every evaluated iterate
-  std::vector<double> increments;  ///< ||dx|| / max(||x||, tiny) of each accepted update
-  int factorizations = 0;
-  int linear_iterations = 0;      ///< Krylov iterations, summed
-  /// Iterations after which the problem's discrete state (contact active set) differed
-  /// from that of the previous iterate.
-  int active_set_changes = 0;
-  double seconds_evaluate = 0.0;  ///< residual + tangent assembly
-  double seconds_factorize = 0.0;
-  double seconds_solve = 0.0;
-};
-
-/// Called after every evaluated iterate: iteration, relative residual, step length used.
-using NewtonMonitor = std::function<void(int iteration, double relative_residual, double alpha)>;
-
-class NewtonSolver {
+class NewtonSolver final : public StepSolver {
  public:
   NewtonSolver(Problem& problem, LinearSolver& linear, const NewtonOptions& options);
 
   /// Solves r(x) = 0 at the problem's current load factor, starting from x.
   /// On failure x holds the last iterate (the caller restores its converged state).
-  NewtonReport solve(VectorXd& x, const NewtonMonitor& monitor = {});
+  NewtonReport solve(VectorXd& x, const NewtonMonitor& monitor = {}) override;
 
   /// Factorises the tangent at x (a converged state, at the current load factor). The
   /// first iteration of the next solve uses this factor: the Euler predictor of the new
   /// step is computed with the tangent of the converged state, not of the state whose
   /// prescribed components have just jumped (docs/theory/newton.md).
-  void prepare(const VectorXd& x);
+  void prepare(const VectorXd& x) override;
   /// True when a factor usable for the first iteration of the next solve exists.
-  bool has_factor() const { return m_have_factor; }
+  bool has_factor() const override { return m_have_factor; }
   /// Forget the factorisation (after a failed solve, or when the pattern changed).
-  void invalidate_factorization() { m_have_factor = false; }
+  void invalidate_factorization() override { m_have_factor = false; }
 
  private:
   NewtonReport solve_iterations(VectorXd& x, const NewtonMonitor& monitor, NewtonReport report);

@@ -16,7 +16,10 @@
 #include "discretisation/model.hpp"
 #include "io/json.hpp"
 #include "io/results.hpp"
+#include "solvers/adr.hpp"
+#include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
+#include "solvers/newton.hpp"
 
 namespace peristat {
 
@@ -83,12 +86,20 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
   w.key("solver");
   w.begin_object();
   w.field("type", std::string_view(scene.solver.type));
-  w.field("linear", std::string_view(linear));
-  w.field("newton_rtol", n.rtol);
-  w.field("newton_atol", n.atol);
-  w.field("newton_max_iterations", n.max_iterations);
-  w.field("line_search", n.line_search);
-  w.field("tangent", n.tangent == TangentKind::consistent ? "consistent" : "initial");
+  if (scene.solver.type == "adr") {
+    const AdrOptions& a = scene.solver.adr;
+    w.field("adr_rtol", a.rtol);
+    w.field("adr_max_iterations", static_cast<double>(a.max_iterations));
+    w.field("adr_on_budget", a.accept_on_budget ? "accept" : "fail");
+    w.field("adr_density_factor", a.density_factor);
+  } else {
+    w.field("linear", std::string_view(linear));
+    w.field("newton_rtol", n.rtol);
+    w.field("newton_atol", n.atol);
+    w.field("newton_max_iterations", n.max_iterations);
+    w.field("line_search", n.line_search);
+    w.field("tangent", n.tangent == TangentKind::consistent ? "consistent" : "initial");
+  }
   w.end_object();
   w.end_object();
   return w.str();
@@ -125,31 +136,37 @@ int run_command(const RunArguments& args) {
   std::vector<Override> overrides = parse_overrides(args.overrides);
   if (!args.solver.empty()) overrides.push_back({"solver.type", args.solver});
   const Scene scene = parse_scene(args.scene, overrides);
-  if (scene.solver.type != "newton") {
-    throw InputError(SourceLocation{scene.path, 0, "solver.type"},
-                     "'" + scene.solver.type + "' is not available in this version: expected newton");
-  }
+  const bool adr = scene.solver.type == "adr";
   if (args.threads > 0) omp_set_num_threads(args.threads);
   const bool verbose = !args.quiet;
   const double t_start = wall_seconds();
 
   const Model model = discretise(scene);
   QuasiStaticProblem problem(model, scene);
-  std::unique_ptr<LinearSolver> linear = make_linear_solver(scene.solver.linear);
+  std::unique_ptr<LinearSolver> linear;
+  std::unique_ptr<StepSolver> solver;
+  if (adr) {
+    solver = std::make_unique<AdrSolver>(problem, scene.solver.adr);
+  } else {
+    linear = make_linear_solver(scene.solver.linear);
+    solver = std::make_unique<NewtonSolver>(problem, *linear, scene.solver.newton);
+  }
+  const std::string method = adr ? std::string("ADR") : "Newton, linear solver " + linear->name();
   const ModelSize size = measure(model, problem.pattern());
   const double t_model = wall_seconds() - t_start;
   if (verbose) {
     std::printf("peristat: %s (%s)\n", scene.name.c_str(), scene.path.c_str());
     print_size(size);
-    std::printf("  model built in %.2f s; linear solver %s, %d threads\n", t_model, linear->name().c_str(),
-                omp_get_max_threads());
+    std::printf("  model built in %.2f s; %s, %d threads\n", t_model, method.c_str(), omp_get_max_threads());
+    if (adr)
+      std::printf("  ADR: rtol %.1e, budget %ld iterations per step (%s when exhausted)\n", scene.solver.adr.rtol,
+                  scene.solver.adr.max_iterations, scene.solver.adr.accept_on_budget ? "keep the state" : "stop");
   }
 
   const std::string out = args.out.empty() ? "results/" + scene.name : args.out;
   ResultsWriter writer(out, scene.name, scene.text, particle_table(scene, model),
-                       run_info_json(scene, size, linear->name(), omp_get_max_threads()));
+                       run_info_json(scene, size, linear ? linear->name() : "", omp_get_max_threads()));
 
-  NewtonSolver newton(problem, *linear, scene.solver.newton);
   const ContactSystem* contact = problem.contact();
   double contact_seconds_before = 0.0;  // contact evaluation time up to the previous step
   VectorXd contact_force;
@@ -173,13 +190,15 @@ int run_command(const RunArguments& args) {
       std::fflush(stdout);
     }
   };
-  cb.on_iteration = [&](int it, double rel, double alpha) {
+  cb.on_iteration = [&](int it, double rel, double extra) {
     check_interrupt();
     if (!verbose) return;
-    if (it == 0)
+    if (adr)
+      std::printf("  adr %9d  residual %.3e  damping %.4f", it, rel, extra);
+    else if (it == 0)
       std::printf("  newton %2d  residual %.3e", it, rel);
     else
-      std::printf("  newton %2d  residual %.3e  step %.3g", it, rel, alpha);
+      std::printf("  newton %2d  residual %.3e  step %.3g", it, rel, extra);
     if (contact) {
       const ContactCounts& c = contact->counts();
       std::printf("  contact open %d stick %d slip %d", c.open, c.stick, c.slip);
@@ -208,6 +227,10 @@ int run_command(const RunArguments& args) {
                   {"cutbacks", s.cutbacks},
                   {"factorizations", s.factorizations},
                   {"linear_iterations", s.linear_iterations}};
+    if (adr) {
+      rec.counts["adr_iterations"] = s.newton_iterations;
+      rec.counts["unconverged_substeps"] = s.unconverged;
+    }
     if (contact) {
       // The commit evaluated the pairs at this state (before updating the slip history).
       contact->contact_force(contact_force);
@@ -231,7 +254,11 @@ int run_command(const RunArguments& args) {
                   c.open, c.stick, c.slip, c.candidates, s.active_set_changes,
                   contact->min_distance() / model.spacing);
     }
-    if (verbose) {
+    if (verbose && adr) {
+      std::printf("  %s: %d ADR iterations, relative residual %.3e; %.2f s (force evaluations %.2f s)\n",
+                  s.unconverged ? "NOT converged, kept (on_budget: accept)" : "converged", s.newton_iterations,
+                  s.final_residual, s.wall_seconds, s.seconds_evaluate);
+    } else if (verbose) {
       std::printf(
           "  converged: %d Newton iterations, %d factorisations, %d Krylov iterations; %.2f s "
           "(assembly %.2f incl. contact, factorisation %.2f, solves %.2f)\n",
@@ -243,7 +270,7 @@ int run_command(const RunArguments& args) {
   install_interrupt_handlers();
   RunReport report;
   try {
-    report = run_load_steps(problem, newton, x, scene.loading, cb);
+    report = run_load_steps(problem, *solver, x, scene.loading, cb);
   } catch (const Interrupted& stop) {
     const std::string message = "interrupted by signal " + std::to_string(stop.signal);
     writer.finish("interrupted", message);

@@ -337,6 +337,14 @@ Mat2 ContactSystem::preconditioner_block(Index k) const {
   return S;
 }
 
+double ContactSystem::stiffness_bound(Index k) const {
+  const ContactPair& c = m_pairs[k];
+  double b = c.stiffness * (1.0 / c.gap0 + 1.0 / m_law.radius);
+  if (m_law.friction > 0.0) b += m_law.tangential_factor * c.stiffness / c.gap0;
+  if (m_law.normal == NormalLaw::paper && m_law.gate > 0.0) b += c.stiffness / (m_law.gate * m_law.radius);
+  return b;
+}
+
 void ContactSystem::commit(const VectorXd& u) {
   evaluate(u, false);
   if (m_slip.empty()) return;

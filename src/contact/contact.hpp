@@ -90,6 +90,10 @@ class ContactSystem {
   /// A positive semi-definite stand-in for the Jacobian in a preconditioner matrix:
   /// (C/a) n n^T for a pair in contact, plus k_t t t^T when it sticks.
   Mat2 preconditioner_block(Index pair) const;
+  /// An upper bound of |J| entries of the pair in any state it can reach (ADR's
+  /// fictitious density must cover pairs that switch on during a step): C (1/a + 1/delta_c
+  /// + k_t a / C if friction) plus C / (gate delta_c) on the paper law's ramp (s <= 1).
+  double stiffness_bound(Index pair) const;
 
   /// True when every pair's Jacobian in the last evaluation that computed them is symmetric: no pair slips with
   /// friction and none is on the switch-on ramp of the paper law.

@@ -342,12 +342,21 @@ NewtonOptions read_newton(const Field& field) {
 }
 
 AdrOptions read_adr(const Field& field) {
-  const Map m = checked_map(field, {"rtol", "max_iterations"});
+  const Map m = checked_map(field, {"rtol", "max_iterations", "on_budget", "density_factor", "report_every"});
   AdrOptions o;
   if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
   if (auto f = m.find("max_iterations")) {
     o.max_iterations = static_cast<long>(schema::integer(*f));
     if (o.max_iterations < 1) schema::out_of_range(*f, "max_iterations >= 1");
+  }
+  if (auto f = m.find("on_budget")) o.accept_on_budget = schema::choice(*f, {"fail", "accept"}) == "accept";
+  if (auto f = m.find("density_factor")) {
+    o.density_factor = schema::positive(*f);
+    if (o.density_factor < 1.0) schema::out_of_range(*f, "density_factor >= 1 (smaller is unstable)");
+  }
+  if (auto f = m.find("report_every")) {
+    o.report_every = static_cast<long>(schema::integer(*f));
+    if (o.report_every < 1) schema::out_of_range(*f, "report_every >= 1");
   }
   return o;
 }

@@ -107,9 +107,13 @@ struct NewtonOptions {
   TangentKind tangent = TangentKind::consistent;  ///< initial: factorise once per run
 };
 
+/// Adaptive Dynamic Relaxation (solver.adr.*, docs/theory/adr.md).
 struct AdrOptions {
-  double rtol = 1e-8;
-  long max_iterations = 100000;
+  double rtol = 1e-8;             ///< relative residual, the same measure as newton.rtol
+  long max_iterations = 100000;   ///< pseudo-time steps per load (sub)step
+  bool accept_on_budget = false;  ///< on_budget: accept keeps an unconverged state (the paper's fixed count)
+  double density_factor = 1.0;    ///< fictitious density = factor * 1/4 * sum_j |K_ij| (>= 1 is stable)
+  long report_every = 1000;       ///< progress line and residual sample interval [iterations]
 };
 
 /// Linear solver (key solver.linear) and its iterative settings (solver.krylov.*).

@@ -16,7 +16,9 @@
 
 #include "assembly/quasi_static.hpp"
 #include "core/clock.hpp"
+#include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
+#include "solvers/newton.hpp"
 
 using namespace peristat;
 

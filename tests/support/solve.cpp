@@ -11,13 +11,19 @@ std::unique_ptr<Solved> solve_scene(const std::string& yaml) {
   s->scene = scene_from_yaml(yaml);
   s->model = discretise(s->scene);
   s->problem = std::make_unique<QuasiStaticProblem>(s->model, s->scene);
-  auto linear = make_linear_solver(s->scene.solver.linear);
-  NewtonSolver newton(*s->problem, *linear, s->scene.solver.newton);
+  std::unique_ptr<LinearSolver> linear;
+  std::unique_ptr<StepSolver> solver;
+  if (s->scene.solver.type == "adr") {
+    solver = std::make_unique<AdrSolver>(*s->problem, s->scene.solver.adr);
+  } else {
+    linear = make_linear_solver(s->scene.solver.linear);
+    solver = std::make_unique<NewtonSolver>(*s->problem, *linear, s->scene.solver.newton);
+  }
   s->x = VectorXd::Zero(s->problem->n_unknowns());
   s->problem->set_load_factor(0.0);
   LoadSteppingCallbacks cb;
   cb.on_step = [&](const StepReport& r, const VectorXd&) { s->steps.push_back(r); };
-  s->run = run_load_steps(*s->problem, newton, s->x, s->scene.loading, cb);
+  s->run = run_load_steps(*s->problem, *solver, s->x, s->scene.loading, cb);
   // Newton's last evaluation was at the converged x, so the problem's state (stresses,
   // contact forces and pair states) is that of the solution. Evaluating again here would
   // see the committed slip and report slipping pairs as sticking at the limit.

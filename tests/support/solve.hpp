@@ -5,7 +5,10 @@
 #include <vector>
 
 #include "assembly/quasi_static.hpp"
+#include "solvers/adr.hpp"
+#include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
+#include "solvers/newton.hpp"
 
 namespace peristat::test {
 
@@ -19,7 +22,7 @@ struct Solved {
   RunReport run;
 };
 
-/// Parses, discretises and solves with the scene's own solver options.
+/// Parses, discretises and solves with the scene's own solver options (solver.type newton or adr).
 std::unique_ptr<Solved> solve_scene(const std::string& yaml);
 
 /// Least-squares affine fit u_c = a0 + a1 X + a2 Y of component c over the real particles

@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
+#include "solvers/newton.hpp"
 
 namespace peristat {
 namespace {

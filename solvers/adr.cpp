@@ -1,0 +1,103 @@
+#include "solvers/adr.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "core/clock.hpp"
+
+namespace peristat {
+
+AdrSolver::AdrSolver(Problem& problem, const AdrOptions& options) : m_problem(problem), m_options(options) {}
+
+void AdrSolver::prepare(const VectorXd& x) {
+  if (m_have_density && m_problem.tangent_constant()) return;
+  // Gershgorin: with Lambda_ii >= 1/4 sum_j |K_ij| every eigenvalue of Lambda^-1 K is at most
+  // 4, the stability limit of the central difference with unit time step (Kilic and Madenci).
+  if (m_K.size() == 0) m_K = m_problem.make_tangent();
+  m_problem.evaluate(x, m_r, &m_K);
+  const Index n = m_problem.n_unknowns();
+  VectorXd rows = VectorXd::Zero(n);
+  for (Index col = 0; col < m_K.outerSize(); ++col)
+    for (SparseMatrix::InnerIterator it(m_K, col); it; ++it) rows[it.row()] += std::abs(it.value());
+  m_problem.add_stiffness_bound(rows);
+  const double largest = rows.maxCoeff();
+  m_density = 0.25 * m_options.density_factor * rows.cwiseMax(1e-12 * largest);
+  m_have_density = true;
+}
+
+NewtonReport AdrSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
+  NewtonReport report;
+  const AdrOptions& o = m_options;
+  const Index n = x.size();
+  m_v.setZero(n);
+  m_r_old.resize(n);
+
+  double t0 = wall_seconds();
+  m_problem.evaluate(x, m_r, nullptr);
+  report.seconds_evaluate += wall_seconds() - t0;
+  const auto tolerance = [&] { return std::max(o.rtol * m_problem.force_scale(), 1e-300); };
+  const auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), 1e-300); };
+  double norm = m_r.norm();
+  report.residuals.push_back(relative(norm));
+  if (monitor) monitor(0, report.residuals.back(), 0.0);
+  if (norm <= tolerance()) {
+    report.converged = true;
+    report.reason = "converged";
+    return report;
+  }
+
+  // Central differences with unit time step, from rest: v^{1/2} = F^0 / (2 Lambda), then
+  // v^{n+1/2} = ((2 - c) v^{n-1/2} + 2 F^n / Lambda) / (2 + c), u^{n+1} = u^n + v^{n+1/2},
+  // with F = -r and c from the local Rayleigh quotient (docs/theory/adr.md).
+  m_v = -0.5 * m_r.cwiseQuotient(m_density);
+  x += m_v;
+  double c = 0.0;
+  for (long it = 1; it <= o.max_iterations; ++it) {
+    m_r_old.swap(m_r);
+    t0 = wall_seconds();
+    m_problem.evaluate(x, m_r, nullptr);
+    report.seconds_evaluate += wall_seconds() - t0;
+    report.iterations = static_cast<int>(std::min<long>(it, 2147483647L));
+    norm = m_r.norm();
+    const bool done = norm <= tolerance();
+    if (!std::isfinite(norm)) {
+      report.reason = "ADR diverged (non-finite residual) at iteration " + std::to_string(it);
+      return report;
+    }
+    if (done || it % o.report_every == 0 || it == o.max_iterations) {
+      report.residuals.push_back(relative(norm));
+      if (monitor) monitor(static_cast<int>(std::min<long>(it, 2147483647L)), report.residuals.back(), c);
+    }
+    if (done) {
+      report.converged = true;
+      report.reason = "converged";
+      return report;
+    }
+    if (it == o.max_iterations) break;
+    // Local stiffness K1_ii = (r_i^n - r_i^{n-1}) / (Lambda_ii v_i^{n-1/2}); damping
+    // c = 2 sqrt(u.K1 u / u.u), zero when the quotient is not positive.
+    double num = 0.0, den = 0.0;
+    for (Index i = 0; i < n; ++i) {
+      const double xi2 = x[i] * x[i];
+      den += xi2;
+      if (m_v[i] != 0.0) num += xi2 * (m_r[i] - m_r_old[i]) / (m_density[i] * m_v[i]);
+    }
+    c = (num > 0.0 && den > 0.0) ? std::min(2.0 * std::sqrt(num / den), 1.999) : 0.0;
+    for (Index i = 0; i < n; ++i) {
+      m_v[i] = ((2.0 - c) * m_v[i] - 2.0 * m_r[i] / m_density[i]) / (2.0 + c);
+      x[i] += m_v[i];
+    }
+  }
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "ADR budget of %ld iterations reached at relative residual %.3e (rtol %.1e)",
+                o.max_iterations, relative(norm), o.rtol);
+  report.reason = buf;
+  if (o.accept_on_budget) {
+    report.accepted_unconverged = true;
+    report.reason += "; state kept (on_budget: accept)";
+  }
+  return report;
+}
+
+}  // namespace peristat

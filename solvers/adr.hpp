@@ -1,0 +1,37 @@
+// Adaptive Dynamic Relaxation (Kilic and Madenci 2010), the explicit path the paper uses,
+// on the same Problem as Newton: the same residual (internal, contact and friction forces),
+// the same relative residual measure and tolerance semantics. Derivation and choices:
+// docs/theory/adr.md.
+#pragma once
+
+#include "scene/scene.hpp"
+#include "solvers/step_solver.hpp"
+
+namespace peristat {
+
+class AdrSolver final : public StepSolver {
+ public:
+  AdrSolver(Problem& problem, const AdrOptions& options);
+
+  /// Relaxes from x (at rest) to r(x) = 0 at the problem's current load factor.
+  NewtonReport solve(VectorXd& x, const NewtonMonitor& monitor = {}) override;
+  /// Computes the fictitious density at the converged state x when the tangent may have
+  /// changed (first call, or any call for a problem whose tangent is not constant).
+  void prepare(const VectorXd& x) override;
+  bool has_factor() const override { return m_have_density; }
+  void invalidate_factorization() override {}
+  bool cutback_helps() const override { return false; }
+
+  /// The fictitious density of the last prepare() (per unknown).
+  const VectorXd& density() const { return m_density; }
+
+ private:
+  Problem& m_problem;
+  AdrOptions m_options;
+  VectorXd m_density;
+  SparseMatrix m_K;  ///< tangent for the row sums (pattern kept across load steps)
+  bool m_have_density = false;
+  VectorXd m_r, m_r_old, m_v;  ///< reused across solves: no allocation per iteration
+};
+
+}  // namespace peristat

@@ -1,0 +1,55 @@
+// What load stepping needs of a nonlinear solver: solve r(x) = 0 at the problem's current
+// load factor from a converged start. Newton (solvers/newton.hpp) and Adaptive Dynamic
+// Relaxation (solvers/adr.hpp) implement it on the same Problem, hence the same kernels.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "assembly/problem.hpp"
+
+namespace peristat {
+
+/// Outcome of one solve at a fixed load factor.
+struct NewtonReport {
+  bool converged = false;
+  /// The iteration budget ran out and the options say to keep the state anyway (ADR's
+  /// `on_budget: accept`, the paper's fixed iteration count). Never set by Newton.
+  bool accepted_unconverged = false;
+  std::string reason;              ///< why it stopped (converged, max iterations, ...)
+  int iterations = 0;              ///< Newton: linear solves; ADR: pseudo-time steps
+  std::vector<double> residuals;   ///< relative residuals (Newton: every iterate; ADR: sampled)
+  std::vector<double> increments;  ///< Newton: ||dx|| / max(||x||, tiny) of each accepted update
+  int factorizations = 0;
+  int linear_iterations = 0;  ///< Krylov iterations, summed
+  /// Iterations after which the problem's discrete state (contact active set) differed
+  /// from that of the previous iterate.
+  int active_set_changes = 0;
+  double seconds_evaluate = 0.0;  ///< residual (+ tangent) assembly
+  double seconds_factorize = 0.0;
+  double seconds_solve = 0.0;
+};
+
+/// Called as a solve progresses: iteration, relative residual, and a solver-specific number
+/// (Newton: the line-search step length; ADR: the damping coefficient).
+using NewtonMonitor = std::function<void(int iteration, double relative_residual, double extra)>;
+
+class StepSolver {
+ public:
+  virtual ~StepSolver() = default;
+  /// Solves r(x) = 0 at the problem's current load factor, starting from x. On failure x
+  /// holds the last iterate (the caller restores its converged state).
+  virtual NewtonReport solve(VectorXd& x, const NewtonMonitor& monitor = {}) = 0;
+  /// Called with the converged state before the load factor moves on.
+  virtual void prepare(const VectorXd& /*x*/) {}
+  /// False when prepare() must be called before the next solve.
+  virtual bool has_factor() const { return true; }
+  /// Forget state tied to a failed attempt.
+  virtual void invalidate_factorization() {}
+  /// Whether a smaller load increment can rescue a failed solve. ADR fails by running out
+  /// of its iteration budget, which a smaller increment does not change much.
+  virtual bool cutback_helps() const { return true; }
+};
+
+}  // namespace peristat
