@@ -2,13 +2,22 @@
 
 #include <Eigen/Dense>
 
+#include "core/clock.hpp"
 #include "support/scenes.hpp"
 
 namespace peristat::test {
 
-std::unique_ptr<Solved> solve_scene(const std::string& yaml) {
+std::unique_ptr<Solved> solve_scene(const std::string& yaml) { return solve_parsed(scene_from_yaml(yaml)); }
+
+std::unique_ptr<Solved> solve_case(const std::string& name, const std::vector<std::string>& overrides) {
+  std::vector<Override> o;
+  for (const std::string& a : overrides) o.push_back(parse_override(a));
+  return solve_parsed(parse_scene(std::string(PERISTAT_SOURCE_DIR) + "/cases/" + name + "/scene.yaml", o));
+}
+
+std::unique_ptr<Solved> solve_parsed(Scene scene) {
   auto s = std::make_unique<Solved>();
-  s->scene = scene_from_yaml(yaml);
+  s->scene = std::move(scene);
   s->model = discretise(s->scene);
   s->problem = std::make_unique<QuasiStaticProblem>(s->model, s->scene);
   std::unique_ptr<LinearSolver> linear;
@@ -23,8 +32,10 @@ std::unique_ptr<Solved> solve_scene(const std::string& yaml) {
   s->problem->set_load_factor(0.0);
   LoadSteppingCallbacks cb;
   cb.on_step = [&](const StepReport& r, const VectorXd&) { s->steps.push_back(r); };
+  const double t0 = wall_seconds();
   s->run = run_load_steps(*s->problem, *solver, s->x, s->scene.loading, cb);
-  // Newton's last evaluation was at the converged x, so the problem's state (stresses,
+  s->seconds = wall_seconds() - t0;
+  // The solver's last evaluation was at the converged x, so the problem's state (stresses,
   // contact forces and pair states) is that of the solution. Evaluating again here would
   // see the committed slip and report slipping pairs as sticking at the limit.
   s->problem->expand(s->x, s->u);

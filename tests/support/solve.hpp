@@ -20,10 +20,20 @@ struct Solved {
   VectorXd u;  ///< full displacement (2N)
   std::vector<StepReport> steps;
   RunReport run;
+  double seconds = 0.0;  ///< wall time of the load steps
+  long iterations() const {
+    long n = 0;
+    for (const StepReport& r : steps) n += r.newton_iterations;
+    return n;
+  }
 };
 
 /// Parses, discretises and solves with the scene's own solver options (solver.type newton or adr).
 std::unique_ptr<Solved> solve_scene(const std::string& yaml);
+/// The same for a parsed scene (e.g. a case file with --set overrides).
+std::unique_ptr<Solved> solve_parsed(Scene scene);
+/// A case of cases/<name>/scene.yaml with `--set` style overrides ("key=value").
+std::unique_ptr<Solved> solve_case(const std::string& name, const std::vector<std::string>& overrides);
 
 /// Least-squares affine fit u_c = a0 + a1 X + a2 Y of component c over the real particles
 /// whose reference position lies in [lo, hi]; returns (a0, a1, a2).
