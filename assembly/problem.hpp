@@ -55,6 +55,11 @@ class Problem {
   /// not yet in contact). ADR's fictitious density covers them.
   virtual void add_stiffness_bound(VectorXd& /*row_sums*/) const {}
 
+  /// True when evaluate() depends on a pseudo-velocity (the paper's velocity-sign friction).
+  virtual bool wants_velocity() const { return false; }
+  /// The pseudo-velocity of the unknowns for the next evaluate() (ADR only).
+  virtual void set_velocity(const VectorXd& /*v*/) {}
+
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;
 };

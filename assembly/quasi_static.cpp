@@ -336,4 +336,12 @@ void QuasiStaticProblem::add_stiffness_bound(VectorXd& row_sums) const {
   }
 }
 
+void QuasiStaticProblem::set_velocity(const VectorXd& v) {
+  if (!wants_velocity()) return;
+  const std::vector<Index>& free = m_model.constraints.free_index;
+  m_velocity.resize(static_cast<Index>(free.size()));
+  for (std::size_t c = 0; c < free.size(); ++c) m_velocity[c] = free[c] >= 0 ? v[free[c]] : 0.0;
+  m_contact->set_velocity(m_velocity);
+}
+
 }  // namespace peristat

@@ -40,6 +40,9 @@ class QuasiStaticProblem final : public Problem {
   /// Every candidate pair, whatever its state: 4 x ContactSystem::stiffness_bound on the two
   /// components of both particles (a 2 x 2 block appears twice in a row, +J and -J).
   void add_stiffness_bound(VectorXd& row_sums) const override;
+  bool wants_velocity() const override { return m_contact && m_contact->wants_velocity(); }
+  /// Expands v (unknowns) to all components, zero on prescribed ones, for the contact pairs.
+  void set_velocity(const VectorXd& v) override;
 
   /// Full displacement (2N, interleaved) of x at the current load factor.
   void expand(const VectorXd& x, VectorXd& u) const;
@@ -81,6 +84,7 @@ class QuasiStaticProblem final : public Problem {
 
   // State of the last evaluate.
   VectorXd m_u, m_force;
+  VectorXd m_velocity;  ///< full pseudo-velocity (velocity-sign friction only)
   double m_force_scale = 0.0, m_energy = 0.0;
   std::vector<Vec2> m_eta, m_direction, m_s;  ///< per bond
   std::vector<double> m_t;                    ///< per bond

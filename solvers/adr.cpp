@@ -32,6 +32,8 @@ NewtonReport AdrSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
   const Index n = x.size();
   m_v.setZero(n);
   m_r_old.resize(n);
+  const bool velocity = m_problem.wants_velocity();
+  if (velocity) m_problem.set_velocity(m_v);
 
   double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, nullptr);
@@ -55,6 +57,7 @@ NewtonReport AdrSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
   double c = 0.0;
   for (long it = 1; it <= o.max_iterations; ++it) {
     m_r_old.swap(m_r);
+    if (velocity) m_problem.set_velocity(m_v);
     t0 = wall_seconds();
     m_problem.evaluate(x, m_r, nullptr);
     report.seconds_evaluate += wall_seconds() - t0;

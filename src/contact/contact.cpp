@@ -9,7 +9,7 @@
 namespace peristat {
 
 PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip, const ContactLaw& law,
-                        bool want_jacobian) {
+                        bool want_jacobian, double tangential_velocity) {
   PairResult out;
   const Vec2 Y = X + du;
   const double r = Y.norm();
@@ -56,7 +56,15 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
 
   // Coulomb friction along t by a return map on w - w_p (eq 14).
   out.status = PairStatus::slip;  // frictionless pairs slide freely
-  if (law.friction > 0.0) {
+  if (law.friction > 0.0 && law.velocity_sign) {
+    // Eq 13: f_c F_n opposing the relative tangential velocity; none while it is zero.
+    const Vec2 t(-n.y(), n.x());
+    const double sign = tangential_velocity > 0.0 ? 1.0 : (tangential_velocity < 0.0 ? -1.0 : 0.0);
+    out.status = sign == 0.0 ? PairStatus::stick : PairStatus::slip;
+    out.tangential = sign * law.friction * F;
+    if (want_jacobian) out.J += (sign * law.friction) * t * dF.transpose();
+    out.g += out.tangential * t;
+  } else if (law.friction > 0.0) {
     const Vec2 t(-n.y(), n.x());
     const double kt = law.tangential_factor * C / a;
     const double trial = kt * (t.dot(du) - slip);
@@ -155,6 +163,7 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
   m_law.gate = o.gate;
   m_law.friction = o.friction;
   m_law.tangential_factor = o.tangential_factor;
+  m_law.velocity_sign = o.velocity_sign && o.friction > 0.0;
 
   const Particles& p = model.particles;
   const Index n = p.size();
@@ -254,7 +263,8 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
                 m_pairs.end());
   const Index np = size();
   m_result.assign(np, PairResult{});
-  if (m_law.friction > 0.0) m_slip.assign(np, 0.0);
+  if (m_law.friction > 0.0 && !m_law.velocity_sign) m_slip.assign(np, 0.0);
+  if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
   m_counts.candidates = np;
   m_counts.open = np;
 
@@ -282,7 +292,7 @@ void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
     const ContactPair& c = m_pairs[k];
     const Vec2 du(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
     m_result[k] = contact_pair(c, p.position[c.j] - p.position[c.i], du, friction ? m_slip[k] : 0.0, m_law,
-                               want_jacobian);
+                               want_jacobian, m_law.velocity_sign ? m_tangential_velocity[k] : 0.0);
   }
   ContactCounts counts;
   counts.candidates = np;
@@ -343,6 +353,16 @@ double ContactSystem::stiffness_bound(Index k) const {
   if (m_law.friction > 0.0) b += m_law.tangential_factor * c.stiffness / c.gap0;
   if (m_law.normal == NormalLaw::paper && m_law.gate > 0.0) b += c.stiffness / (m_law.gate * m_law.radius);
   return b;
+}
+
+void ContactSystem::set_velocity(const VectorXd& v) {
+  if (!m_law.velocity_sign) return;
+  const Index np = size();
+  for (Index k = 0; k < np; ++k) {
+    const ContactPair& c = m_pairs[k];
+    const Vec2 t(-c.normal.y(), c.normal.x());
+    m_tangential_velocity[k] = t.dot(Vec2(v[2 * c.j] - v[2 * c.i], v[2 * c.j + 1] - v[2 * c.i + 1]));
+  }
 }
 
 void ContactSystem::commit(const VectorXd& u) {

@@ -36,6 +36,9 @@ struct ContactLaw {
   double gate = 0.0;               ///< switch-on ramp width as a fraction of delta_c
   double friction = 0.0;           ///< f_c
   double tangential_factor = 1.0;  ///< k_t = tangential_factor * C / a
+  /// The paper's eq 13: friction f_c F_n against the sign of the relative tangential
+  /// pseudo-velocity (ADR only) instead of the return map.
+  bool velocity_sign = false;
 };
 
 /// Output of the pair kernel. g is the pair's internal force dPi/d(u_j - u_i): the force on
@@ -48,9 +51,10 @@ struct PairResult {
   Mat2 J = Mat2::Zero();
 };
 
-/// The pair kernel. `du` = u_j - u_i, `slip` = committed plastic slip w_p of the pair.
+/// The pair kernel. `du` = u_j - u_i, `slip` = committed plastic slip w_p of the pair;
+/// `tangential_velocity` = t . (v_j - v_i), read only by the velocity-sign law.
 PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip, const ContactLaw& law,
-                        bool want_jacobian);
+                        bool want_jacobian, double tangential_velocity = 0.0);
 
 /// Counts of the last evaluation.
 struct ContactCounts {
@@ -76,6 +80,9 @@ class ContactSystem {
   void contact_force(VectorXd& out) const;
   /// Accepts the last evaluation as converged: slip history is updated.
   void commit(const VectorXd& u);
+  /// Velocity-sign law only: the full pseudo-velocity (2N) that the next evaluations use.
+  void set_velocity(const VectorXd& v);
+  bool wants_velocity() const { return m_law.velocity_sign; }
 
   /// Pairs touching particle p: (pair index, +1 if p is j, -1 if p is i), from the CSR
   /// `pairs_of(p)`: entries m_incident[m_incident_start[p] .. m_incident_start[p+1]).
@@ -109,6 +116,7 @@ class ContactSystem {
   ContactLaw m_law;
   std::vector<ContactPair> m_pairs;
   std::vector<double> m_slip;  ///< committed w_p per pair (empty without friction)
+  std::vector<double> m_tangential_velocity;  ///< per pair, velocity-sign law only
   std::vector<PairResult> m_result;
   std::vector<Index> m_incident_start;
   std::vector<Incidence> m_incident;

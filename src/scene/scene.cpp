@@ -286,7 +286,7 @@ ContactInterface read_interface(const Field& field, const std::vector<ParsedBody
 /// The section is present, so contact is on unless it says `enabled: false`.
 ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& bodies) {
   const Map m = checked_map(field, {"enabled", "friction", "radius_factor", "normal", "stiffness",
-                                    "tangential_factor", "gate", "cracks", "interfaces"});
+                                    "tangential_factor", "gate", "cracks", "interfaces", "friction_law"});
   ContactOptions c;
   c.enabled = true;
   if (auto f = m.find("enabled")) c.enabled = schema::boolean(*f);
@@ -300,6 +300,10 @@ ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& b
     if (!(c.gate >= 0.0 && c.gate < 1.0)) schema::out_of_range(*f, "0 <= gate < 1");
   }
   if (auto f = m.find("cracks")) c.cracks = schema::boolean(*f);
+  if (auto f = m.find("friction_law")) {
+    c.velocity_sign = schema::choice(*f, {"return_map", "velocity_sign"}) == "velocity_sign";
+    c.friction_law_where = f->where();
+  }
   if (auto f = m.find("interfaces"))
     for (const Field& item : schema::list(*f)) c.interfaces.push_back(read_interface(item, bodies));
   c.where = field.where();
@@ -411,6 +415,11 @@ void read_sections(const Map& top, Scene& scene) {
   if (auto f = top.find("loading")) scene.loading = read_loading(*f);
   if (auto f = top.find("solver")) scene.solver = read_solver(*f);
   if (auto f = top.find("output")) scene.output = read_output(*f);
+  if (scene.contact.enabled && scene.contact.velocity_sign && scene.solver.type != "adr") {
+    throw InputError(scene.contact.friction_law_where,
+                     "friction_law: velocity_sign needs solver.type: adr (a static Newton solve has no "
+                     "velocity; it uses the return map, docs/theory/contact.md)");
+  }
 }
 
 Scene read_scene(const Field& root) {

@@ -166,6 +166,10 @@ struct ContactOptions {
   double gate = 0.1;
   bool cracks = true;  ///< pre-crack faces are contact candidates
   std::vector<ContactInterface> interfaces;
+  /// friction_law: return_map (default; Newton and ADR) or velocity_sign (the paper's eq 13:
+  /// f_c F_n against the sign of the pseudo-velocity; ADR only).
+  bool velocity_sign = false;
+  SourceLocation friction_law_where;
   SourceLocation where;
 };
 
