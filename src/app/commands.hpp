@@ -2,6 +2,7 @@
 // errors propagate as InputError and are turned into exit code 2 by main().
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -28,5 +29,16 @@ struct ProbeArguments {
   int points = 101;
 };
 int probe_command(const ProbeArguments& args);
+
+struct CompareArguments {
+  std::string a;              ///< results file compared
+  std::string b;              ///< reference results file
+  std::optional<int> step;    ///< --step K: step K of both; default the last step of each
+  std::optional<double> tol;  ///< --tol T: exit code exit_tolerance_exceeded above T
+  bool json = false;          ///< --json: one JSON object instead of text
+};
+/// `compare` exits with this code when the overall relative L2 difference exceeds --tol.
+inline constexpr int exit_tolerance_exceeded = 1;
+int compare_command(const CompareArguments& args);
 
 }  // namespace peristat

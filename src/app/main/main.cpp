@@ -1,5 +1,6 @@
 // peristat: quasi-static peridynamics with frictional contact. Exit codes: 0 success,
-// 1 internal error, 2 bad input or usage, 3 no convergence (DESIGN.md section 3).
+// 1 internal error (for compare: the difference exceeds --tol), 2 bad input or usage,
+// 3 no convergence (DESIGN.md section 3).
 #include <cstdio>
 #include <exception>
 
@@ -41,6 +42,19 @@ int main(int argc, char** argv) {
   probe_cmd->add_option("--step", probe.step, "step number (default: last)");
   probe_cmd->add_option("--points", probe.points, "number of samples (default 101)");
 
+  CompareArguments compare;
+  int compare_step = 0;
+  double compare_tol = 0.0;
+  CLI::App* compare_cmd =
+      app.add_subcommand("compare", "displacement difference of A against the reference B (same particles)");
+  compare_cmd->add_option("a", compare.a, "results file (.h5)")->required();
+  compare_cmd->add_option("b", compare.b, "reference results file (.h5)")->required();
+  CLI::Option* compare_step_opt =
+      compare_cmd->add_option("--step", compare_step, "step K of both files (default: the last of each)");
+  CLI::Option* compare_tol_opt =
+      compare_cmd->add_option("--tol", compare_tol, "exit code 1 when the relative L2 difference exceeds T");
+  compare_cmd->add_flag("--json", compare.json, "print one JSON object");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -56,6 +70,11 @@ int main(int argc, char** argv) {
       probe.x1 = line[2];
       probe.y1 = line[3];
       return probe_command(probe);
+    }
+    if (*compare_cmd) {
+      if (compare_step_opt->count() > 0) compare.step = compare_step;
+      if (compare_tol_opt->count() > 0) compare.tol = compare_tol;
+      return compare_command(compare);
     }
   } catch (const InputError& e) {
     std::fprintf(stderr, "peristat: error: %s\n", e.what());
