@@ -1,0 +1,52 @@
+#include "materials/failure.hpp"
+
+#include <cmath>
+#include <numbers>
+
+namespace peristat {
+
+double critical_stretch(double G_c, double kappa, double mu, double delta) {
+  const double pi = std::numbers::pi;
+  return std::sqrt(G_c / ((6.0 * mu / pi + 16.0 * (kappa - 2.0 * mu) / (9.0 * pi * pi)) * delta));
+}
+
+double critical_skew(double G_c, double mu, double delta) {
+  return std::sqrt(75.0 * std::numbers::pi * G_c / (64.0 * mu * delta));
+}
+
+double bond_stretch(const Vec2& xi, const Vec2& eta) { return (xi + eta).norm() / xi.norm() - 1.0; }
+
+Index reference_bond(std::span<const Vec2> xi, const Vec2& direction) {
+  const Vec2 d = direction.normalized();
+  Index best = -1;
+  double best_cos = -1.0, best_len = 0.0;
+  for (std::size_t b = 0; b < xi.size(); ++b) {
+    const double len = xi[b].norm();
+    const double c = std::abs(xi[b].dot(d)) / len;
+    // Directions on a lattice repeat exactly; compare with a tolerance so that the
+    // shortest of parallel bonds wins.
+    if (c > best_cos + 1e-12 || (std::abs(c - best_cos) <= 1e-12 && len < best_len)) {
+      best = static_cast<Index>(b);
+      best_cos = c;
+      best_len = len;
+    }
+  }
+  return best;
+}
+
+void bond_skews(std::span<const Vec2> xi, std::span<const Vec2> eta, Index r, std::span<double> gamma) {
+  const Vec2& x0 = xi[r];
+  const Vec2 y0 = x0 + eta[r];
+  // R: the rotation taking x0's direction to y0's (eqs 20-21).
+  const double beta = std::atan2(y0.y(), y0.x()) - std::atan2(x0.y(), x0.x());
+  const double c = std::cos(beta), s = std::sin(beta);
+  const Vec2 e1 = x0.normalized(), e2(-e1.y(), e1.x());
+  for (std::size_t b = 0; b < xi.size(); ++b) {
+    const Vec2 y = xi[b] + eta[b];
+    const Vec2 back(c * y.x() + s * y.y(), -s * y.x() + c * y.y());  // R^T y (eq 23)
+    const double across = xi[b].dot(e2);
+    gamma[b] = std::abs(across) < 1e-9 * xi[b].norm() ? 0.0 : std::abs((back - xi[b]).dot(e1) / across);
+  }
+}
+
+}  // namespace peristat

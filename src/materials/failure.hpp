@@ -1,0 +1,35 @@
+// Bond failure criteria of issue 5 (paper section 4.4, eqs 19-23; docs/theory/failure.md):
+// critical stretch from the critical energy release rate, and the critical bond skew of
+// Zhang and Qiao (2019) for shear-driven cracks. Pure functions of one family's bonds; the
+// quasi-static breaking loop that uses them is not built yet.
+#pragma once
+
+#include <span>
+
+#include "core/types.hpp"
+
+namespace peristat {
+
+/// Critical stretch of 2D (plane) ordinary state-based peridynamics, Madenci and Oterkus
+/// (2014): s_c = sqrt(G_c / ((6 mu / pi + 16 (kappa - 2 mu) / (9 pi^2)) delta)), with kappa
+/// the 2D bulk modulus and mu the shear modulus.
+double critical_stretch(double G_c, double kappa, double mu, double delta);
+
+/// Critical skew, paper eq 19 (Zhang and Qiao 2019): gamma_c = sqrt(75 pi G_c / (64 mu delta)).
+double critical_skew(double G_c, double mu, double delta);
+
+/// Stretch |xi + eta| / |xi| - 1 of a bond.
+double bond_stretch(const Vec2& xi, const Vec2& eta);
+
+/// The reference bond of a family for the skew: the bond whose direction is closest to
+/// `direction` (either sense), the shortest among equally close ones; -1 for an empty family.
+Index reference_bond(std::span<const Vec2> xi, const Vec2& direction);
+
+/// Skew of every bond of a family (paper eqs 20-23): R rotates the reference bond r from its
+/// reference to its current direction; each bond's current vector rotated back,
+/// xi' = R^T (xi + eta), gives gamma = |(xi' - xi) . e1 / (xi . e2)| with e1 along xi_r.
+/// Bonds (nearly) parallel to e1 (|xi . e2| < 1e-9 |xi|) have no skew and get 0.
+/// A rigid rotation gives 0 for every bond; simple shear u = g (X . e2) e1 gives g.
+void bond_skews(std::span<const Vec2> xi, std::span<const Vec2> eta, Index r, std::span<double> gamma);
+
+}  // namespace peristat

@@ -1,0 +1,96 @@
+// Failure criteria on single families (issue 5): the critical values of the paper's case
+// 4.4, the skew of a rigid rotation (zero) and of a simple shear (its amount), and the
+// stretch of single bonds either side of the threshold.
+#include <cmath>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "discretisation/model.hpp"
+#include "materials/failure.hpp"
+
+namespace peristat {
+namespace {
+
+// Case 4.4: E = 10 GPa, nu = 0.3, G_c = 50 kJ/m^2, delta = 0.06 m. Reference values computed
+// by hand from the formulas (python, double precision): mu = 3.846e9 Pa, plane-stress
+// kappa = E / (2 (1 - nu)) = 7.143e9 Pa.
+TEST(FailureCriteria, CriticalValuesOfCase44) {
+  const double E = 10e9, nu = 0.3, mu = E / (2 * (1 + nu)), kappa = E / (2 * (1 - nu));
+  EXPECT_NEAR(critical_skew(5e4, mu, 0.06), 0.028243052414718445, 1e-15);
+  EXPECT_NEAR(critical_stretch(5e4, kappa, mu, 0.06), 0.010723608982040467, 1e-15);
+}
+
+std::vector<Vec2> family(double dx) {
+  const Stencil st = make_stencil(3.0, dx, Quadrature::isotropic);
+  std::vector<Vec2> xi;
+  for (const auto& o : st.offset) xi.emplace_back(o[0] * dx, o[1] * dx);
+  return xi;
+}
+
+Mat2 rotation(double a) { return (Mat2() << std::cos(a), -std::sin(a), std::sin(a), std::cos(a)).finished(); }
+
+TEST(FailureCriteria, ReferenceBondIsTheShortestAlongTheDirection) {
+  const std::vector<Vec2> xi = family(1.0);
+  const Index r = reference_bond(xi, Vec2(1.0, 1.0));
+  ASSERT_GE(r, 0);
+  EXPECT_NEAR(std::abs(xi[r].x()), 1.0, 1e-15);  // the diagonal neighbour (+-1, +-1)
+  EXPECT_NEAR(xi[r].x(), xi[r].y(), 1e-15);
+}
+
+// A rigid rotation by 0.3 rad: every bond's skew vanishes (round-off: 1e-12).
+TEST(FailureCriteria, RigidRotationHasNoSkew) {
+  const std::vector<Vec2> xi = family(0.02);
+  const Mat2 Q = rotation(0.3);
+  std::vector<Vec2> eta;
+  for (const Vec2& x : xi) eta.push_back(Q * x - x);
+  std::vector<double> gamma(xi.size());
+  const Index r = reference_bond(xi, Vec2(1.0, 1.0));
+  bond_skews(xi, eta, r, gamma);
+  for (double g : gamma) EXPECT_LT(g, 1e-12);
+}
+
+// Simple shear of amount g along the reference direction (45 degrees), then a rigid
+// rotation: every bond not parallel to e1 has skew g (to 1e-9 relative), the parallel ones 0.
+TEST(FailureCriteria, SimpleShearGivesItsAmount) {
+  const std::vector<Vec2> xi = family(0.02);
+  const Vec2 e1 = Vec2(1.0, 1.0).normalized(), e2(-e1.y(), e1.x());
+  const double g = 2e-3;
+  const Mat2 Q = rotation(-0.2);
+  std::vector<Vec2> eta;
+  for (const Vec2& x : xi) eta.push_back(Q * (x + g * x.dot(e2) * e1) - x);
+  std::vector<double> gamma(xi.size());
+  bond_skews(xi, eta, reference_bond(xi, e1), gamma);
+  int parallel = 0;
+  for (std::size_t b = 0; b < xi.size(); ++b) {
+    if (std::abs(xi[b].dot(e2)) < 1e-9 * xi[b].norm()) {
+      EXPECT_EQ(gamma[b], 0.0);
+      ++parallel;
+    } else {
+      EXPECT_NEAR(gamma[b] / g, 1.0, 1e-9) << "bond " << b;
+    }
+  }
+  EXPECT_EQ(parallel, 4);  // (1,1), (2,2) and their opposites lie within 3 dx
+}
+
+// Single bonds below, at and above the critical stretch of case 4.4: the stretch the
+// criterion compares with s_c is exact to round-off, so a bond at 0.999 s_c stays below,
+// at s_c reads s_c (1e-12) and at 1.001 s_c is above.
+TEST(FailureCriteria, StretchEitherSideOfTheThreshold) {
+  const double E = 10e9, nu = 0.3, mu = E / (2 * (1 + nu)), kappa = E / (2 * (1 - nu));
+  const double sc = critical_stretch(5e4, kappa, mu, 0.06);
+  const Vec2 xi(0.02, 0.04);
+  for (double f : {0.999, 1.0, 1.001}) {
+    const double s = bond_stretch(xi, f * sc * xi);
+    if (f < 1.0) {
+      EXPECT_LT(s, sc);
+    } else if (f > 1.0) {
+      EXPECT_GT(s, sc);
+    } else {
+      EXPECT_NEAR(s / sc, 1.0, 1e-12);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace peristat
