@@ -122,7 +122,7 @@ solver:
   krylov: {rtol: 1.0e-8, max_iterations: 500, preconditioner: bond}
   newton: {rtol: 1.0e-9, atol: 1.0e-12, stol: 1.0e-7, max_iterations: 40,
            line_search: false, line_search_max: 3, tangent: initial}
-  adr: {rtol: 1.0e-7, max_iterations: 5000}
+  adr: {rtol: 1.0e-7, max_iterations: 5000, on_budget: accept, density_factor: 1.5, report_every: 250}
 output:
   every: 2
 )";
@@ -218,6 +218,9 @@ void expect_full_scene(const Scene& s) {
   EXPECT_EQ(s.solver.newton.tangent, TangentKind::initial);
   EXPECT_EQ(s.solver.adr.rtol, 1.0e-7);
   EXPECT_EQ(s.solver.adr.max_iterations, 5000);
+  EXPECT_TRUE(s.solver.adr.accept_on_budget);
+  EXPECT_EQ(s.solver.adr.density_factor, 1.5);
+  EXPECT_EQ(s.solver.adr.report_every, 250);
   EXPECT_EQ(s.output.every, 2);
 }
 
@@ -424,6 +427,10 @@ TEST(SceneErrors, SolverAndLoadingRanges) {
                "expected atol >= 0");
   expect_error(k_minimal + "solver:\n  adr: {max_iterations: 0}\n",
                "scene.yaml:22: solver.adr.max_iterations", "expected max_iterations >= 1");
+  expect_error(k_minimal + "solver:\n  adr: {density_factor: 0.5}\n", "scene.yaml:22: solver.adr.density_factor",
+               "density_factor >= 1");
+  expect_error(k_minimal + "solver:\n  adr: {on_budget: keep}\n", "scene.yaml:22: solver.adr.on_budget",
+               "fail, accept");
   expect_error(k_minimal + "output: {every: 0}\n", "scene.yaml:21: output.every", "expected every >= 1");
 }
 
