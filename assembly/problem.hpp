@@ -60,6 +60,11 @@ class Problem {
   /// The pseudo-velocity of the unknowns for the next evaluate() (ADR only).
   virtual void set_velocity(const VectorXd& /*v*/) {}
 
+  /// Checks the failure criterion at the converged, committed state x and breaks the bonds
+  /// over it (all, or the most critical fraction). Returns the number of bonds broken
+  /// (each pair counted once); 0 for a problem without failure. Broken bonds never heal.
+  virtual Index break_bonds(const VectorXd& /*x*/) { return 0; }
+
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;
 };

@@ -2,7 +2,11 @@
 
 #include <omp.h>
 
+#include <algorithm>
+#include <cmath>
+
 #include "core/clock.hpp"
+#include "materials/failure.hpp"
 
 namespace peristat {
 
@@ -44,6 +48,27 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
   m_beta_volume.assign(n, 0.0);
   m_u = VectorXd::Zero(2 * n);
   m_force = VectorXd::Zero(2 * n);
+  m_weight = bonds.weight;
+  m_failure = scene.failure;
+  if (m_failure.enabled) {
+    const double delta = model.horizon;
+    for (const Body& body : scene.bodies) {
+      const Material& mat = scene.materials.at(body.material);
+      const double mu = mat.E / (2.0 * (1.0 + mat.nu)), kappa = mat.E / (2.0 * (1.0 - mat.nu));
+      m_critical.push_back(m_failure.criterion == FailureCriterion::skew
+                               ? critical_skew(m_failure.G_c, mu, delta)
+                               : critical_stretch(m_failure.G_c, kappa, mu, delta));
+    }
+    if (m_failure.criterion == FailureCriterion::skew) {
+      m_reference_bond.assign(n, -1);
+      for (Index i = 0; i < n; ++i) {
+        const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+        const Index r = reference_bond(std::span(bonds.xi).subspan(b0, nb), m_failure.direction);
+        if (r >= 0) m_reference_bond[i] = b0 + r;
+      }
+    }
+    m_ratio.assign(nbonds, 0.0);
+  }
 }
 
 void QuasiStaticProblem::set_load_factor(double lambda) {
@@ -103,6 +128,15 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   if (K) gather_tangent(*K);
 }
 
+void QuasiStaticProblem::family_displacements(Index i) {
+  const Bonds& bonds = m_model.bonds;
+  const Vec2 ui(m_u[2 * i], m_u[2 * i + 1]);
+  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
+    const Index j = bonds.neighbour[b];
+    m_eta[b] = Vec2(m_u[2 * j], m_u[2 * j + 1]) - ui;
+  }
+}
+
 void QuasiStaticProblem::compute_families(bool want_tangent) {
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
@@ -111,16 +145,12 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
 #pragma omp parallel for schedule(static) reduction(+ : energy)
   for (Index i = 0; i < n; ++i) {
     const Index b0 = bonds.start[i], nb = bonds.family_size(i);
-    const Vec2 ui(m_u[2 * i], m_u[2 * i + 1]);
-    for (Index b = b0; b < b0 + nb; ++b) {
-      const Index j = bonds.neighbour[b];
-      m_eta[b] = Vec2(m_u[2 * j], m_u[2 * j + 1]) - ui;
-    }
+    family_displacements(i);
     const FamilyOutputs out{std::span(m_t).subspan(b0, nb), std::span(m_direction).subspan(b0, nb),
                             std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
     const FamilyResult res = osb_family(
         m_body_constants[p.body[i]], m_weighted_volume[i], std::span(bonds.xi).subspan(b0, nb),
-        std::span(bonds.weight).subspan(b0, nb), std::span(m_eta).subspan(b0, nb), out, want_tangent);
+        std::span(m_weight).subspan(b0, nb), std::span(m_eta).subspan(b0, nb), out, want_tangent);
     energy += p.volume[i] * res.energy_density;
     if (want_tangent) {
       Vec2 s = Vec2::Zero();
@@ -307,7 +337,7 @@ void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
         if (bonds.xi[b].squaredNorm() > r2) continue;
         const Index j = bonds.neighbour[b], r = bonds.reverse[b];
-        const double k = m_bond_alpha_volume[p] * bonds.weight[b] + m_bond_alpha_volume[j] * bonds.weight[r];
+        const double k = m_bond_alpha_volume[p] * m_weight[b] + m_bond_alpha_volume[j] * m_weight[r];
         const Vec2& M = m_direction[b];
         col.add_outer(p, k, M, M);
         col.add_outer(j, -k, M, M);
@@ -342,6 +372,63 @@ void QuasiStaticProblem::set_velocity(const VectorXd& v) {
   m_velocity.resize(static_cast<Index>(free.size()));
   for (std::size_t c = 0; c < free.size(); ++c) m_velocity[c] = free[c] >= 0 ? v[free[c]] : 0.0;
   m_contact->set_velocity(m_velocity);
+}
+
+Index QuasiStaticProblem::break_bonds(const VectorXd& x) {
+  if (!m_failure.enabled) return 0;
+  expand(x, m_u);
+  const Bonds& bonds = m_model.bonds;
+  const Particles& p = m_model.particles;
+  const Index n = p.size();
+  const bool skew = m_failure.criterion == FailureCriterion::skew;
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < n; ++i) {
+    const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+    family_displacements(i);
+    const double critical = m_critical[p.body[i]];
+    if (skew) {
+      if (m_reference_bond[i] < 0) continue;
+      bond_skews(std::span(bonds.xi).subspan(b0, nb), std::span(m_eta).subspan(b0, nb),
+                 m_reference_bond[i] - b0, std::span(m_ratio).subspan(b0, nb));
+      for (Index b = b0; b < b0 + nb; ++b) m_ratio[b] /= critical;
+    } else {
+      for (Index b = b0; b < b0 + nb; ++b) m_ratio[b] = bond_stretch(bonds.xi[b], m_eta[b]) / critical;
+    }
+  }
+  // Candidates: intact pairs (b < reverse) whose larger ratio of the two directions exceeds 1.
+  std::vector<std::pair<double, Index>> over;
+  for (Index b = 0; b < bonds.n_bonds(); ++b) {
+    const Index r = bonds.reverse[b];
+    if (b > r || m_weight[b] == 0.0) continue;
+    if (p.fictitious[bonds.neighbour[b]] && p.fictitious[bonds.neighbour[r]]) continue;
+    const double ratio = std::max(m_ratio[b], m_ratio[r]);
+    if (ratio > 1.0) over.emplace_back(ratio, b);
+  }
+  if (over.empty()) return 0;
+  std::sort(over.begin(), over.end(), std::greater<>());
+  const auto count = std::max<std::size_t>(
+      1, static_cast<std::size_t>(std::ceil(m_failure.fraction * static_cast<double>(over.size()))));
+  for (std::size_t k = 0; k < count; ++k) {
+    const Index b = over[k].second;
+    m_weight[b] = 0.0;
+    m_weight[bonds.reverse[b]] = 0.0;
+  }
+  m_broken += static_cast<Index>(count);
+  return static_cast<Index>(count);
+}
+
+void QuasiStaticProblem::damage(VectorXd& d) const {
+  const Bonds& bonds = m_model.bonds;
+  const Index n = m_model.particles.size();
+  d.resize(n);
+  for (Index i = 0; i < n; ++i) {
+    double all = 0.0, intact = 0.0;
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
+      all += bonds.weight[b];
+      intact += m_weight[b];
+    }
+    d[i] = all > 0.0 ? 1.0 - intact / all : 0.0;
+  }
 }
 
 }  // namespace peristat

@@ -28,7 +28,7 @@ class QuasiStaticProblem final : public Problem {
   SparseMatrix make_tangent() const override;
   /// False while a pair slips with friction (the Jacobian of eq 14 is not symmetric).
   bool tangent_symmetric() const override { return !m_contact || m_contact->symmetric(); }
-  bool tangent_constant() const override { return m_linear && !m_contact; }
+  bool tangent_constant() const override { return m_linear && !m_contact && !m_failure.enabled; }
   std::uint64_t state_signature() const override { return m_contact ? m_contact->signature() : 0; }
   /// The bond-based part of the tangent restricted to bonds shorter than
   /// solver.krylov.bond_radius * dx: sum of V alpha' omega w M M^T with alpha' = 8 mu / m'
@@ -40,6 +40,15 @@ class QuasiStaticProblem final : public Problem {
   /// Every candidate pair, whatever its state: 4 x ContactSystem::stiffness_bound on the two
   /// components of both particles (a 2 x 2 block appears twice in a row, +J and -J).
   void add_stiffness_bound(VectorXd& row_sums) const override;
+  /// The scene's failure criterion (docs/theory/failure.md) at x: a bond breaks when
+  /// max(value/critical) over its two directions exceeds 1; the most critical
+  /// `failure.fraction` of those (at least one) break.
+  Index break_bonds(const VectorXd& x) override;
+  /// Bonds broken since the start (pairs), and the damage of each particle,
+  /// 1 - sum of intact bond weights / sum of all (N).
+  Index broken_bonds() const { return m_broken; }
+  void damage(VectorXd& d) const;
+  bool models_failure() const { return m_failure.enabled; }
   bool wants_velocity() const override { return m_contact && m_contact->wants_velocity(); }
   /// Expands v (unknowns) to all components, zero on prescribed ones, for the contact pairs.
   void set_velocity(const VectorXd& v) override;
@@ -65,6 +74,8 @@ class QuasiStaticProblem final : public Problem {
   const TangentPattern& pattern() const { return m_pattern; }
 
  private:
+  /// m_eta of particle i's bonds from m_u.
+  void family_displacements(Index i);
   void compute_families(bool want_tangent);
   void gather_forces();
   void gather_tangent(SparseMatrix& K) const;
@@ -78,6 +89,12 @@ class QuasiStaticProblem final : public Problem {
   std::vector<double> m_bond_alpha_volume;                 ///< per particle V 8 mu / m'
   std::vector<OsbConstants> m_body_constants;              ///< per body
   std::vector<double> m_weighted_volume;                   ///< m_i (eq 4), intact bonds at the start
+  std::vector<double> m_weight;  ///< bond quadrature weights, 0 once broken (the kernel's input)
+  FailureOptions m_failure;
+  std::vector<double> m_critical;        ///< per body: s_c or gamma_c
+  std::vector<Index> m_reference_bond;   ///< skew: per particle, the reference bond (global index)
+  std::vector<double> m_ratio;           ///< per bond: criterion value / critical (scratch)
+  Index m_broken = 0;
   bool m_linear = false;
   double m_contact_seconds = 0.0;
   double m_lambda = 0.0;

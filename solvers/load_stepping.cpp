@@ -7,6 +7,20 @@
 
 namespace peristat {
 
+namespace {
+/// Adds one solve's work to the step's report.
+void accumulate(StepReport& step, const NewtonReport& r) {
+  step.newton_iterations += r.iterations;
+  step.linear_iterations += r.linear_iterations;
+  step.factorizations += r.factorizations;
+  step.active_set_changes += r.active_set_changes;
+  step.seconds_evaluate += r.seconds_evaluate;
+  step.seconds_factorize += r.seconds_factorize;
+  step.seconds_solve += r.seconds_solve;
+  step.residuals.insert(step.residuals.end(), r.residuals.begin(), r.residuals.end());
+}
+}  // namespace
+
 RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, const Loading& loading,
                          const LoadSteppingCallbacks& cb) {
   RunReport run;
@@ -28,14 +42,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
       if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
       trial = x;
       const NewtonReport r = solver.solve(trial, cb.on_iteration);
-      step.newton_iterations += r.iterations;
-      step.linear_iterations += r.linear_iterations;
-      step.factorizations += r.factorizations;
-      step.active_set_changes += r.active_set_changes;
-      step.seconds_evaluate += r.seconds_evaluate;
-      step.seconds_factorize += r.seconds_factorize;
-      step.seconds_solve += r.seconds_solve;
-      step.residuals.insert(step.residuals.end(), r.residuals.begin(), r.residuals.end());
+      accumulate(step, r);
       if (r.converged || r.accepted_unconverged) {
         if (!r.converged) ++step.unconverged;
         x.swap(trial);
@@ -43,6 +50,41 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
         problem.commit(x);
         ++step.substeps;
         step.final_residual = r.residuals.back();
+        // Quasi-static breaking: bonds over the criterion break only at a converged state,
+        // and the same load is solved again until none breaks (docs/theory/failure.md).
+        for (int resolve = 1;; ++resolve) {
+          const Index broken = problem.break_bonds(x);
+          if (broken == 0) break;
+          step.bonds_broken += broken;
+          char buf[256];
+          if (resolve > loading.max_resolves) {
+            std::snprintf(buf, sizeof buf,
+                          "load step %d/%d: bonds still breaking after %d re-solves at load factor %.6g "
+                          "(loading.max_resolves)",
+                          k, n, loading.max_resolves, lambda);
+            run.message = buf;
+            return run;
+          }
+          ++step.resolves;
+          if (cb.on_resolve) cb.on_resolve(broken, resolve);
+          solver.invalidate_factorization();
+          solver.prepare(x);  // the tangent without the broken bonds
+          trial = x;
+          const NewtonReport rr = solver.solve(trial, cb.on_iteration);
+          accumulate(step, rr);
+          if (!(rr.converged || rr.accepted_unconverged)) {
+            std::snprintf(buf, sizeof buf,
+                          "load step %d/%d: the re-solve after breaking %ld bonds did not converge at load "
+                          "factor %.6g (%s)",
+                          k, n, static_cast<long>(broken), lambda, rr.reason.c_str());
+            run.message = buf;
+            return run;
+          }
+          if (!rr.converged) ++step.unconverged;
+          x.swap(trial);
+          problem.commit(x);
+          step.final_residual = rr.residuals.back();
+        }
         if (halvings > 0) {  // grow back towards the nominal increment
           --halvings;
           increment *= 2.0;

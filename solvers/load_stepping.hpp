@@ -23,6 +23,8 @@ struct StepReport {
   int factorizations = 0;
   int active_set_changes = 0;  ///< Newton iterations that changed the contact active set
   int unconverged = 0;         ///< sub-steps kept unconverged (ADR `on_budget: accept`)
+  Index bonds_broken = 0;      ///< bonds broken after this step's sub-steps converged
+  int resolves = 0;            ///< re-solves at the same load after breaking bonds
   std::vector<double> residuals;  ///< relative residuals of all sub-steps, in order
   double final_residual = 0.0;
   double seconds_evaluate = 0.0, seconds_factorize = 0.0, seconds_solve = 0.0;
@@ -42,6 +44,8 @@ struct LoadSteppingCallbacks {
   std::function<void(int step, int n_steps, double lambda, int cutbacks)> on_attempt;
   /// Every Newton iterate.
   NewtonMonitor on_iteration;
+  /// Bonds broke at a converged state; the same load is solved again (re-solve k).
+  std::function<void(Index broken, int resolve)> on_resolve;
   /// An attempt failed and the step is cut back.
   std::function<void(const std::string& reason, double next_increment)> on_cutback;
 };

@@ -143,6 +143,8 @@ int run_command(const RunArguments& args) {
 
   const Model model = discretise(scene);
   QuasiStaticProblem problem(model, scene);
+  // Measured before a solver takes the tangent's pattern over.
+  const ModelSize size = measure(model, problem.pattern());
   std::unique_ptr<LinearSolver> linear;
   std::unique_ptr<StepSolver> solver;
   if (adr) {
@@ -152,7 +154,6 @@ int run_command(const RunArguments& args) {
     solver = std::make_unique<NewtonSolver>(problem, *linear, scene.solver.newton);
   }
   const std::string method = adr ? std::string("ADR") : "Newton, linear solver " + linear->name();
-  const ModelSize size = measure(model, problem.pattern());
   const double t_model = wall_seconds() - t_start;
   if (verbose) {
     std::printf("peristat: %s (%s)\n", scene.name.c_str(), scene.path.c_str());
@@ -169,7 +170,7 @@ int run_command(const RunArguments& args) {
 
   const ContactSystem* contact = problem.contact();
   double contact_seconds_before = 0.0;  // contact evaluation time up to the previous step
-  VectorXd contact_force;
+  VectorXd contact_force, damage;
   if (verbose && contact) {
     std::printf("  contact        %d candidate pairs (found in %.3f s), radius %g m, %s law, friction %g\n",
                 contact->size(), problem.contact_setup_seconds(), contact->law().radius,
@@ -206,6 +207,14 @@ int run_command(const RunArguments& args) {
     std::printf("\n");
     std::fflush(stdout);
   };
+  cb.on_resolve = [&](Index broken, int resolve) {
+    check_interrupt();
+    if (verbose) {
+      std::printf("  %ld bonds broke (%ld in all); re-solve %d at the same load\n", static_cast<long>(broken),
+                  static_cast<long>(problem.broken_bonds()), resolve);
+      std::fflush(stdout);
+    }
+  };
   cb.on_cutback = [&](const std::string& reason, double next) {
     if (verbose) std::printf("  cut-back: %s; next increment %.4g\n", reason.c_str(), next);
   };
@@ -227,6 +236,13 @@ int run_command(const RunArguments& args) {
                   {"cutbacks", s.cutbacks},
                   {"factorizations", s.factorizations},
                   {"linear_iterations", s.linear_iterations}};
+    if (problem.models_failure()) {
+      problem.damage(damage);
+      rec.damage = &damage;
+      rec.counts["bonds_broken"] = s.bonds_broken;
+      rec.counts["broken_bonds_total"] = problem.broken_bonds();
+      rec.counts["resolves"] = s.resolves;
+    }
     if (adr) {
       rec.counts["adr_iterations"] = s.newton_iterations;
       rec.counts["unconverged_substeps"] = s.unconverged;
@@ -254,6 +270,9 @@ int run_command(const RunArguments& args) {
                   c.open, c.stick, c.slip, c.candidates, s.active_set_changes,
                   contact->min_distance() / model.spacing);
     }
+    if (verbose && problem.models_failure())
+      std::printf("  failure: %ld bonds broke in this step (%d re-solves), %ld in all\n",
+                  static_cast<long>(s.bonds_broken), s.resolves, static_cast<long>(problem.broken_bonds()));
     if (verbose && adr) {
       std::printf("  %s: %d ADR iterations, relative residual %.3e; %.2f s (force evaluations %.2f s)\n",
                   s.unconverged ? "NOT converged, kept (on_budget: accept)" : "converged", s.newton_iterations,

@@ -313,11 +313,34 @@ ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& b
 // ---- loading, solver, output -----------------------------------------------------------
 
 Loading read_loading(const Field& field) {
-  const Map m = checked_map(field, {"steps", "max_cutbacks"});
+  const Map m = checked_map(field, {"steps", "max_cutbacks", "max_resolves"});
   Loading l;
   if (auto f = m.find("steps")) l.steps = schema::int_at_least(*f, 1);
   if (auto f = m.find("max_cutbacks")) l.max_cutbacks = schema::int_at_least(*f, 0);
+  if (auto f = m.find("max_resolves")) l.max_resolves = schema::int_at_least(*f, 1);
   return l;
+}
+
+FailureOptions read_failure(const Field& field) {
+  const Map m = checked_map(field, {"criterion", "G_c", "direction", "fraction"});
+  FailureOptions o;
+  o.enabled = true;
+  o.criterion = schema::choice(m.require("criterion", "criterion: stretch | skew"), {"stretch", "skew"}) == "skew"
+                    ? FailureCriterion::skew
+                    : FailureCriterion::stretch;
+  o.G_c = schema::positive(m.require("G_c", "G_c, the critical energy release rate [J/m^2]"));
+  if (auto f = m.find("direction")) {
+    o.direction = schema::point(*f);
+    if (o.direction.norm() == 0.0) schema::out_of_range(*f, "a non-zero direction [x, y]");
+  } else if (o.criterion == FailureCriterion::skew) {
+    field.fail("criterion skew needs direction: [x, y], the reference direction of the skew (e.g. the crack's)");
+  }
+  if (auto f = m.find("fraction")) {
+    o.fraction = schema::number(*f);
+    if (!(o.fraction > 0.0 && o.fraction <= 1.0)) schema::out_of_range(*f, "0 < fraction <= 1");
+  }
+  o.where = field.where();
+  return o;
 }
 
 void read_krylov(const Field& field, LinearOptions& o) {
@@ -412,6 +435,7 @@ void read_sections(const Map& top, Scene& scene) {
     for (const Field& item : schema::list(*f))
       scene.boundary.push_back(read_condition(item, bodies, scene.discretization.fictitious_layers));
   if (auto f = top.find("contact")) scene.contact = read_contact(*f, bodies);
+  if (auto f = top.find("failure")) scene.failure = read_failure(*f);
   if (auto f = top.find("loading")) scene.loading = read_loading(*f);
   if (auto f = top.find("solver")) scene.solver = read_solver(*f);
   if (auto f = top.find("output")) scene.output = read_output(*f);
@@ -426,7 +450,7 @@ Scene read_scene(const Field& root) {
   if (root.node().IsNull())
     root.fail("the scene is empty: expected a map with at least name, materials, discretization, bodies");
   const Map top = checked_map(root, {"name", "materials", "discretization", "bodies", "cracks", "boundary",
-                                     "contact", "loading", "solver", "output"});
+                                     "contact", "failure", "loading", "solver", "output"});
   Scene scene;
   read_sections(top, scene);
   return scene;

@@ -93,6 +93,18 @@ struct Discretization {
 struct Loading {
   int steps = 1;         ///< equal load steps to load factor 1, >= 1
   int max_cutbacks = 6;  ///< halvings of a failing step before giving up, >= 0
+  int max_resolves = 100;  ///< failure: re-solves at one load before the run stops, >= 1
+};
+
+/// Bond failure (key `failure:`; docs/theory/failure.md). Absent: no failure checks at all.
+enum class FailureCriterion { stretch, skew };
+struct FailureOptions {
+  bool enabled = false;
+  FailureCriterion criterion = FailureCriterion::stretch;
+  double G_c = 0.0;                ///< critical energy release rate [J/m^2], > 0
+  Vec2 direction = Vec2::Zero();   ///< skew: reference direction (non-zero)
+  double fraction = 1.0;           ///< break this most critical fraction of the bonds over the criterion, (0, 1]
+  SourceLocation where;
 };
 
 enum class TangentKind { consistent, initial };
@@ -188,6 +200,7 @@ struct Scene {
   Discretization discretization;
   Loading loading;
   ContactOptions contact;
+  FailureOptions failure;
   SolverOptions solver;
   OutputOptions output;
 };

@@ -333,7 +333,23 @@ TEST(SceneParse, ReadsAFileAndReportsAMissingOne) {
 TEST(SceneErrors, UnknownKeyAtTopLevelListsTheAllowedKeys) {
   expect_error(k_minimal + "fracture:\n  enabled: true\n", "scene.yaml:21: fracture",
                "unknown key \"fracture\": expected one of name, materials, discretization, bodies, "
-               "cracks, boundary, contact, loading, solver, output");
+               "cracks, boundary, contact, failure, loading, solver, output");
+}
+
+TEST(SceneFailure, ParsesTheSectionAndChecksIt) {
+  const Scene s = parse_scene_text(k_minimal + "failure: {criterion: skew, G_c: 5.0e4, direction: [1, 1], fraction: 0.5}\n",
+                                   "scene.yaml");
+  EXPECT_TRUE(s.failure.enabled);
+  EXPECT_EQ(s.failure.criterion, FailureCriterion::skew);
+  EXPECT_EQ(s.failure.G_c, 5.0e4);
+  EXPECT_EQ(s.failure.direction, Vec2(1.0, 1.0));
+  EXPECT_EQ(s.failure.fraction, 0.5);
+  EXPECT_FALSE(parse_scene_text(k_minimal, "scene.yaml").failure.enabled);  // absent: no failure checks
+  expect_error(k_minimal + "failure: {criterion: skew, G_c: 1.0}\n", "scene.yaml:21: failure",
+               "criterion skew needs direction");
+  expect_error(k_minimal + "failure: {criterion: stretch}\n", "scene.yaml:21: failure.G_c", "missing required key");
+  expect_error(k_minimal + "failure: {criterion: stretch, G_c: 1.0, fraction: 0}\n",
+               "scene.yaml:21: failure.fraction", "0 < fraction <= 1");
 }
 
 TEST(SceneErrors, UnknownKeyInNestedMaps) {
