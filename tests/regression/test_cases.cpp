@@ -23,6 +23,8 @@ TEST(TensionPlateCase, SmokeRunMatchesUniaxialSolution) {
   for (const char* f : {"tension_plate.h5", "tension_plate.xdmf", "summary.json"})
     EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
   EXPECT_NE(test::read_file(dir / "summary.json").find("\"completed\""), std::string::npos);
+  // The model size is measured before the solver takes the tangent's pattern over.
+  EXPECT_EQ(test::read_file(dir / "summary.json").find("\"tangent_nonzeros\": 0,"), std::string::npos);
 
   // Mid-height profile over the central 40% of the plate: the uniaxial solution is
   // ux = eps x with eps = 1e-3. Tolerance 2% of the end displacement (1e-4 m): at dx = 4 mm
