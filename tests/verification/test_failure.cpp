@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "materials/failure.hpp"
 #include "support/solve.hpp"
 
 namespace peristat {
@@ -80,6 +81,77 @@ TEST(Failure, NewtonAndAdrBreakTheSameBonds) {
               (dn - da).cwiseAbs().maxCoeff());
   EXPECT_EQ(newton->problem->broken_bonds(), adr->problem->broken_bonds());
   EXPECT_EQ((dn - da).cwiseAbs().maxCoeff(), 0.0);  // the same bonds, hence the same damage
+}
+
+}  // namespace
+}  // namespace peristat
+
+namespace peristat {
+namespace {
+
+// Mode I, the load at which a crack starts to grow against Griffith. A centre crack of
+// half-length a = 10 mm in a 100 x 100 mm plate (dx = 1 mm, m = 3) pulled at its top edge.
+// The problem is linear (small kinematics), so one solve gives the pull at which the most
+// stretched bond reaches s_c; the remote stress there (the reaction over W t) is compared
+// with Griffith's sigma_c = sqrt(E G_c / (pi a)) times Feddersen's finite-width factor
+// 1 / sqrt(sec(pi a / W)).
+// Returns sigma_start / sigma_Griffith at spacing dx (horizon 3 dx).
+double mode_i_ratio(double dx) {
+  const double E = 1e9, nu = 0.3, G_c = 10.0, t = 1e-3, W = 0.1, a = 0.01, delta = 3 * dx;
+  const std::string y = R"(name: griffith
+materials:
+  m: {E: 1.0e9, nu: 0.3, thickness: 1.0e-3, kinematics: small}
+discretization: {spacing: )" + std::to_string(dx) + R"(, horizon_factor: 3}
+bodies:
+  plate: {material: m, rectangle: {min: [0, 0], max: [0.1, 0.1]}}
+cracks:
+  - {from: [0.04, 0.05], to: [0.06, 0.05]}
+boundary:
+  - {body: plate, edge: bottom, uy: 0}
+  - {body: plate, edge: top, uy: 1.0e-4}
+  - {body: plate, region: {min: [0.0495, 0], max: [0.0505, 0.001]}, ux: 0}
+solver: {linear: cg, newton: {rtol: 1.0e-12}}
+)";
+  auto s = test::solve_scene(y);
+  EXPECT_TRUE(s->run.completed);
+  const Model& m = s->model;
+  double smax = 0.0;
+  for (Index i = 0; i < m.particles.size(); ++i) {
+    if (m.particles.fictitious[i]) continue;
+    for (Index b = m.bonds.start[i]; b < m.bonds.start[i + 1]; ++b) {
+      const Index j = m.bonds.neighbour[b];
+      if (m.particles.fictitious[j]) continue;
+      const Vec2 eta(s->u[2 * j] - s->u[2 * i], s->u[2 * j + 1] - s->u[2 * i + 1]);
+      smax = std::max(smax, bond_stretch(m.bonds.xi[b], eta));
+    }
+  }
+  double reaction = 0.0;
+  const VectorXd& f = s->problem->internal_force();
+  for (Index i = 0; i < m.particles.size(); ++i)
+    if (m.particles.fictitious[i] && m.particles.position[i].y() > 0.05) reaction += f[2 * i + 1];
+  const double mu = E / (2 * (1 + nu)), kappa = E / (2 * (1 - nu));
+  const double sc = critical_stretch(G_c, kappa, mu, delta);
+  const double sigma_pd = std::abs(reaction) / (W * t) * sc / smax;
+  const double sigma_griffith = std::sqrt(E * G_c / (M_PI * a)) / std::sqrt(1.0 / std::cos(M_PI * a / W));
+  std::printf("mode I, dx = %.2g mm: s_c = %.4e, start stress %.4e Pa, Griffith %.4e Pa, ratio %.3f\n", dx * 1e3, sc,
+              sigma_pd, sigma_griffith, sigma_pd / sigma_griffith);
+  return sigma_pd / sigma_griffith;
+}
+
+// Mode I, the load at which a crack starts to grow, against Griffith. A centre crack of
+// half-length a = 10 mm in a 100 x 100 mm plate, m = 3, pulled at its top edge. The problem
+// is linear (small kinematics), so one solve gives the pull at which the most stretched
+// bond reaches s_c; the remote stress there (the reaction over W t) is compared with
+// Griffith's sigma_c = sqrt(E G_c / (pi a)) times Feddersen's finite-width factor
+// 1 / sqrt(sec(pi a / W)). Tolerance 15%: the first broken bond is a nonlocal estimate of
+// the start of growth, and s_c comes from an energy argument, not from the crack-tip field.
+// Measured: 1.089 at dx = 1 mm and 1.098 at 0.5 mm (delta / a = 0.3 and 0.15), so the
+// estimate does not drift with resolution at fixed m; asserted: within 2% of each other.
+TEST(Failure, ModeIStartLoadAgainstGriffith) {
+  const double coarse = mode_i_ratio(1e-3), fine = mode_i_ratio(5e-4);
+  EXPECT_NEAR(coarse, 1.0, 0.15);
+  EXPECT_NEAR(fine, 1.0, 0.15);
+  EXPECT_NEAR(fine / coarse, 1.0, 0.02);
 }
 
 }  // namespace
