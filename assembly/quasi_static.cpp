@@ -224,6 +224,14 @@ class ColumnWriter {
       if (yr) v[xr ? 1 : 0] += a[1][cp];
     }
   }
+  /// Whether the pattern holds the block (q, p) of the current column p.
+  bool has(Index q) const {
+    const auto& lq = m_part.lattice[q];
+    const auto& lp = m_part.lattice[m_p];
+    const int dx = lq[0] - lp[0], dy = lq[1] - lp[1];
+    if (std::abs(dx) > m_reach || std::abs(dy) > m_reach) return false;
+    return m_slot[static_cast<std::size_t>(dx + m_reach) * m_width + (dy + m_reach)] >= 0;
+  }
   void add_sym(Index q, double scale, const Sym2& k) {
     add(q, scale * k[0], scale * k[1], scale * k[1], scale * k[2]);
   }
@@ -344,6 +352,9 @@ void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
       }
       if (m_contact) {
         for (auto e = m_contact->incident_begin(p); e != m_contact->incident_end(p); ++e) {
+          // Pairs added at run time (broken bonds) longer than the preconditioner's stencil
+          // have no block in its pattern; the preconditioner does without them.
+          if (!col.has(e->other)) continue;
           const Mat2 S = m_contact->preconditioner_block(e->pair);
           col.add(p, S(0, 0), S(0, 1), S(1, 0), S(1, 1));
           col.add(e->other, -S(0, 0), -S(0, 1), -S(1, 0), -S(1, 1));
@@ -408,11 +419,15 @@ Index QuasiStaticProblem::break_bonds(const VectorXd& x) {
   std::sort(over.begin(), over.end(), std::greater<>());
   const auto count = std::max<std::size_t>(
       1, static_cast<std::size_t>(std::ceil(m_failure.fraction * static_cast<double>(over.size()))));
+  std::vector<std::pair<Index, Index>> pairs;
   for (std::size_t k = 0; k < count; ++k) {
     const Index b = over[k].second;
     m_weight[b] = 0.0;
     m_weight[bonds.reverse[b]] = 0.0;
+    pairs.emplace_back(bonds.neighbour[bonds.reverse[b]], bonds.neighbour[b]);
   }
+  // The new faces are contact candidates at once (when the scene models contact).
+  if (m_contact) m_contact->add_broken_bonds(pairs, m_u);
   m_broken += static_cast<Index>(count);
   return static_cast<Index>(count);
 }

@@ -172,9 +172,9 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
   const double delta3 = std::pow(model.horizon, 3);
   const Grid grid(p);
 
-  auto material_of = [&](Index i) -> const Material& {
-    return scene.materials.at(scene.bodies[p.body[i]].material);
-  };
+  for (const Body& b : scene.bodies) m_body_material.push_back(scene.materials.at(b.material));
+  m_modulus_override = o.stiffness;
+  m_delta3 = delta3;
   auto add_pair = [&](Index i, Index j, const Vec2& normal) {
     const Vec2 X = p.position[j] - p.position[i];
     const double proj = normal.dot(X);
@@ -184,9 +184,7 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
     c.j = j;
     c.normal = proj > 0.0 ? normal : Vec2(-normal);
     c.gap0 = std::abs(proj);
-    const Material &mi = material_of(i), &mj = material_of(j);
-    const double thickness = 0.5 * (mi.thickness + mj.thickness);
-    c.stiffness = 3.0 * contact_modulus(mi, mj, o.stiffness) * p.volume[i] * p.volume[j] / (delta3 * thickness);
+    c.stiffness = pair_stiffness(i, j);
     m_pairs.push_back(c);
   };
   auto for_partners = [&](Index i, auto&& visit) {
@@ -267,7 +265,43 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
   m_counts.candidates = np;
   m_counts.open = np;
+  build_incidence();
+}
 
+double ContactSystem::pair_stiffness(Index i, Index j) const {
+  const Particles& p = m_model.particles;
+  const Material &mi = m_body_material[p.body[i]], &mj = m_body_material[p.body[j]];
+  const double thickness = 0.5 * (mi.thickness + mj.thickness);
+  return 3.0 * contact_modulus(mi, mj, m_modulus_override) * p.volume[i] * p.volume[j] / (m_delta3 * thickness);
+}
+
+void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u) {
+  const Particles& p = m_model.particles;
+  for (const auto& [a, b] : bonds) {
+    const Index i = std::min(a, b), j = std::max(a, b);
+    if (p.fictitious[i] || p.fictitious[j]) continue;
+    const Vec2 X = p.position[j] - p.position[i];
+    ContactPair c;
+    c.i = i;
+    c.j = j;
+    c.normal = X.normalized();  // a broken bond's faces meet along the bond
+    c.gap0 = X.norm();
+    c.stiffness = pair_stiffness(i, j);
+    m_pairs.push_back(c);
+    m_result.push_back(PairResult{});
+    if (!m_slip.empty()) {  // no stored tangential force: like a pair that was open
+      const Vec2 t(-c.normal.y(), c.normal.x());
+      m_slip.push_back(t.dot(Vec2(u[2 * j] - u[2 * i], u[2 * j + 1] - u[2 * i + 1])));
+    }
+    if (m_law.velocity_sign) m_tangential_velocity.push_back(0.0);
+  }
+  m_counts.candidates = size();
+  build_incidence();
+}
+
+void ContactSystem::build_incidence() {
+  const Index n = m_model.particles.size();
+  const Index np = size();
   // Incidence CSR: the pairs of each particle.
   m_incident_start.assign(n + 1, 0);
   for (const ContactPair& c : m_pairs) {

@@ -80,6 +80,10 @@ class ContactSystem {
   void contact_force(VectorXd& out) const;
   /// Accepts the last evaluation as converged: slip history is updated.
   void commit(const VectorXd& u);
+  /// Bonds broken during the run become candidates (paper section 4.4): pair (i, j) with
+  /// normal along the bond, gap0 = |X_j - X_i|, no stored tangential force. Pairs with a
+  /// fictitious end are skipped. `u` is the current displacement (2N).
+  void add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u);
   /// Velocity-sign law only: the full pseudo-velocity (2N) that the next evaluations use.
   void set_velocity(const VectorXd& v);
   bool wants_velocity() const { return m_law.velocity_sign; }
@@ -112,8 +116,14 @@ class ContactSystem {
   double min_distance() const { return m_min_distance; }
 
  private:
+  double pair_stiffness(Index i, Index j) const;  ///< C of the pair (eq 17 modulus)
+  void build_incidence();
+
   const Model& m_model;
   ContactLaw m_law;
+  std::vector<Material> m_body_material;  ///< per body
+  double m_modulus_override = 0.0;        ///< contact.stiffness (0: eq 17)
+  double m_delta3 = 0.0;
   std::vector<ContactPair> m_pairs;
   std::vector<double> m_slip;  ///< committed w_p per pair (empty without friction)
   std::vector<double> m_tangential_velocity;  ///< per pair, velocity-sign law only

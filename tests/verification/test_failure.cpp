@@ -14,7 +14,8 @@ namespace {
 // A 40 x 20 plate (dx = 1 mm, E = 1 GPa) with an edge notch from the left edge to x = 15 mm
 // at mid-height, pulled apart by `pull` at the top edge (bottom uy = 0). Critical stretch
 // from G_c = 10 J/m^2: s_c = 2.1e-3 (docs/theory/failure.md).
-std::string notch(double pull, bool failure, const std::string& solver = "{linear: umfpack}") {
+std::string notch(double pull, bool failure, const std::string& solver = "{linear: umfpack}",
+                  const std::string& extra = "") {
   std::string y = R"(name: notch
 materials:
   m: {E: 1.0e9, nu: 0.3, thickness: 1.0e-3, kinematics: small}
@@ -30,7 +31,7 @@ boundary:
 loading: {steps: 1}
 solver: )" + solver + "\n";
   if (failure) y += "failure: {criterion: stretch, G_c: 10.0}\n";
-  return y;
+  return y + extra;
 }
 
 TEST(Failure, NoBondBreaksBelowTheThreshold) {
@@ -81,6 +82,25 @@ TEST(Failure, NewtonAndAdrBreakTheSameBonds) {
               (dn - da).cwiseAbs().maxCoeff());
   EXPECT_EQ(newton->problem->broken_bonds(), adr->problem->broken_bonds());
   EXPECT_EQ((dn - da).cwiseAbs().maxCoeff(), 0.0);  // the same bonds, hence the same damage
+}
+
+// Broken bonds join the contact candidates at once (paper section 4.4), so new faces can
+// close: with contact on, the candidate count grows by exactly the bonds broken (none of
+// them has a fictitious end here), and the run is otherwise the same (the faces open in
+// tension: no new pair is in contact, so the same bonds break).
+TEST(Failure, BrokenBondsBecomeContactCandidates) {
+  auto plain = test::solve_scene(notch(2.5e-5, true));
+  auto with = test::solve_scene(notch(2.5e-5, true, "{linear: umfpack}", "contact: {friction: 0.3}\n"));
+  ASSERT_TRUE(plain->run.completed && with->run.completed) << with->run.message;
+  auto before = test::solve_scene(notch(1e-6, false, "{linear: umfpack}", "contact: {friction: 0.3}\n"));
+  const Index initial = before->problem->contact()->size();
+  const ContactCounts& c = with->problem->contact()->counts();
+  std::printf("contact candidates: %ld from the notch, %ld after %ld bonds broke; %ld in contact\n",
+              static_cast<long>(initial), static_cast<long>(c.candidates),
+              static_cast<long>(with->problem->broken_bonds()), static_cast<long>(c.active()));
+  EXPECT_EQ(c.candidates, initial + with->problem->broken_bonds());
+  EXPECT_EQ(with->problem->broken_bonds(), plain->problem->broken_bonds());
+  EXPECT_EQ(c.active(), 0);
 }
 
 }  // namespace
