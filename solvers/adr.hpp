@@ -19,7 +19,6 @@ class AdrSolver final : public StepSolver {
   /// changed (first call, or any call for a problem whose tangent is not constant).
   void prepare(const VectorXd& x) override;
   bool has_factor() const override { return m_have_density; }
-  void invalidate_factorization() override {}
   bool cutback_helps() const override { return false; }
 
   /// The fictitious density of the last prepare() (per unknown).
