@@ -37,8 +37,10 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
 
   // Pass 1: extensions (kept temporarily in t), directions, dilatation (eq 3).
   double sum_bxe = 0.0;
+  double sum_bxx = 0.0;  // sum w x^2: m itself until bonds break (m stays at its reference value)
   for (std::size_t b = 0; b < n; ++b) {
     const double x = xi[b].norm();
+    sum_bxx += weight[b] * x * x;
     double e;
     if (finite) {
       const Vec2 y = xi[b] + eta[b];
@@ -70,7 +72,9 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
   // Pass 3: force state (eqs 9-10), dW/de_b = w_b [c (k' theta - alpha/3 (omega e^d).x) x / m
   // + alpha e^d_b], and on request the tangent pieces.
   const double scalar = cm * (material.k_prime * theta - alpha / 3.0 * sum_bxed);
-  result.beta = cm * cm * (material.k_prime + alpha * m / 9.0) - 2.0 * alpha * cm / 3.0;
+  // d2W/de de = diag(alpha w) + beta (w x)(w x)^T; the m here is the sum over the intact
+  // bonds, which differs from the weighted volume m once bonds are broken.
+  result.beta = cm * cm * (material.k_prime + alpha * sum_bxx / 9.0) - 2.0 * alpha * cm / 3.0;
   for (std::size_t b = 0; b < n; ++b) {
     const double x = xi[b].norm();
     const double e = out.t[b];
