@@ -61,9 +61,14 @@ class Problem {
   virtual void set_velocity(const VectorXd& /*v*/) {}
 
   /// Checks the failure criterion at the converged, committed state x and breaks the bonds
-  /// over it (all, or the most critical fraction). Returns the number of bonds broken
-  /// (each pair counted once); 0 for a problem without failure. Broken bonds never heal.
-  virtual Index break_bonds(const VectorXd& /*x*/) { return 0; }
+  /// over it (all, or the most critical fraction), at most `at_most` of them when
+  /// at_most > 0, most critical first. Returns the number of bonds broken (each pair counted
+  /// once); 0 for a problem without failure. Broken bonds never heal once a state with them
+  /// has converged.
+  virtual Index break_bonds(const VectorXd& /*x*/, Index /*at_most*/ = 0) { return 0; }
+  /// Restores the bonds of the last break_bonds() round, whose re-solve did not converge (no
+  /// converged state ever held them broken). Only the last round can be undone.
+  virtual void undo_last_break() {}
 
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;

@@ -385,7 +385,8 @@ void QuasiStaticProblem::set_velocity(const VectorXd& v) {
   m_contact->set_velocity(m_velocity);
 }
 
-Index QuasiStaticProblem::break_bonds(const VectorXd& x) {
+Index QuasiStaticProblem::break_bonds(const VectorXd& x, Index at_most) {
+  m_last_round.clear();
   if (!m_failure.enabled) return 0;
   expand(x, m_u);
   const Bonds& bonds = m_model.bonds;
@@ -417,19 +418,35 @@ Index QuasiStaticProblem::break_bonds(const VectorXd& x) {
   }
   if (over.empty()) return 0;
   std::sort(over.begin(), over.end(), std::greater<>());
-  const auto count = std::max<std::size_t>(
+  auto count = std::max<std::size_t>(
       1, static_cast<std::size_t>(std::ceil(m_failure.fraction * static_cast<double>(over.size()))));
+  if (at_most > 0) count = std::min(count, static_cast<std::size_t>(at_most));
   std::vector<std::pair<Index, Index>> pairs;
   for (std::size_t k = 0; k < count; ++k) {
     const Index b = over[k].second;
     m_weight[b] = 0.0;
     m_weight[bonds.reverse[b]] = 0.0;
     pairs.emplace_back(bonds.neighbour[bonds.reverse[b]], bonds.neighbour[b]);
+    m_last_round.push_back(b);
   }
   // The new faces are contact candidates at once (when the scene models contact).
-  if (m_contact) m_contact->add_broken_bonds(pairs, m_u);
+  if (m_contact) {
+    m_contact_before_round = m_contact->size();
+    m_contact->add_broken_bonds(pairs, m_u);
+  }
   m_broken += static_cast<Index>(count);
   return static_cast<Index>(count);
+}
+
+void QuasiStaticProblem::undo_last_break() {
+  const Bonds& bonds = m_model.bonds;
+  for (const Index b : m_last_round) {
+    m_weight[b] = bonds.weight[b];
+    m_weight[bonds.reverse[b]] = bonds.weight[bonds.reverse[b]];
+  }
+  m_broken -= static_cast<Index>(m_last_round.size());
+  if (m_contact && !m_last_round.empty()) m_contact->remove_pairs_from(m_contact_before_round);
+  m_last_round.clear();
 }
 
 void QuasiStaticProblem::damage(VectorXd& d) const {

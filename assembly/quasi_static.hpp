@@ -43,7 +43,8 @@ class QuasiStaticProblem final : public Problem {
   /// The scene's failure criterion (docs/theory/failure.md) at x: a bond breaks when
   /// max(value/critical) over its two directions exceeds 1; the most critical
   /// `failure.fraction` of those (at least one) break.
-  Index break_bonds(const VectorXd& x) override;
+  Index break_bonds(const VectorXd& x, Index at_most = 0) override;
+  void undo_last_break() override;
   /// Bonds broken since the start (pairs), and the damage of each particle,
   /// 1 - sum of intact bond weights / sum of all (N).
   Index broken_bonds() const { return m_broken; }
@@ -95,6 +96,8 @@ class QuasiStaticProblem final : public Problem {
   std::vector<Index> m_reference_bond;   ///< skew: per particle, the reference bond (global index)
   std::vector<double> m_ratio;           ///< per bond: criterion value / critical (scratch)
   Index m_broken = 0;
+  std::vector<Index> m_last_round;   ///< bonds (b < reverse) broken by the last round
+  Index m_contact_before_round = 0;  ///< contact candidates before the last round
   bool m_linear = false;
   double m_contact_seconds = 0.0;
   double m_lambda = 0.0;

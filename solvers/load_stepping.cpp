@@ -52,12 +52,17 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
         step.final_residual = r.residuals.back();
         // Quasi-static breaking: bonds over the criterion break only at a converged state,
         // and the same load is solved again until none breaks (docs/theory/failure.md).
+        // A round whose re-solve fails is undone and retried with half as many bonds (the
+        // most critical first), down to one bond; the cap doubles after two rounds in a row
+        // converge.
+        Index at_most = 0;  // 0: no cap beyond failure.fraction
+        int successes = 0;  // converged rounds since the last halving
         for (int resolve = 1;; ++resolve) {
-          const Index broken = problem.break_bonds(x);
+          const Index broken = problem.break_bonds(x, at_most);
           if (broken == 0) break;
-          step.bonds_broken += broken;
-          char buf[256];
+          char buf[320];
           if (resolve > loading.max_resolves) {
+            problem.undo_last_break();
             std::snprintf(buf, sizeof buf,
                           "load step %d/%d: bonds still breaking after %d re-solves at load factor %.6g "
                           "(loading.max_resolves)",
@@ -73,17 +78,31 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
           const NewtonReport rr = solver.solve(trial, cb.on_iteration);
           accumulate(step, rr);
           if (!(rr.converged || rr.accepted_unconverged)) {
-            std::snprintf(buf, sizeof buf,
-                          "load step %d/%d: the re-solve after breaking %ld bonds did not converge at load "
-                          "factor %.6g (%s)",
-                          k, n, static_cast<long>(broken), lambda, rr.reason.c_str());
-            run.message = buf;
-            return run;
+            problem.undo_last_break();
+            solver.invalidate_factorization();
+            if (broken == 1) {
+              std::snprintf(buf, sizeof buf,
+                            "load step %d/%d: the re-solve after breaking the single most critical bond did "
+                            "not converge at load factor %.6g (%s)",
+                            k, n, lambda, rr.reason.c_str());
+              run.message = buf;
+              return run;
+            }
+            at_most = std::max<Index>(1, broken / 2);
+            successes = 0;
+            ++step.break_cutbacks;
+            if (cb.on_break_cutback) cb.on_break_cutback(rr.reason, broken, at_most);
+            continue;
           }
           if (!rr.converged) ++step.unconverged;
+          step.bonds_broken += broken;
           x.swap(trial);
           problem.commit(x);
           step.final_residual = rr.residuals.back();
+          if (at_most > 0 && ++successes >= 2) {
+            at_most *= 2;
+            successes = 0;
+          }
         }
         if (halvings > 0) {  // grow back towards the nominal increment
           --halvings;

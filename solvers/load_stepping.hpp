@@ -24,7 +24,8 @@ struct StepReport {
   int active_set_changes = 0;  ///< Newton iterations that changed the contact active set
   int unconverged = 0;         ///< sub-steps kept unconverged (ADR `on_budget: accept`)
   Index bonds_broken = 0;      ///< bonds broken after this step's sub-steps converged
-  int resolves = 0;            ///< re-solves at the same load after breaking bonds
+  int resolves = 0;            ///< re-solves at the same load after breaking bonds (incl. failed ones)
+  int break_cutbacks = 0;      ///< failed re-solves retried with half as many bonds
   std::vector<double> residuals;  ///< relative residuals of all sub-steps, in order
   double final_residual = 0.0;
   double seconds_evaluate = 0.0, seconds_factorize = 0.0, seconds_solve = 0.0;
@@ -46,6 +47,9 @@ struct LoadSteppingCallbacks {
   NewtonMonitor on_iteration;
   /// Bonds broke at a converged state; the same load is solved again (re-solve k).
   std::function<void(Index broken, int resolve)> on_resolve;
+  /// The re-solve after breaking `broken` bonds failed: they are restored and at most
+  /// `next` of them (the most critical) break in the retry.
+  std::function<void(const std::string& reason, Index broken, Index next)> on_break_cutback;
   /// An attempt failed and the step is cut back.
   std::function<void(const std::string& reason, double next_increment)> on_cutback;
 };

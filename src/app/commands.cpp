@@ -215,6 +215,13 @@ int run_command(const RunArguments& args) {
       std::fflush(stdout);
     }
   };
+  cb.on_break_cutback = [&](const std::string& reason, Index broken, Index next) {
+    if (verbose) {
+      std::printf("  re-solve failed (%s): the %ld bonds are restored; retrying with the %ld most critical\n",
+                  reason.c_str(), static_cast<long>(broken), static_cast<long>(next));
+      std::fflush(stdout);
+    }
+  };
   cb.on_cutback = [&](const std::string& reason, double next) {
     if (verbose) std::printf("  cut-back: %s; next increment %.4g\n", reason.c_str(), next);
   };
@@ -242,6 +249,7 @@ int run_command(const RunArguments& args) {
       rec.counts["bonds_broken"] = s.bonds_broken;
       rec.counts["broken_bonds_total"] = problem.broken_bonds();
       rec.counts["resolves"] = s.resolves;
+      rec.counts["break_cutbacks"] = s.break_cutbacks;
     }
     if (adr) {
       rec.counts["adr_iterations"] = s.newton_iterations;
@@ -271,8 +279,10 @@ int run_command(const RunArguments& args) {
                   contact->min_distance() / model.spacing);
     }
     if (verbose && problem.models_failure())
-      std::printf("  failure: %ld bonds broke in this step (%d re-solves), %ld in all\n",
-                  static_cast<long>(s.bonds_broken), s.resolves, static_cast<long>(problem.broken_bonds()));
+      std::printf("  failure: %ld bonds broke in this step (%d re-solves, %d halved after a failed re-solve), "
+                  "%ld in all\n",
+                  static_cast<long>(s.bonds_broken), s.resolves, s.break_cutbacks,
+                  static_cast<long>(problem.broken_bonds()));
     if (verbose && adr) {
       std::printf("  %s: %d ADR iterations, relative residual %.3e; %.2f s (force evaluations %.2f s)\n",
                   s.unconverged ? "NOT converged, kept (on_budget: accept)" : "converged", s.newton_iterations,

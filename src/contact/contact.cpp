@@ -299,6 +299,16 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
   build_incidence();
 }
 
+void ContactSystem::remove_pairs_from(Index first) {
+  const auto n = static_cast<std::size_t>(first);
+  m_pairs.resize(n);
+  m_result.resize(n);
+  if (!m_slip.empty()) m_slip.resize(n);
+  if (m_law.velocity_sign) m_tangential_velocity.resize(n);
+  m_counts.candidates = size();
+  build_incidence();
+}
+
 void ContactSystem::build_incidence() {
   const Index n = m_model.particles.size();
   const Index np = size();

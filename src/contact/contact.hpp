@@ -84,6 +84,8 @@ class ContactSystem {
   /// normal along the bond, gap0 = |X_j - X_i|, no stored tangential force. Pairs with a
   /// fictitious end are skipped. `u` is the current displacement (2N).
   void add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u);
+  /// Drops the candidates from index `first` on (undoes add_broken_bonds for a failed round).
+  void remove_pairs_from(Index first);
   /// Velocity-sign law only: the full pseudo-velocity (2N) that the next evaluations use.
   void set_velocity(const VectorXd& v);
   bool wants_velocity() const { return m_law.velocity_sign; }

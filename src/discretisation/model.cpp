@@ -89,6 +89,11 @@ class Builder {
       box.add(b.lo);
       box.add(b.hi);
     }
+    for (const BoundaryCondition& bc : scene.boundary) {
+      if (bc.selector != BoundaryCondition::Selector::block) continue;
+      box.add(bc.lo);
+      box.add(bc.hi);
+    }
     int max_layers = scene.discretization.fictitious_layers;
     for (const BoundaryCondition& bc : scene.boundary) max_layers = std::max(max_layers, bc.layers);
     const int pad = max_layers + 2;
@@ -197,6 +202,16 @@ class Builder {
         const Vec2& x = p.position[q];
         if ((x.array() >= bc.lo.array() - eps).all() && (x.array() <= bc.hi.array() + eps).all())
           chosen.push_back(q);
+      }
+    } else if (bc.selector == BoundaryCondition::Selector::block) {
+      // Lattice points inside the box; those of a body are not fictitious and are refused
+      // by fictitious_at with a message naming the body.
+      for (int i = lattice_floor(bc.lo.x() - eps, 0); i <= lattice_floor(bc.hi.x() + eps, 0) + 1; ++i) {
+        for (int j = lattice_floor(bc.lo.y() - eps, 1); j <= lattice_floor(bc.hi.y() + eps, 1) + 1; ++j) {
+          const Vec2 x = lattice_point(i, j);
+          if ((x.array() >= bc.lo.array() - eps).all() && (x.array() <= bc.hi.array() + eps).all())
+            chosen.push_back(fictitious_at(bc, body, i, j));
+        }
       }
     } else {
       const double depth = bc.layers * m_dx;

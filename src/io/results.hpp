@@ -82,6 +82,8 @@ class ResultsReader {
   const std::vector<int>& steps() const { return m_steps; }
   /// Displacement of step K (2N interleaved); throws if the step is absent.
   VectorXd displacement(int step) const;
+  /// Damage of step K (N); throws if the step is absent or the run modelled no failure.
+  VectorXd damage(int step) const;
   double load_factor(int step) const;
 
  private:

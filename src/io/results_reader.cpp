@@ -142,6 +142,18 @@ VectorXd ResultsReader::displacement(int step) const {
   return Eigen::Map<const VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
 }
 
+VectorXd ResultsReader::damage(int step) const {
+  const std::string group = step_path(m_path, m_steps, step);
+  h5::File file = h5::File::open(m_path, false);
+  const std::string dataset = group + "/damage";
+  if (!file.link_exists(file.id(), dataset))
+    throw InputError("'" + m_path + "': step " + std::to_string(step) +
+                     " has no damage (the scene has no failure section)");
+  require_shape(file, dataset, {static_cast<hsize_t>(m_particles.size())});
+  const std::vector<double> values = file.read_doubles(file.id(), dataset);
+  return Eigen::Map<const VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
+}
+
 double ResultsReader::load_factor(int step) const {
   const std::string group_path = step_path(m_path, m_steps, step);
   h5::File file = h5::File::open(m_path, false);

@@ -225,10 +225,11 @@ AffineValue read_affine(const Field& field) {
 }
 
 void read_selector(const Map& m, const ParsedBody& body, int default_layers, BoundaryCondition& bc) {
-  const auto edge = m.find("edge"), surround = m.find("surround"), region = m.find("region");
-  const int count = int(bool(edge)) + int(bool(surround)) + int(bool(region));
+  const auto edge = m.find("edge"), surround = m.find("surround"), region = m.find("region"),
+             block = m.find("block");
+  const int count = int(bool(edge)) + int(bool(surround)) + int(bool(region)) + int(bool(block));
   if (count != 1)
-    m.self().fail("expected exactly one of edge, surround, region, found " + std::to_string(count));
+    m.self().fail("expected exactly one of edge, surround, region, block, found " + std::to_string(count));
   const auto layers = m.find("layers");
   bc.layers = layers ? schema::int_at_least(*layers, 1) : default_layers;
   if (edge) {
@@ -239,16 +240,20 @@ void read_selector(const Map& m, const ParsedBody& body, int default_layers, Bou
     bc.selector = BoundaryCondition::Selector::surround;
     if (!schema::boolean(*surround))
       surround->fail("surround: false selects nothing: expected true (or use edge or region)");
-  } else {
+  } else if (region) {
     bc.selector = BoundaryCondition::Selector::region;
     if (layers) layers->fail("layers is not allowed with region (a region prescribes real particles)");
     std::tie(bc.lo, bc.hi) = read_box(*region, "region");
+  } else {
+    bc.selector = BoundaryCondition::Selector::block;
+    if (layers) layers->fail("layers is not allowed with block (the box gives the particles)");
+    std::tie(bc.lo, bc.hi) = read_box(*block, "block");
   }
 }
 
 BoundaryCondition read_condition(const Field& field, const std::vector<ParsedBody>& bodies,
                                  int default_layers) {
-  const Map m = checked_map(field, {"body", "edge", "surround", "region", "layers", "ux", "uy"});
+  const Map m = checked_map(field, {"body", "edge", "surround", "region", "block", "layers", "ux", "uy"});
   BoundaryCondition bc;
   const ParsedBody& body = find_body(m.require("body", "body, the name of an entry of bodies"), bodies);
   bc.body = body.body.name;

@@ -62,14 +62,16 @@ struct AffineValue {
 ///  - selector surround: fictitious particles everywhere outside the body within
 ///    layers*dx of its boundary (corners included); used by patch tests.
 ///  - selector region: real particles of the body inside the box [lo, hi]; no layers.
+///  - selector block: fictitious particles of the body at the lattice points inside the box
+///    [lo, hi] that no body holds (e.g. the paper's fixed 3 x 3 corner block); no layers.
 struct BoundaryCondition {
-  enum class Selector { edge, surround, region };
+  enum class Selector { edge, surround, region, block };
   std::string body;
   Selector selector = Selector::edge;
   int edge = -1;          ///< polygon edge index (selector edge)
   std::string edge_name;  ///< as written: "left", "3", ... (for messages)
   int layers = 3;         ///< fictitious layers (default discretization.fictitious_layers)
-  Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();  ///< selector region
+  Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();  ///< selectors region and block
   std::optional<AffineValue> ux, uy;          ///< at least one is set
   SourceLocation where;
 };

@@ -60,5 +60,31 @@ TEST(Assembly, RebuiltPatternEqualsTheFirst) {
   EXPECT_TRUE(std::equal(a.outerIndexPtr(), a.outerIndexPtr() + a.outerSize() + 1, b.outerIndexPtr()));
 }
 
+// The `block` selector adds fictitious particles at the free lattice points of its box (the
+// paper's fixed 3 x 3 corner block of case 4.4) and refuses a box that reaches into a body.
+TEST(Discretise, BlockSelectorAddsTheFreeLatticePointsOfItsBox) {
+  test::PlateSpec spec;
+  spec.nx = 10;
+  spec.ny = 8;  // plate [0, 0.01] x [0, 0.008], lattice points at (i + 1/2) mm
+  spec.boundary =
+      "  - {body: plate, edge: bottom, uy: 0}\n"
+      "  - {body: plate, block: {min: [0.010, -0.003], max: [0.013, 0.0]}, ux: 0, uy: 0}\n";
+  const Scene scene = test::scene_from_yaml(test::plate_yaml(spec));
+  const Model model = discretise(scene);
+  const Particles& p = model.particles;
+  int in_block = 0;
+  for (Index q = 0; q < p.size(); ++q) {
+    if (p.position[q].x() > 0.010 && p.position[q].y() < 0.0) {
+      ++in_block;
+      EXPECT_TRUE(p.fictitious[q]);
+      EXPECT_TRUE(model.constraints.prescribed[2 * q] && model.constraints.prescribed[2 * q + 1]);
+    }
+  }
+  EXPECT_EQ(in_block, 9);  // x = 10.5, 11.5, 12.5 mm; y = -0.5, -1.5, -2.5 mm
+
+  spec.boundary = "  - {body: plate, block: {min: [0.008, -0.003], max: [0.013, 0.0015]}, ux: 0}\n";
+  EXPECT_THROW(discretise(test::scene_from_yaml(test::plate_yaml(spec))), InputError);
+}
+
 }  // namespace
 }  // namespace peristat

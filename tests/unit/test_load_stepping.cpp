@@ -12,15 +12,16 @@
 namespace peristat {
 namespace {
 
-class ScalarProblem final : public Problem {
+/// One unknown, r(x) = x - lambda, with a non-finite residual (a "failed" solve) whenever
+/// fails() says so.
+class OneUnknownProblem : public Problem {
  public:
-  explicit ScalarProblem(double breaks_at) : m_breaks_at(breaks_at) {}
   Index n_unknowns() const override { return 1; }
   void set_load_factor(double l) override { m_lambda = l; }
   double load_factor() const override { return m_lambda; }
   void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override {
     r.resize(1);
-    r[0] = m_lambda > m_breaks_at ? std::numeric_limits<double>::quiet_NaN() : x[0] - m_lambda;
+    r[0] = fails() ? std::numeric_limits<double>::quiet_NaN() : x[0] - m_lambda;
     if (K) K->coeffRef(0, 0) = 1.0;
   }
   double force_scale() const override { return 1.0; }
@@ -32,12 +33,24 @@ class ScalarProblem final : public Problem {
   }
   bool tangent_symmetric() const override { return true; }
   bool tangent_constant() const override { return false; }
-  void commit(const VectorXd& x) override { committed.push_back(x[0]); }
+  void commit(const VectorXd& x) override {
+    EXPECT_FALSE(fails()) << "committed a state whose solve failed";
+    committed.push_back(x[0]);
+  }
   std::vector<double> committed;
 
- private:
-  double m_breaks_at;
+ protected:
+  virtual bool fails() const = 0;
   double m_lambda = 0.0;
+};
+
+class ScalarProblem final : public OneUnknownProblem {
+ public:
+  explicit ScalarProblem(double breaks_at) : m_breaks_at(breaks_at) {}
+
+ private:
+  bool fails() const override { return m_lambda > m_breaks_at; }
+  double m_breaks_at;
 };
 
 struct Outcome {
@@ -45,21 +58,26 @@ struct Outcome {
   std::vector<StepReport> steps;
 };
 
-Outcome run(ScalarProblem& p, int steps, int max_cutbacks) {
+/// Newton (dense LDLT) through run_load_steps from x = 0.
+Outcome run_with(Problem& p, const Loading& loading) {
   LinearOptions lo;
   lo.type = "ldlt";
   auto linear = make_linear_solver(lo);
   NewtonOptions no;
   NewtonSolver newton(p, *linear, no);
   VectorXd x = VectorXd::Zero(1);
-  Loading loading;
-  loading.steps = steps;
-  loading.max_cutbacks = max_cutbacks;
   Outcome r;
   LoadSteppingCallbacks cb;
   cb.on_step = [&](const StepReport& s, const VectorXd&) { r.steps.push_back(s); };
   r.report = run_load_steps(p, newton, x, loading, cb);
   return r;
+}
+
+Outcome run(ScalarProblem& p, int steps, int max_cutbacks) {
+  Loading loading;
+  loading.steps = steps;
+  loading.max_cutbacks = max_cutbacks;
+  return run_with(p, loading);
 }
 
 TEST(LoadStepping, EqualStepsReachLoadFactorOne) {
@@ -94,6 +112,89 @@ TEST(LoadStepping, SubStepsAreCommittedOnlyWhenConverged) {
   ASSERT_GE(p.committed.size(), 2u);
   for (double x : p.committed) EXPECT_LE(x, 0.9);
   EXPECT_GT(p.committed.back(), 0.75) << "sub-steps advanced past the last nominal step";
+}
+
+// A crack that runs: from load factor 0.5 on, `pending` bonds are over the criterion. The
+// re-solve after a round fails (non-finite residual) when the round broke more than
+// `tolerable` bonds at once, as Newton does when too much of the structure lets go at once.
+class RunningCrackProblem final : public OneUnknownProblem {
+ public:
+  RunningCrackProblem(Index pending, Index tolerable) : m_pending(pending), m_tolerable(tolerable) {}
+  Index break_bonds(const VectorXd& x, Index at_most) override {
+    EXPECT_TRUE(std::isfinite(x[0])) << "criterion checked at a state that is not an equilibrium";
+    m_round = 0;
+    if (m_lambda < 0.5) return 0;
+    m_round = at_most > 0 ? std::min(at_most, m_pending) : m_pending;
+    m_pending -= m_round;
+    broken += m_round;
+    if (m_round > 0) rounds.push_back(m_round);
+    return m_round;
+  }
+  void undo_last_break() override {
+    m_pending += m_round;
+    broken -= m_round;
+    ++undone;
+    m_round = 0;
+  }
+  Index broken = 0;
+  int undone = 0;
+  std::vector<Index> rounds;  ///< bonds broken per round, failed ones included
+
+ private:
+  bool fails() const override { return m_round > m_tolerable; }
+  Index m_pending, m_tolerable, m_round = 0;
+};
+
+RunReport run_crack(RunningCrackProblem& p, std::vector<StepReport>& steps, int max_resolves = 100) {
+  Loading loading;
+  loading.steps = 2;
+  loading.max_resolves = max_resolves;
+  Outcome r = run_with(p, loading);
+  steps = std::move(r.steps);
+  return r.report;
+}
+
+// 10 bonds go at once, 3 at a time converge: the rounds are 10 (fails), 5 (fails), 2, 2,
+// then the cap doubles: 4 (fails), 2, 2, 2: 10 in all.
+TEST(LoadStepping, RunningCrackHalvesTheRoundUntilItConverges) {
+  RunningCrackProblem p(10, 3);
+  std::vector<StepReport> steps;
+  const RunReport r = run_crack(p, steps);
+  ASSERT_TRUE(r.completed) << r.message;
+  ASSERT_EQ(steps.size(), 2u);
+  EXPECT_EQ(steps[0].bonds_broken, 10);  // step 1 reaches load factor 0.5: the crack runs
+  EXPECT_EQ(p.broken, 10);
+  EXPECT_EQ(steps[0].break_cutbacks, p.undone);
+  EXPECT_GE(p.undone, 3);
+  const std::vector<Index> expected{10, 5, 2, 2, 4, 2, 2, 2};
+  EXPECT_EQ(p.rounds, expected);
+  EXPECT_EQ(steps[0].resolves, static_cast<int>(expected.size()));
+  for (double x : p.committed) EXPECT_TRUE(std::isfinite(x));
+}
+
+// Not even one bond can go: the run stops in step 1 (nothing converged after the break is
+// kept as converged; step 1 is not reported) with a message that says so.
+TEST(LoadStepping, RunningCrackThatCannotBeResolvedStops) {
+  RunningCrackProblem p(10, 0);
+  std::vector<StepReport> steps;
+  const RunReport r = run_crack(p, steps);
+  EXPECT_FALSE(r.completed);
+  EXPECT_EQ(r.steps_done, 0);
+  EXPECT_TRUE(steps.empty());
+  EXPECT_NE(r.message.find("single most critical bond"), std::string::npos) << r.message;
+  EXPECT_EQ(p.broken, 0);  // every round undone
+  const std::vector<Index> expected{10, 5, 2, 1};
+  EXPECT_EQ(p.rounds, expected);
+}
+
+// The cap on re-solves counts failed ones too, and the round over the cap is undone.
+TEST(LoadStepping, RunningCrackStopsAtMaxResolves) {
+  RunningCrackProblem p(10, 3);
+  std::vector<StepReport> steps;
+  const RunReport r = run_crack(p, steps, 4);
+  EXPECT_FALSE(r.completed);
+  EXPECT_NE(r.message.find("max_resolves"), std::string::npos) << r.message;
+  EXPECT_EQ(p.broken, 4);  // rounds 10 x, 5 x, 2, 2; the fifth (4) is undone
 }
 
 }  // namespace

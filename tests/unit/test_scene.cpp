@@ -499,7 +499,7 @@ TEST(SceneErrors, BoundaryConditionShape) {
   expect_error(replace(k_minimal, "    ux: 1.0e-5\n", ""), "scene.yaml:18: boundary.1",
                "expected at least one of ux, uy");
   expect_error(replace(k_minimal, "    edge: right\n", ""), "scene.yaml:18: boundary.1",
-               "expected exactly one of edge, surround, region, found 0");
+               "expected exactly one of edge, surround, region, block, found 0");
   expect_error(replace(k_minimal, "    edge: right\n", "    edge: right\n    surround: true\n"),
                "scene.yaml:18: boundary.1", "found 2");
   expect_error(
@@ -509,6 +509,11 @@ TEST(SceneErrors, BoundaryConditionShape) {
                "scene.yaml:19: boundary.1.surround", "expected true");
   expect_error(replace(k_minimal, "    edge: right\n", "    region: {min: [1, 0], max: [0, 1]}\n"),
                "scene.yaml:19: boundary.1.region", "degenerate region");
+  expect_error(
+      replace(k_minimal, "    edge: right\n", "    block: {min: [0, 0], max: [1, 1]}\n    layers: 2\n"),
+      "scene.yaml:20: boundary.1.layers", "not allowed with block");
+  expect_error(replace(k_minimal, "    edge: right\n", "    block: {min: [0, 1], max: [1, 0]}\n"),
+               "scene.yaml:19: boundary.1.block", "degenerate block");
   expect_error(replace(k_minimal, "    edge: left\n", "    edge: left\n    layers: 0\n"),
                "scene.yaml:16: boundary.0.layers", "expected layers >= 1");
 }
