@@ -1,6 +1,7 @@
 // The cases and the program's contracts, end to end through the command line, in smoke
 // mode (coarse spacing) so the suite stays fast.
 #include <cmath>
+#include <fstream>
 #include <sstream>
 #include <vector>
 
@@ -137,6 +138,42 @@ TEST(ExitCodes, NoConvergenceIsThreeAndLeavesAValidFile) {
   ResultsReader reader((dir / "tension_plate.h5").string());
   EXPECT_GT(reader.particles().size(), 0u);
   EXPECT_TRUE(reader.steps().empty());
+  EXPECT_NE(test::read_file(dir / "summary.json").find("no_convergence"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+// A crack the solver cannot follow: an edge-notched plate with finite kinematics, contact
+// with friction on the new faces, and Newton held to 2 iterations per solve. In step 2 the
+// re-solve after each breaking round fails; the round is undone and retried with half as
+// many bonds (17, 8, 4, 2, 1), and when even the single most critical bond cannot be
+// followed the run stops: exit code 3, step 1 kept in the file, nothing of step 2 written.
+TEST(ExitCodes, CrackThatCannotBeFollowedStopsKeepingConvergedSteps) {
+  const auto dir = test::fresh_directory("running_crack");
+  const auto scene = dir / "notch.yaml";
+  std::ofstream(scene) << R"(name: notch
+materials:
+  m: {E: 1.0e9, nu: 0.3, thickness: 1.0e-3, kinematics: finite}
+discretization: {spacing: 1.0e-3, horizon_factor: 3}
+bodies:
+  plate: {material: m, rectangle: {min: [0, 0], max: [0.04, 0.02]}}
+cracks:
+  - {from: [-0.001, 0.01], to: [0.015, 0.01]}
+boundary:
+  - {body: plate, edge: bottom, uy: 0}
+  - {body: plate, edge: top, uy: 6.0e-5}
+  - {body: plate, region: {min: [0.039, 0], max: [0.04, 0.001]}, ux: 0}
+loading: {steps: 3, max_resolves: 400}
+solver: {linear: cg, newton: {max_iterations: 2, rtol: 1.0e-8}}
+failure: {criterion: stretch, G_c: 10.0}
+contact: {friction: 0.3}
+)";
+  const auto r = test::run_cli("run " + scene.string() + " --out " + dir.string());
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("single most critical bond"), std::string::npos) << r.err;
+  EXPECT_NE(r.out.find("re-solve failed"), std::string::npos) << "no round was halved";
+  ResultsReader reader((dir / "notch.h5").string());
+  ASSERT_EQ(reader.steps().size(), 1u);
+  EXPECT_EQ(reader.steps()[0], 1);
   EXPECT_NE(test::read_file(dir / "summary.json").find("no_convergence"), std::string::npos);
   std::filesystem::remove_all(dir);
 }
