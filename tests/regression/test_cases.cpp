@@ -9,6 +9,7 @@
 
 #include "io/results.hpp"
 #include "support/cli.hpp"
+#include "support/scenes.hpp"
 
 namespace peristat {
 namespace {
@@ -150,23 +151,8 @@ TEST(ExitCodes, NoConvergenceIsThreeAndLeavesAValidFile) {
 TEST(ExitCodes, CrackThatCannotBeFollowedStopsKeepingConvergedSteps) {
   const auto dir = test::fresh_directory("running_crack");
   const auto scene = dir / "notch.yaml";
-  std::ofstream(scene) << R"(name: notch
-materials:
-  m: {E: 1.0e9, nu: 0.3, thickness: 1.0e-3, kinematics: finite}
-discretization: {spacing: 1.0e-3, horizon_factor: 3}
-bodies:
-  plate: {material: m, rectangle: {min: [0, 0], max: [0.04, 0.02]}}
-cracks:
-  - {from: [-0.001, 0.01], to: [0.015, 0.01]}
-boundary:
-  - {body: plate, edge: bottom, uy: 0}
-  - {body: plate, edge: top, uy: 6.0e-5}
-  - {body: plate, region: {min: [0.039, 0], max: [0.04, 0.001]}, ux: 0}
-loading: {steps: 3, max_resolves: 400}
-solver: {linear: cg, newton: {max_iterations: 2, rtol: 1.0e-8}}
-failure: {criterion: stretch, G_c: 10.0}
-contact: {friction: 0.3}
-)";
+  std::ofstream(scene) << test::notch_yaml(6e-5, true, "{linear: cg, newton: {max_iterations: 2, rtol: 1.0e-8}}",
+                                           "contact: {friction: 0.3}\n", "finite", "{steps: 3, max_resolves: 400}");
   const auto r = test::run_cli("run " + scene.string() + " --out " + dir.string());
   EXPECT_EQ(r.exit_code, 3) << r.err;
   EXPECT_NE(r.err.find("single most critical bond"), std::string::npos) << r.err;

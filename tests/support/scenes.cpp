@@ -38,4 +38,24 @@ std::string tension_boundary(double strain, const PlateSpec& s) {
   return y.str();
 }
 
+std::string notch_yaml(double pull, bool failure, const std::string& solver, const std::string& extra,
+                       const std::string& kinematics, const std::string& loading) {
+  std::string y = R"(name: notch
+materials:
+  m: {E: 1.0e9, nu: 0.3, thickness: 1.0e-3, kinematics: )" + kinematics + R"(}
+discretization: {spacing: 1.0e-3, horizon_factor: 3}
+bodies:
+  plate: {material: m, rectangle: {min: [0, 0], max: [0.04, 0.02]}}
+cracks:
+  - {from: [-0.001, 0.01], to: [0.015, 0.01]}
+boundary:
+  - {body: plate, edge: bottom, uy: 0}
+  - {body: plate, edge: top, uy: )" + std::to_string(pull) + R"(}
+  - {body: plate, region: {min: [0.039, 0], max: [0.04, 0.001]}, ux: 0}
+loading: )" + loading + R"(
+solver: )" + solver + "\n";
+  if (failure) y += "failure: {criterion: stretch, G_c: 10.0}\n";
+  return y + extra;
+}
+
 }  // namespace peristat::test

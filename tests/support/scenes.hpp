@@ -30,4 +30,13 @@ Scene scene_from_yaml(const std::string& text);
 /// the mid-height particles of the left layers' region.
 std::string tension_boundary(double strain, const PlateSpec& spec);
 
+/// A 40 x 20 plate (dx = 1 mm, E = 1 GPa, m = 3) with an edge notch from the left edge to
+/// x = 15 mm at mid-height, pulled apart by `pull` [m] at the top edge (bottom uy = 0, one
+/// corner particle ux = 0). With `failure`, critical stretch from G_c = 10 J/m^2:
+/// s_c = 2.1e-3 (docs/theory/failure.md). `solver` and `loading` are YAML flow maps;
+/// `extra` is appended (e.g. a contact section).
+std::string notch_yaml(double pull, bool failure, const std::string& solver = "{linear: umfpack}",
+                       const std::string& extra = "", const std::string& kinematics = "small",
+                       const std::string& loading = "{steps: 1}");
+
 }  // namespace peristat::test

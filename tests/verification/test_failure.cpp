@@ -12,27 +12,10 @@
 namespace peristat {
 namespace {
 
-// A 40 x 20 plate (dx = 1 mm, E = 1 GPa) with an edge notch from the left edge to x = 15 mm
-// at mid-height, pulled apart by `pull` at the top edge (bottom uy = 0). Critical stretch
-// from G_c = 10 J/m^2: s_c = 2.1e-3 (docs/theory/failure.md).
+// The edge-notched plate of test::notch_yaml (small kinematics, one load step).
 std::string notch(double pull, bool failure, const std::string& solver = "{linear: umfpack}",
                   const std::string& extra = "") {
-  std::string y = R"(name: notch
-materials:
-  m: {E: 1.0e9, nu: 0.3, thickness: 1.0e-3, kinematics: small}
-discretization: {spacing: 1.0e-3, horizon_factor: 3}
-bodies:
-  plate: {material: m, rectangle: {min: [0, 0], max: [0.04, 0.02]}}
-cracks:
-  - {from: [-0.001, 0.01], to: [0.015, 0.01]}
-boundary:
-  - {body: plate, edge: bottom, uy: 0}
-  - {body: plate, edge: top, uy: )" + std::to_string(pull) + R"(}
-  - {body: plate, region: {min: [0.039, 0], max: [0.04, 0.001]}, ux: 0}
-loading: {steps: 1}
-solver: )" + solver + "\n";
-  if (failure) y += "failure: {criterion: stretch, G_c: 10.0}\n";
-  return y + extra;
+  return test::notch_yaml(pull, failure, solver, extra);
 }
 
 TEST(Failure, NoBondBreaksBelowTheThreshold) {
