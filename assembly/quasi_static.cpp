@@ -52,9 +52,9 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
   m_failure = scene.failure;
   if (m_failure.enabled) {
     const double delta = model.horizon;
-    for (const Body& body : scene.bodies) {
-      const Material& mat = scene.materials.at(body.material);
-      const double mu = mat.E / (2.0 * (1.0 + mat.nu)), kappa = mat.E / (2.0 * (1.0 - mat.nu));
+    for (std::size_t b = 0; b < scene.bodies.size(); ++b) {
+      const Material& mat = scene.materials.at(scene.bodies[b].material);
+      const double mu = m_body_constants[b].mu, kappa = mat.E / (2.0 * (1.0 - mat.nu));  // 2D bulk modulus
       m_critical.push_back(m_failure.criterion == FailureCriterion::skew
                                ? critical_skew(m_failure.G_c, mu, delta)
                                : critical_stretch(m_failure.G_c, kappa, mu, delta));

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 
 #include "core/clock.hpp"
 
@@ -18,6 +20,70 @@ void accumulate(StepReport& step, const NewtonReport& r) {
   step.seconds_factorize += r.seconds_factorize;
   step.seconds_solve += r.seconds_solve;
   step.residuals.insert(step.residuals.end(), r.residuals.begin(), r.residuals.end());
+}
+
+/// A solve that converged (or was accepted unconverged): x takes its state, which is committed.
+void accept(Problem& problem, VectorXd& x, VectorXd& trial, const NewtonReport& r, StepReport& step) {
+  if (!r.converged) ++step.unconverged;
+  x.swap(trial);
+  problem.commit(x);
+  step.final_residual = r.residuals.back();
+}
+
+/// Quasi-static breaking at the converged, committed state x of nominal step step.step of n,
+/// load factor lambda: bonds over the criterion break and the same load is solved again until
+/// none breaks (docs/theory/failure.md). A round whose re-solve fails is undone and retried
+/// with half as many bonds (the most critical first), down to one bond; the cap doubles after
+/// two rounds in a row converge. Returns "" or why the run has to stop (x is then the last
+/// converged state).
+std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x, VectorXd& trial,
+                              const Loading& loading, const LoadSteppingCallbacks& cb, StepReport& step, int n,
+                              double lambda) {
+  const int k = step.step;
+  char buf[320];
+  Index at_most = 0;  // 0: no cap beyond failure.fraction
+  int successes = 0;  // converged rounds since the last halving
+  for (int resolve = 1;; ++resolve) {
+    const Index broken = problem.break_bonds(x, at_most);
+    if (broken == 0) return {};
+    if (resolve > loading.max_resolves) {
+      problem.undo_last_break();
+      std::snprintf(buf, sizeof buf,
+                    "load step %d/%d: bonds still breaking after %d re-solves at load factor %.6g "
+                    "(loading.max_resolves)",
+                    k, n, loading.max_resolves, lambda);
+      return buf;
+    }
+    ++step.resolves;
+    if (cb.on_resolve) cb.on_resolve(broken, resolve);
+    solver.invalidate_factorization();
+    solver.prepare(x);  // the tangent without the broken bonds
+    trial = x;
+    const NewtonReport r = solver.solve(trial, cb.on_iteration);
+    accumulate(step, r);
+    if (r.converged || r.accepted_unconverged) {
+      accept(problem, x, trial, r, step);
+      step.bonds_broken += broken;
+      if (at_most > 0 && ++successes >= 2) {
+        at_most *= 2;
+        successes = 0;
+      }
+      continue;
+    }
+    problem.undo_last_break();
+    solver.invalidate_factorization();
+    if (broken == 1) {
+      std::snprintf(buf, sizeof buf,
+                    "load step %d/%d: the re-solve after breaking the single most critical bond did not "
+                    "converge at load factor %.6g (%s)",
+                    k, n, lambda, r.reason.c_str());
+      return buf;
+    }
+    at_most = std::max<Index>(1, broken / 2);
+    successes = 0;
+    ++step.break_cutbacks;
+    if (cb.on_break_cutback) cb.on_break_cutback(r.reason, broken, at_most);
+  }
 }
 }  // namespace
 
@@ -44,65 +110,13 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
       const NewtonReport r = solver.solve(trial, cb.on_iteration);
       accumulate(step, r);
       if (r.converged || r.accepted_unconverged) {
-        if (!r.converged) ++step.unconverged;
-        x.swap(trial);
+        accept(problem, x, trial, r, step);
         lambda = next;
-        problem.commit(x);
         ++step.substeps;
-        step.final_residual = r.residuals.back();
-        // Quasi-static breaking: bonds over the criterion break only at a converged state,
-        // and the same load is solved again until none breaks (docs/theory/failure.md).
-        // A round whose re-solve fails is undone and retried with half as many bonds (the
-        // most critical first), down to one bond; the cap doubles after two rounds in a row
-        // converge.
-        Index at_most = 0;  // 0: no cap beyond failure.fraction
-        int successes = 0;  // converged rounds since the last halving
-        for (int resolve = 1;; ++resolve) {
-          const Index broken = problem.break_bonds(x, at_most);
-          if (broken == 0) break;
-          char buf[320];
-          if (resolve > loading.max_resolves) {
-            problem.undo_last_break();
-            std::snprintf(buf, sizeof buf,
-                          "load step %d/%d: bonds still breaking after %d re-solves at load factor %.6g "
-                          "(loading.max_resolves)",
-                          k, n, loading.max_resolves, lambda);
-            run.message = buf;
-            return run;
-          }
-          ++step.resolves;
-          if (cb.on_resolve) cb.on_resolve(broken, resolve);
-          solver.invalidate_factorization();
-          solver.prepare(x);  // the tangent without the broken bonds
-          trial = x;
-          const NewtonReport rr = solver.solve(trial, cb.on_iteration);
-          accumulate(step, rr);
-          if (!(rr.converged || rr.accepted_unconverged)) {
-            problem.undo_last_break();
-            solver.invalidate_factorization();
-            if (broken == 1) {
-              std::snprintf(buf, sizeof buf,
-                            "load step %d/%d: the re-solve after breaking the single most critical bond did "
-                            "not converge at load factor %.6g (%s)",
-                            k, n, lambda, rr.reason.c_str());
-              run.message = buf;
-              return run;
-            }
-            at_most = std::max<Index>(1, broken / 2);
-            successes = 0;
-            ++step.break_cutbacks;
-            if (cb.on_break_cutback) cb.on_break_cutback(rr.reason, broken, at_most);
-            continue;
-          }
-          if (!rr.converged) ++step.unconverged;
-          step.bonds_broken += broken;
-          x.swap(trial);
-          problem.commit(x);
-          step.final_residual = rr.residuals.back();
-          if (at_most > 0 && ++successes >= 2) {
-            at_most *= 2;
-            successes = 0;
-          }
+        if (std::string why = break_and_resolve(problem, solver, x, trial, loading, cb, step, n, lambda);
+            !why.empty()) {
+          run.message = std::move(why);
+          return run;
         }
         if (halvings > 0) {  // grow back towards the nominal increment
           --halvings;

@@ -195,13 +195,15 @@ class Builder {
     const Polygon& shape = it->shape;
     std::vector<Index> chosen;
     const double eps = 1e-9 * m_dx;
+    const auto in_box = [&](const Vec2& x) {  // selectors region and block
+      return (x.array() >= bc.lo.array() - eps).all() && (x.array() <= bc.hi.array() + eps).all();
+    };
     if (bc.selector == BoundaryCondition::Selector::region) {
       const Particles& p = m_model.particles;
       for (Index q = 0; q < p.size(); ++q) {
         if (p.body[q] != body || p.fictitious[q]) continue;
         const Vec2& x = p.position[q];
-        if ((x.array() >= bc.lo.array() - eps).all() && (x.array() <= bc.hi.array() + eps).all())
-          chosen.push_back(q);
+        if (in_box(x)) chosen.push_back(q);
       }
     } else if (bc.selector == BoundaryCondition::Selector::block) {
       // Lattice points inside the box; those of a body are not fictitious and are refused
@@ -209,8 +211,7 @@ class Builder {
       for (int i = lattice_floor(bc.lo.x() - eps, 0); i <= lattice_floor(bc.hi.x() + eps, 0) + 1; ++i) {
         for (int j = lattice_floor(bc.lo.y() - eps, 1); j <= lattice_floor(bc.hi.y() + eps, 1) + 1; ++j) {
           const Vec2 x = lattice_point(i, j);
-          if ((x.array() >= bc.lo.array() - eps).all() && (x.array() <= bc.hi.array() + eps).all())
-            chosen.push_back(fictitious_at(bc, body, i, j));
+          if (in_box(x)) chosen.push_back(fictitious_at(bc, body, i, j));
         }
       }
     } else {
