@@ -24,7 +24,7 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const Scene& scene)
     : m_model(model),
       m_contact(make_contact(model, scene, m_contact_setup_seconds)),
       m_pattern(build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get())),
-      m_bond_radius(scene.solver.linear.bond_radius * scene.discretization.spacing) {
+      m_bond_radius(scene.solver.bond_preconditioner.bond_radius * scene.discretization.spacing) {
   m_linear = true;
   for (const Body& body : scene.bodies) {
     m_body_constants.push_back(OsbConstants::from(scene.materials.at(body.material)));

@@ -26,8 +26,8 @@ void AdrSolver::prepare(const VectorXd& x) {
   m_have_density = true;
 }
 
-NewtonReport AdrSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
-  NewtonReport report;
+SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
+  SolveReport report;
   const AdrOptions& o = m_options;
   const Index n = x.size();
   m_v.setZero(n);

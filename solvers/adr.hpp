@@ -4,7 +4,7 @@
 // docs/theory/adr.md.
 #pragma once
 
-#include "scene/scene.hpp"
+#include "core/options.hpp"
 #include "solvers/step_solver.hpp"
 
 namespace peristat {
@@ -14,11 +14,11 @@ class AdrSolver final : public StepSolver {
   AdrSolver(Problem& problem, const AdrOptions& options);
 
   /// Relaxes from x (at rest) to r(x) = 0 at the problem's current load factor.
-  NewtonReport solve(VectorXd& x, const NewtonMonitor& monitor = {}) override;
+  SolveReport solve(VectorXd& x, const SolveMonitor& monitor = {}) override;
   /// Computes the fictitious density at the converged state x when the tangent may have
   /// changed (first call, or any call for a problem whose tangent is not constant).
   void prepare(const VectorXd& x) override;
-  bool has_factor() const override { return m_have_density; }
+  bool prepared() const override { return m_have_density; }
   bool cutback_helps() const override { return false; }
 
   /// The fictitious density of the last prepare() (per unknown).

@@ -11,7 +11,7 @@ namespace peristat {
 
 namespace {
 /// Adds one solve's work to the step's report.
-void accumulate(StepReport& step, const NewtonReport& r) {
+void accumulate(StepReport& step, const SolveReport& r) {
   step.newton_iterations += r.iterations;
   step.linear_iterations += r.linear_iterations;
   step.factorizations += r.factorizations;
@@ -23,7 +23,7 @@ void accumulate(StepReport& step, const NewtonReport& r) {
 }
 
 /// A solve that converged (or was accepted unconverged): x takes its state, which is committed.
-void accept(Problem& problem, VectorXd& x, VectorXd& trial, const NewtonReport& r, StepReport& step) {
+void accept(Problem& problem, VectorXd& x, VectorXd& trial, const SolveReport& r, StepReport& step) {
   if (!r.converged) ++step.unconverged;
   x.swap(trial);
   problem.commit(x);
@@ -59,7 +59,7 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
     solver.invalidate_factorization();
     solver.prepare(x);  // the tangent without the broken bonds
     trial = x;
-    const NewtonReport r = solver.solve(trial, cb.on_iteration);
+    const SolveReport r = solver.solve(trial, cb.on_iteration);
     accumulate(step, r);
     if (r.converged || r.accepted_unconverged) {
       accept(problem, x, trial, r, step);
@@ -102,12 +102,12 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
     double increment = target - lambda;
     int halvings = 0;  // current depth below the nominal increment
     while (lambda < target - 1e-12 * nominal) {
-      if (!solver.has_factor()) solver.prepare(x);  // tangent of the converged state
+      if (!solver.prepared()) solver.prepare(x);  // tangent of the converged state
       const double next = std::min(lambda + increment, target);
       problem.set_load_factor(next);
       if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
       trial = x;
-      const NewtonReport r = solver.solve(trial, cb.on_iteration);
+      const SolveReport r = solver.solve(trial, cb.on_iteration);
       accumulate(step, r);
       if (r.converged || r.accepted_unconverged) {
         accept(problem, x, trial, r, step);

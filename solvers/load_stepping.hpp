@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "scene/scene.hpp"
+#include "core/options.hpp"
 #include "solvers/step_solver.hpp"
 
 namespace peristat {
@@ -44,7 +44,7 @@ struct LoadSteppingCallbacks {
   /// Start of an attempt at load factor lambda (sub-step or retry) of nominal step k.
   std::function<void(int step, int n_steps, double lambda, int cutbacks)> on_attempt;
   /// Every Newton iterate.
-  NewtonMonitor on_iteration;
+  SolveMonitor on_iteration;
   /// Bonds broke at a converged state; the same load is solved again (re-solve k).
   std::function<void(Index broken, int resolve)> on_resolve;
   /// The re-solve after breaking `broken` bonds failed: they are restored and at most

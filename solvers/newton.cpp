@@ -23,14 +23,14 @@ LinearSolver& NewtonSolver::select_solver() {
   if (m_K_symmetric || !m_linear.needs_symmetric()) return m_linear;
   if (!m_unsymmetric) {  // first slip with a symmetric-only solver: UMFPACK takes over
     LinearOptions lu;
-    lu.type = "umfpack";
+    lu.type = LinearSolverKind::umfpack;
     m_unsymmetric = make_linear_solver(lu);
   }
   return *m_unsymmetric;
   return m_linear;
 }
 
-void NewtonSolver::factorize(NewtonReport& report) {
+void NewtonSolver::factorize(SolveReport& report) {
   const double t0 = wall_seconds();
   LinearSolver& lin = select_solver();
   if (lin.uses_preconditioner_matrix()) {
@@ -63,16 +63,16 @@ void NewtonSolver::prepare(const VectorXd& x) {
   m_pending.factorizations += static_cast<int>(factorizations() - f0);
 }
 
-NewtonReport NewtonSolver::solve(VectorXd& x, const NewtonMonitor& monitor) {
-  NewtonReport report = m_pending;
-  m_pending = NewtonReport{};
+SolveReport NewtonSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
+  SolveReport report = m_pending;
+  m_pending = SolveReport{};
   const long f0 = factorizations();
   report = solve_iterations(x, monitor, std::move(report));
   report.factorizations += static_cast<int>(factorizations() - f0);
   return report;
 }
 
-NewtonReport NewtonSolver::solve_iterations(VectorXd& x, const NewtonMonitor& monitor, NewtonReport report) {
+SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report) {
   // Iteration 1 uses the factor of the last converged state when there is one.
   bool use_existing = m_have_factor;
   const NewtonOptions& o = m_options;

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "assembly/problem.hpp"
-#include "scene/scene.hpp"
+#include "core/options.hpp"
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/step_solver.hpp"
 
@@ -23,7 +23,7 @@ class NewtonSolver final : public StepSolver {
 
   /// Solves r(x) = 0 at the problem's current load factor, starting from x.
   /// On failure x holds the last iterate (the caller restores its converged state).
-  NewtonReport solve(VectorXd& x, const NewtonMonitor& monitor = {}) override;
+  SolveReport solve(VectorXd& x, const SolveMonitor& monitor = {}) override;
 
   /// Factorises the tangent at x (a converged state, at the current load factor). The
   /// first iteration of the next solve uses this factor: the Euler predictor of the new
@@ -31,15 +31,15 @@ class NewtonSolver final : public StepSolver {
   /// prescribed components have just jumped (docs/theory/newton.md).
   void prepare(const VectorXd& x) override;
   /// True when a factor usable for the first iteration of the next solve exists.
-  bool has_factor() const override { return m_have_factor; }
+  bool prepared() const override { return m_have_factor; }
   /// Forget the factorisation (after a failed solve, or when the pattern changed).
   void invalidate_factorization() override { m_have_factor = false; }
 
  private:
-  NewtonReport solve_iterations(VectorXd& x, const NewtonMonitor& monitor, NewtonReport report);
+  SolveReport solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report);
   bool reuse_factor() const;
   long factorizations() const;
-  void factorize(NewtonReport& report);
+  void factorize(SolveReport& report);
 
   /// The linear solver for the current tangent: m_linear, or UMFPACK (m_unsymmetric, made on
   /// first need) while the tangent is unsymmetric and m_linear needs a symmetric matrix.
@@ -56,7 +56,7 @@ class NewtonSolver final : public StepSolver {
   SparseMatrix m_P;  ///< preconditioner matrix, when the linear solver uses one
   bool m_analyzed = false;
   bool m_have_factor = false;
-  NewtonReport m_pending;  ///< work of prepare(), added to the next report
+  SolveReport m_pending;  ///< work of prepare(), added to the next report
   VectorXd m_r, m_dx, m_trial, m_trial_r;
 };
 

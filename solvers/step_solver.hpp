@@ -12,7 +12,7 @@
 namespace peristat {
 
 /// Outcome of one solve at a fixed load factor.
-struct NewtonReport {
+struct SolveReport {
   bool converged = false;
   /// The iteration budget ran out and the options say to keep the state anyway (ADR's
   /// `on_budget: accept`, the paper's fixed iteration count). Never set by Newton.
@@ -33,18 +33,18 @@ struct NewtonReport {
 
 /// Called as a solve progresses: iteration, relative residual, and a solver-specific number
 /// (Newton: the line-search step length; ADR: the damping coefficient).
-using NewtonMonitor = std::function<void(int iteration, double relative_residual, double extra)>;
+using SolveMonitor = std::function<void(int iteration, double relative_residual, double extra)>;
 
 class StepSolver {
  public:
   virtual ~StepSolver() = default;
   /// Solves r(x) = 0 at the problem's current load factor, starting from x. On failure x
   /// holds the last iterate (the caller restores its converged state).
-  virtual NewtonReport solve(VectorXd& x, const NewtonMonitor& monitor = {}) = 0;
+  virtual SolveReport solve(VectorXd& x, const SolveMonitor& monitor = {}) = 0;
   /// Called with the converged state before the load factor moves on.
   virtual void prepare(const VectorXd& /*x*/) {}
   /// False when prepare() must be called before the next solve.
-  virtual bool has_factor() const { return true; }
+  virtual bool prepared() const { return true; }
   /// Forget state tied to a failed attempt.
   virtual void invalidate_factorization() {}
   /// Whether a smaller load increment can rescue a failed solve. ADR fails by running out

@@ -25,9 +25,9 @@ void symmetric_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) {
 /// y = A x for a general A stored by columns (serial scatter).
 void general_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) { y.noalias() = A * x; }
 
-class FactorPreconditionedCG final : public LinearSolver {
+class FactorPreconditionedKrylov final : public LinearSolver {
  public:
-  FactorPreconditionedCG(std::unique_ptr<LinearSolver> factor, FactorSource source, const LinearOptions& o)
+  FactorPreconditionedKrylov(std::unique_ptr<LinearSolver> factor, FactorSource source, const LinearOptions& o)
       : m_factor(std::move(factor)), m_source(source), m_rtol(o.rtol), m_max_iterations(o.max_iterations) {}
 
   void analyzePattern(const SparseMatrix& A) override { m_A = &A; }
@@ -203,10 +203,10 @@ class FactorPreconditionedCG final : public LinearSolver {
 
 }  // namespace
 
-std::unique_ptr<LinearSolver> make_factor_preconditioned_cg(std::unique_ptr<LinearSolver> factor,
+std::unique_ptr<LinearSolver> make_factor_preconditioned_krylov(std::unique_ptr<LinearSolver> factor,
                                                             FactorSource source,
                                                             const LinearOptions& options) {
-  return std::make_unique<FactorPreconditionedCG>(std::move(factor), source, options);
+  return std::make_unique<FactorPreconditionedKrylov>(std::move(factor), source, options);
 }
 
 }  // namespace peristat

@@ -17,7 +17,7 @@ enum class FactorSource {
 };
 
 /// `factor` is a direct solver for symmetric matrices (CHOLMOD in practice).
-std::unique_ptr<LinearSolver> make_factor_preconditioned_cg(std::unique_ptr<LinearSolver> factor,
+std::unique_ptr<LinearSolver> make_factor_preconditioned_krylov(std::unique_ptr<LinearSolver> factor,
                                                             FactorSource source,
                                                             const LinearOptions& options);
 

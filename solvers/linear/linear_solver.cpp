@@ -103,44 +103,49 @@ constexpr int kBoth = Eigen::Lower | Eigen::Upper;
 }  // namespace
 
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
-  const std::string& t = o.type;
-  const std::string pc = o.preconditioner != "auto" ? o.preconditioner : t == "bicgstab" ? "ilut" : "bond";
-  if (t == "cholmod")
-    return std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
-  if (t == "umfpack") return std::make_unique<DirectSolver<Eigen::UmfPackLU<Full>>>("umfpack", false);
-  if (t == "klu") return std::make_unique<DirectSolver<Eigen::KLU<Full>>>("klu", false);
-  if (t == "ldlt")
-    return std::make_unique<DirectSolver<Eigen::SimplicialLDLT<Full, Eigen::Lower>>>("ldlt", true);
-  if (t == "cg") {
-    if (pc == "bond" || pc == "cholmod") {
-      auto factor =
-          std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
-      const auto source = pc == "bond" ? FactorSource::preconditioner_matrix : FactorSource::system_matrix;
-      return make_factor_preconditioned_cg(std::move(factor), source, o);
-    }
-    if (pc == "ic")
-      return std::make_unique<KrylovSolver<Eigen::ConjugateGradient<
-          Full, kBoth, Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::AMDOrdering<Index>>>>>("cg+ic",
-                                                                                                     true, o);
-    if (pc == "diagonal")
-      return std::make_unique<
-          KrylovSolver<Eigen::ConjugateGradient<Full, kBoth, Eigen::DiagonalPreconditioner<double>>>>(
-          "cg+diagonal", true, o);
-    throw InputError("solver.krylov.preconditioner: '" + pc +
-                     "' is not available with cg: expected bond, cholmod, ic or diagonal");
+  using LS = LinearSolverKind;
+  using PC = PreconditionerKind;
+  const LS t = o.type;
+  const PC pc = o.preconditioner != PC::automatic ? o.preconditioner : t == LS::bicgstab ? PC::ilut : PC::bond;
+  auto not_available = [&](const char* expected) {
+    return InputError("solver.krylov.preconditioner: '" + std::string(to_string(pc)) +
+                      "' is not available with " + std::string(to_string(t)) + ": expected " + expected);
+  };
+  switch (t) {
+    case LS::cholmod:
+      return std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
+    case LS::umfpack:
+      return std::make_unique<DirectSolver<Eigen::UmfPackLU<Full>>>("umfpack", false);
+    case LS::klu:
+      return std::make_unique<DirectSolver<Eigen::KLU<Full>>>("klu", false);
+    case LS::ldlt:
+      return std::make_unique<DirectSolver<Eigen::SimplicialLDLT<Full, Eigen::Lower>>>("ldlt", true);
+    case LS::cg:
+      if (pc == PC::bond || pc == PC::cholmod) {
+        auto factor =
+            std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
+        const auto source = pc == PC::bond ? FactorSource::preconditioner_matrix : FactorSource::system_matrix;
+        return make_factor_preconditioned_krylov(std::move(factor), source, o);
+      }
+      if (pc == PC::ic)
+        return std::make_unique<KrylovSolver<Eigen::ConjugateGradient<
+            Full, kBoth, Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::AMDOrdering<Index>>>>>("cg+ic",
+                                                                                                       true, o);
+      if (pc == PC::diagonal)
+        return std::make_unique<
+            KrylovSolver<Eigen::ConjugateGradient<Full, kBoth, Eigen::DiagonalPreconditioner<double>>>>(
+            "cg+diagonal", true, o);
+      throw not_available("bond, cholmod, ic or diagonal");
+    case LS::bicgstab:
+      if (pc == PC::ilut)
+        return std::make_unique<KrylovSolver<Eigen::BiCGSTAB<Full, Eigen::IncompleteLUT<double, Index>>>>(
+            "bicgstab+ilut", false, o);
+      if (pc == PC::diagonal)
+        return std::make_unique<KrylovSolver<Eigen::BiCGSTAB<Full, Eigen::DiagonalPreconditioner<double>>>>(
+            "bicgstab+diagonal", false, o);
+      throw not_available("ilut or diagonal");
   }
-  if (t == "bicgstab") {
-    if (pc == "ilut")
-      return std::make_unique<KrylovSolver<Eigen::BiCGSTAB<Full, Eigen::IncompleteLUT<double, Index>>>>(
-          "bicgstab+ilut", false, o);
-    if (pc == "diagonal")
-      return std::make_unique<KrylovSolver<Eigen::BiCGSTAB<Full, Eigen::DiagonalPreconditioner<double>>>>(
-          "bicgstab+diagonal", false, o);
-    throw InputError("solver.krylov.preconditioner: '" + pc +
-                     "' is not available with bicgstab: expected ilut or diagonal");
-  }
-  throw InputError("solver.linear: unknown linear solver '" + t +
-                   "': expected cholmod, umfpack, klu, ldlt, cg or bicgstab");
+  throw InputError("solver.linear: unknown linear solver");
 }
 
 }  // namespace peristat

@@ -9,7 +9,7 @@
 #include <Eigen/SparseCore>
 
 #include "core/types.hpp"
-#include "scene/scene.hpp"
+#include "core/options.hpp"
 
 namespace peristat {
 

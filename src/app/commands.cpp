@@ -85,8 +85,8 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
   w.field("load_steps", scene.loading.steps);
   w.key("solver");
   w.begin_object();
-  w.field("type", std::string_view(scene.solver.type));
-  if (scene.solver.type == "adr") {
+  w.field("type", to_string(scene.solver.type));
+  if (scene.solver.type == SolverKind::adr) {
     const AdrOptions& a = scene.solver.adr;
     w.field("adr_rtol", a.rtol);
     w.field("adr_max_iterations", static_cast<double>(a.max_iterations));
@@ -136,7 +136,7 @@ int run_command(const RunArguments& args) {
   std::vector<Override> overrides = parse_overrides(args.overrides);
   if (!args.solver.empty()) overrides.push_back({"solver.type", args.solver});
   const Scene scene = parse_scene(args.scene, overrides);
-  const bool adr = scene.solver.type == "adr";
+  const bool adr = scene.solver.type == SolverKind::adr;
   if (args.threads > 0) omp_set_num_threads(args.threads);
   const bool verbose = !args.quiet;
   const double t_start = wall_seconds();

@@ -348,13 +348,26 @@ FailureOptions read_failure(const Field& field) {
   return o;
 }
 
-void read_krylov(const Field& field, LinearOptions& o) {
+/// One of an enum's values, by the name to_string() gives it.
+template <class Kind>
+Kind read_kind(const Field& field, std::initializer_list<Kind> kinds) {
+  std::vector<std::string_view> names;
+  for (Kind k : kinds) names.push_back(to_string(k));
+  const std::string chosen = schema::choice(field, names);
+  for (Kind k : kinds)
+    if (to_string(k) == chosen) return k;
+  return *kinds.begin();  // unreachable: choice() accepted one of the names
+}
+
+void read_krylov(const Field& field, SolverOptions& o) {
   const Map m = checked_map(field, {"rtol", "max_iterations", "preconditioner", "bond_radius"});
-  if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
-  if (auto f = m.find("bond_radius")) o.bond_radius = schema::at_least(*f, 1.0);
-  if (auto f = m.find("max_iterations")) o.max_iterations = schema::int_at_least(*f, 1);
+  if (auto f = m.find("rtol")) o.linear.rtol = schema::positive(*f);
+  if (auto f = m.find("bond_radius")) o.bond_preconditioner.bond_radius = schema::at_least(*f, 1.0);
+  if (auto f = m.find("max_iterations")) o.linear.max_iterations = schema::int_at_least(*f, 1);
   if (auto f = m.find("preconditioner"))
-    o.preconditioner = schema::choice(*f, {"auto", "bond", "cholmod", "ic", "diagonal", "ilut"});
+    o.linear.preconditioner =
+        read_kind(*f, {PreconditionerKind::automatic, PreconditionerKind::bond, PreconditionerKind::cholmod,
+                       PreconditionerKind::ic, PreconditionerKind::diagonal, PreconditionerKind::ilut});
 }
 
 NewtonOptions read_newton(const Field& field) {
@@ -396,10 +409,11 @@ AdrOptions read_adr(const Field& field) {
 SolverOptions read_solver(const Field& field) {
   const Map m = checked_map(field, {"type", "linear", "krylov", "newton", "adr"});
   SolverOptions o;
-  if (auto f = m.find("type")) o.type = schema::choice(*f, {"newton", "adr"});
+  if (auto f = m.find("type")) o.type = read_kind(*f, {SolverKind::newton, SolverKind::adr});
   if (auto f = m.find("linear"))
-    o.linear.type = schema::choice(*f, {"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab"});
-  if (auto f = m.find("krylov")) read_krylov(*f, o.linear);
+    o.linear.type = read_kind(*f, {LinearSolverKind::cholmod, LinearSolverKind::umfpack, LinearSolverKind::klu,
+                                   LinearSolverKind::ldlt, LinearSolverKind::cg, LinearSolverKind::bicgstab});
+  if (auto f = m.find("krylov")) read_krylov(*f, o);
   if (auto f = m.find("newton")) o.newton = read_newton(*f);
   if (auto f = m.find("adr")) o.adr = read_adr(*f);
   return o;
@@ -444,7 +458,7 @@ void read_sections(const Map& top, Scene& scene) {
   if (auto f = top.find("loading")) scene.loading = read_loading(*f);
   if (auto f = top.find("solver")) scene.solver = read_solver(*f);
   if (auto f = top.find("output")) scene.output = read_output(*f);
-  if (scene.contact.enabled && scene.contact.velocity_sign && scene.solver.type != "adr") {
+  if (scene.contact.enabled && scene.contact.velocity_sign && scene.solver.type != SolverKind::adr) {
     throw InputError(scene.contact.friction_law_where,
                      "friction_law: velocity_sign needs solver.type: adr (a static Newton solve has no "
                      "velocity; it uses the return map, docs/theory/contact.md)");

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/options.hpp"
 #include "core/types.hpp"
 
 namespace peristat {
@@ -92,99 +93,13 @@ struct Discretization {
   SourceLocation where;
 };
 
-struct Loading {
-  int steps = 1;         ///< equal load steps to load factor 1, >= 1
-  int max_cutbacks = 6;  ///< halvings of a failing step before giving up, >= 0
-  int max_resolves = 100;  ///< failure: re-solves at one load before the run stops, >= 1
-};
-
-/// Bond failure (key `failure:`; docs/theory/failure.md). Absent: no failure checks at all.
-enum class FailureCriterion { stretch, skew };
-struct FailureOptions {
-  bool enabled = false;
-  FailureCriterion criterion = FailureCriterion::stretch;
-  double G_c = 0.0;                ///< critical energy release rate [J/m^2], > 0
-  Vec2 direction = Vec2::Zero();   ///< skew: reference direction (non-zero)
-  double fraction = 1.0;           ///< break this most critical fraction of the bonds over the criterion, (0, 1]
-  SourceLocation where;
-};
-
-enum class TangentKind { consistent, initial };
-
-struct NewtonOptions {
-  double rtol = 1e-10;  ///< relative residual ||r_free|| / ||f_int|| (docs/theory/newton.md)
-  double atol = 1e-14;  ///< absolute residual floor [N]
-  double stol = 0.0;    ///< increment tolerance ||du|| / ||u||; 0 = not used
-  int max_iterations = 25;
-  bool line_search = true;  ///< backtracking on the residual norm
-  int line_search_max = 8;
-  TangentKind tangent = TangentKind::consistent;  ///< initial: factorise once per run
-};
-
-/// Adaptive Dynamic Relaxation (solver.adr.*, docs/theory/adr.md).
-struct AdrOptions {
-  double rtol = 1e-8;             ///< relative residual, the same measure as newton.rtol
-  long max_iterations = 100000;   ///< pseudo-time steps per load (sub)step
-  bool accept_on_budget = false;  ///< on_budget: accept keeps an unconverged state (the paper's fixed count)
-  double density_factor = 1.0;    ///< fictitious density = factor * 1/4 * sum_j |K_ij| (>= 1 is stable)
-  long report_every = 1000;       ///< progress line and residual sample interval [iterations]
-};
-
-/// Linear solver (key solver.linear) and its iterative settings (solver.krylov.*).
-struct LinearOptions {
-  std::string type = "cholmod";  ///< cholmod | umfpack | klu | ldlt | cg | bicgstab
-  double rtol = 1e-10;           ///< Krylov relative residual
-  int max_iterations = 2000;     ///< Krylov iteration cap
-  /// auto (bond with cg, ilut with bicgstab) | bond | cholmod | ic | diagonal (cg);
-  /// ilut | diagonal (bicgstab)
-  std::string preconditioner = "auto";
-  /// `bond` preconditioner: bonds of length <= bond_radius * dx, >= 1 (default 2.25: the
-  /// 20 nearest lattice neighbours; docs/theory/newton.md).
-  double bond_radius = 2.25;
-};
-
+/// The solver options of a scene (solver.*): which solver, and each one's own options.
 struct SolverOptions {
-  std::string type = "newton";  ///< newton | adr
+  SolverKind type = SolverKind::newton;
   LinearOptions linear;
   NewtonOptions newton;
   AdrOptions adr;
-};
-
-/// How the normal contact force of a candidate pair is computed (docs/theory/contact.md).
-///  - paper: eqs 15-17 of Lu et al., p_c = E_c (|X.n| - |Y.n|) / |X.n| along the declared
-///    interface or crack normal n, active while |Y| < delta_c.
-///  - pair: a short-range repulsion along the current pair direction,
-///    F = C (delta_c - |Y|) / delta_c, zero at |Y| = delta_c (smooth switch-on).
-enum class NormalLaw { paper, pair };
-
-/// Two bodies declared in contact. They must share a boundary segment (the interface).
-struct ContactInterface {
-  std::string body_a, body_b;
-  SourceLocation where;
-};
-
-/// Contact between broken-bond pairs (pre-cracks) and across declared body interfaces.
-/// Absent section or enabled: false = no contact: no candidates, no cost.
-struct ContactOptions {
-  bool enabled = false;        ///< true when a `contact:` section is present, unless it says false
-  double friction = 0.0;       ///< Coulomb coefficient f_c >= 0; 0 builds no friction state
-  double radius_factor = 1.0;  ///< delta_c = radius_factor * dx, > 0
-  NormalLaw normal = NormalLaw::paper;
-  /// Contact modulus E_c [Pa]; 0 = from eq 17 with the two materials' E and nu.
-  double stiffness = 0.0;
-  /// Tangential (stick) penalty as a multiple of the normal pair stiffness, > 0.
-  double tangential_factor = 1.0;
-  /// Width of the switch-on ramp of the paper law as a fraction of delta_c, in [0, 1):
-  /// the force rises linearly from 0 at |Y| = delta_c to full at (1 - gate) delta_c, so no
-  /// pair switches on with a jump. 0 is the paper's sharp gate.
-  double gate = 0.1;
-  bool cracks = true;  ///< pre-crack faces are contact candidates
-  std::vector<ContactInterface> interfaces;
-  /// friction_law: return_map (default; Newton and ADR) or velocity_sign (the paper's eq 13:
-  /// f_c F_n against the sign of the pseudo-velocity; ADR only).
-  bool velocity_sign = false;
-  SourceLocation friction_law_where;
-  SourceLocation where;
+  BondPreconditionerOptions bond_preconditioner;  ///< solver.krylov.bond_radius
 };
 
 struct OutputOptions {

@@ -17,7 +17,7 @@ bool is_quoted(const YAML::Node& node) {
   return node.Tag() == "!";
 }
 
-std::string list_names(std::initializer_list<std::string_view> names) {
+std::string list_names(std::span<const std::string_view> names) {
   std::string s;
   for (std::string_view n : names) s += (s.empty() ? "" : ", ") + std::string(n);
   return s;
@@ -122,7 +122,7 @@ Map checked_map(const Field& field, std::initializer_list<std::string_view> allo
   map.m_entries = map_entries(field, [&](const std::string& name, const Field& entry) {
     for (std::string_view a : allowed)
       if (a == name) return;
-    entry.fail("unknown key \"" + name + "\": expected one of " + list_names(allowed));
+    entry.fail("unknown key \"" + name + "\": expected one of " + list_names(std::span(allowed.begin(), allowed.size())));
   });
   return map;
 }
@@ -179,7 +179,7 @@ std::string text(const Field& field) {
   return field.node().Scalar();
 }
 
-std::string choice(const Field& field, std::initializer_list<std::string_view> options) {
+std::string choice(const Field& field, std::span<const std::string_view> options) {
   const std::string s = text(field);
   for (std::string_view o : options)
     if (o == s) return s;

@@ -5,6 +5,7 @@
 #include <initializer_list>
 #include <optional>
 #include <set>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -81,7 +82,10 @@ double number(const Field& field);  ///< finite, unquoted
 long long integer(const Field& field);
 bool boolean(const Field& field);
 std::string text(const Field& field);  ///< any scalar, as written
-std::string choice(const Field& field, std::initializer_list<std::string_view> options);
+std::string choice(const Field& field, std::span<const std::string_view> options);
+inline std::string choice(const Field& field, std::initializer_list<std::string_view> options) {
+  return choice(field, std::span(options.begin(), options.size()));
+}
 Vec2 point(const Field& field);  ///< [x, y]
 
 /// Range checks; the message reads "value 0.7 is out of range: expected <what>".

@@ -22,7 +22,7 @@ std::unique_ptr<Solved> solve_parsed(Scene scene) {
   s->problem = std::make_unique<QuasiStaticProblem>(s->model, s->scene);
   std::unique_ptr<LinearSolver> linear;
   std::unique_ptr<StepSolver> solver;
-  if (s->scene.solver.type == "adr") {
+  if (s->scene.solver.type == SolverKind::adr) {
     solver = std::make_unique<AdrSolver>(*s->problem, s->scene.solver.adr);
   } else {
     linear = make_linear_solver(s->scene.solver.linear);

@@ -61,7 +61,7 @@ struct Outcome {
 /// Newton (dense LDLT) through run_load_steps from x = 0.
 Outcome run_with(Problem& p, const Loading& loading) {
   LinearOptions lo;
-  lo.type = "ldlt";
+  lo.type = LinearSolverKind::ldlt;
   auto linear = make_linear_solver(lo);
   NewtonOptions no;
   NewtonSolver newton(p, *linear, no);

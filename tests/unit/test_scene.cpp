@@ -204,11 +204,11 @@ void expect_full_scene(const Scene& s) {
 
   EXPECT_EQ(s.loading.steps, 10);
   EXPECT_EQ(s.loading.max_cutbacks, 3);
-  EXPECT_EQ(s.solver.type, "adr");
-  EXPECT_EQ(s.solver.linear.type, "bicgstab");
+  EXPECT_EQ(s.solver.type, SolverKind::adr);
+  EXPECT_EQ(s.solver.linear.type, LinearSolverKind::bicgstab);
   EXPECT_EQ(s.solver.linear.rtol, 1.0e-8);
   EXPECT_EQ(s.solver.linear.max_iterations, 500);
-  EXPECT_EQ(s.solver.linear.preconditioner, "bond");
+  EXPECT_EQ(s.solver.linear.preconditioner, PreconditionerKind::bond);
   EXPECT_EQ(s.solver.newton.rtol, 1.0e-9);
   EXPECT_EQ(s.solver.newton.atol, 1.0e-12);
   EXPECT_EQ(s.solver.newton.stol, 1.0e-7);
@@ -257,10 +257,10 @@ TEST(SceneParse, MinimalSceneGetsTheDocumentedDefaults) {
   EXPECT_EQ(s.loading.steps, 1);
   EXPECT_EQ(s.loading.max_cutbacks, 6);
   const SolverOptions defaults;
-  EXPECT_EQ(s.solver.type, "newton");
-  EXPECT_EQ(s.solver.linear.type, "cholmod");
+  EXPECT_EQ(s.solver.type, SolverKind::newton);
+  EXPECT_EQ(s.solver.linear.type, LinearSolverKind::cholmod);
   EXPECT_EQ(s.solver.linear.rtol, defaults.linear.rtol);
-  EXPECT_EQ(s.solver.linear.preconditioner, "auto");
+  EXPECT_EQ(s.solver.linear.preconditioner, PreconditionerKind::automatic);
   EXPECT_EQ(s.solver.newton.rtol, defaults.newton.rtol);
   EXPECT_EQ(s.solver.newton.max_iterations, defaults.newton.max_iterations);
   EXPECT_TRUE(s.solver.newton.line_search);
@@ -843,8 +843,8 @@ TEST(SceneOverrides, EveryContractKeyWorks) {
   EXPECT_EQ(s.discretization.spacing, 5e-4);
   EXPECT_EQ(s.discretization.horizon_factor, 4.0);
   EXPECT_EQ(s.loading.steps, 7);
-  EXPECT_EQ(s.solver.type, "adr");
-  EXPECT_EQ(s.solver.linear.type, "umfpack");
+  EXPECT_EQ(s.solver.type, SolverKind::adr);
+  EXPECT_EQ(s.solver.linear.type, LinearSolverKind::umfpack);
   EXPECT_EQ(s.solver.newton.rtol, 1e-7);
   EXPECT_EQ(s.solver.adr.rtol, 1e-5);
   EXPECT_EQ(s.solver.adr.max_iterations, 123);

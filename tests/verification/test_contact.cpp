@@ -307,9 +307,9 @@ PathEnd follow(double friction, const std::vector<double>& path) {
   VectorXd x = VectorXd::Zero(problem.n_unknowns());
   problem.set_load_factor(0.0);
   for (double lambda : path) {
-    if (!newton.has_factor()) newton.prepare(x);
+    if (!newton.prepared()) newton.prepare(x);
     problem.set_load_factor(lambda);
-    const NewtonReport r = newton.solve(x);
+    const SolveReport r = newton.solve(x);
     EXPECT_TRUE(r.converged) << "load factor " << lambda << ": " << r.reason;
     std::printf("  f_c = %.1f, load factor %.2f: %d Newton iterations, stick %ld, slip %ld\n", friction,
                 lambda, r.iterations, long(problem.contact()->counts().stick),

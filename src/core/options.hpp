@@ -1,0 +1,132 @@
+// The typed options of each component (STYLE.md, "one typed options struct per component").
+// scene/ converts YAML into them and checks every range; the components take only their
+// own struct, so solvers/, assembly/, materials/ and contact/ never see the Scene.
+// docs/guide/scene.md documents every key.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/error.hpp"
+#include "core/types.hpp"
+
+namespace peristat {
+
+// ---- solvers ---------------------------------------------------------------------------
+
+/// solver.type: the nonlinear solver of every load step.
+enum class SolverKind { newton, adr };
+
+/// The tangent Newton factorises (solver.newton.tangent).
+enum class TangentKind {
+  consistent,  ///< the exact Jacobian at every iterate
+  initial      ///< the first tangent of the run, factorised once
+};
+
+/// Newton's method (solver.newton.*, docs/theory/newton.md).
+struct NewtonOptions {
+  double rtol = 1e-10;  ///< relative residual ||r_free|| / ||f_int|| (docs/theory/newton.md)
+  double atol = 1e-14;  ///< absolute residual floor [N]
+  double stol = 0.0;    ///< increment tolerance ||du|| / ||u||; 0 = not used
+  int max_iterations = 25;
+  bool line_search = true;  ///< backtracking on the residual norm
+  int line_search_max = 8;
+  TangentKind tangent = TangentKind::consistent;  ///< initial: factorise once per run
+};
+
+/// Adaptive Dynamic Relaxation (solver.adr.*, docs/theory/adr.md).
+struct AdrOptions {
+  double rtol = 1e-8;             ///< relative residual, the same measure as newton.rtol
+  long max_iterations = 100000;   ///< pseudo-time steps per load (sub)step
+  bool accept_on_budget = false;  ///< on_budget: accept keeps an unconverged state (the paper's fixed count)
+  double density_factor = 1.0;    ///< fictitious density = factor * 1/4 * sum_j |K_ij| (>= 1 is stable)
+  long report_every = 1000;       ///< progress line and residual sample interval [iterations]
+};
+
+/// solver.linear: the linear solver behind Newton.
+enum class LinearSolverKind { cholmod, umfpack, klu, ldlt, cg, bicgstab };
+
+/// solver.krylov.preconditioner. `automatic` is the key's value `auto`: bond with cg,
+/// ilut with bicgstab.
+enum class PreconditionerKind { automatic, bond, cholmod, ic, diagonal, ilut };
+
+/// Linear solver (key solver.linear) and its iterative settings (solver.krylov.*).
+struct LinearOptions {
+  LinearSolverKind type = LinearSolverKind::cholmod;
+  double rtol = 1e-10;         ///< Krylov relative residual
+  int max_iterations = 2000;   ///< Krylov iteration cap
+  /// auto | bond | cholmod | ic | diagonal (cg); auto | ilut | diagonal (bicgstab)
+  PreconditionerKind preconditioner = PreconditionerKind::automatic;
+};
+
+/// The `bond` preconditioner matrix the problem assembles (solver.krylov.bond_radius):
+/// bonds of length <= bond_radius * dx, >= 1 (default 2.25: the 20 nearest lattice
+/// neighbours; docs/theory/newton.md, "Bond preconditioner").
+struct BondPreconditionerOptions {
+  double bond_radius = 2.25;
+};
+
+/// Load stepping (loading.*).
+struct Loading {
+  int steps = 1;           ///< equal load steps to load factor 1, >= 1
+  int max_cutbacks = 6;    ///< halvings of a failing step before giving up, >= 0
+  int max_resolves = 100;  ///< re-solves at one load after irreversible changes before the run stops, >= 1
+};
+
+/// The names the scene uses (for messages and summary.json).
+std::string_view to_string(SolverKind kind);
+std::string_view to_string(LinearSolverKind kind);
+std::string_view to_string(PreconditionerKind kind);
+
+// ---- physics ---------------------------------------------------------------------------
+
+/// Bond failure (key `failure:`; docs/theory/failure.md). Absent: no failure checks at all.
+enum class FailureCriterion { stretch, skew };
+struct FailureOptions {
+  bool enabled = false;
+  FailureCriterion criterion = FailureCriterion::stretch;
+  double G_c = 0.0;               ///< critical energy release rate [J/m^2], > 0
+  Vec2 direction = Vec2::Zero();  ///< skew: reference direction (non-zero)
+  double fraction = 1.0;          ///< break this most critical fraction of the bonds over the criterion, (0, 1]
+  SourceLocation where;
+};
+
+/// How the normal contact force of a candidate pair is computed (docs/theory/contact.md).
+///  - paper: eqs 15-17 of Lu et al., p_c = E_c (|X.n| - |Y.n|) / |X.n| along the declared
+///    interface or crack normal n, active while |Y| < delta_c.
+///  - pair: a short-range repulsion along the current pair direction,
+///    F = C (delta_c - |Y|) / delta_c, zero at |Y| = delta_c (smooth switch-on).
+enum class NormalLaw { paper, pair };
+
+/// Two bodies declared in contact. They must share a boundary segment (the interface).
+struct ContactInterface {
+  std::string body_a, body_b;
+  SourceLocation where;
+};
+
+/// Contact between broken-bond pairs (pre-cracks) and across declared body interfaces.
+/// Absent section or enabled: false = no contact: no candidates, no cost.
+struct ContactOptions {
+  bool enabled = false;        ///< true when a `contact:` section is present, unless it says false
+  double friction = 0.0;       ///< Coulomb coefficient f_c >= 0; 0 builds no friction state
+  double radius_factor = 1.0;  ///< delta_c = radius_factor * dx, > 0
+  NormalLaw normal = NormalLaw::paper;
+  /// Contact modulus E_c [Pa]; 0 = from eq 17 with the two materials' E and nu.
+  double stiffness = 0.0;
+  /// Tangential (stick) penalty as a multiple of the normal pair stiffness, > 0.
+  double tangential_factor = 1.0;
+  /// Width of the switch-on ramp of the paper law as a fraction of delta_c, in [0, 1):
+  /// the force rises linearly from 0 at |Y| = delta_c to full at (1 - gate) delta_c, so no
+  /// pair switches on with a jump. 0 is the paper's sharp gate.
+  double gate = 0.1;
+  bool cracks = true;  ///< pre-crack faces are contact candidates
+  std::vector<ContactInterface> interfaces;
+  /// friction_law: return_map (default; Newton and ADR) or velocity_sign (the paper's eq 13:
+  /// f_c F_n against the sign of the pseudo-velocity; ADR only).
+  bool velocity_sign = false;
+  SourceLocation friction_law_where;
+  SourceLocation where;
+};
+
+}  // namespace peristat
