@@ -67,11 +67,20 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
     std::vector<Index>().swap(rows[p]);
   }
   pat.lattice_reach = reach;
+  for (Index p = 0; p < n; ++p)
+    pat.nonzeros += static_cast<long long>(col_nnz[p]) * n_free_of(p);
+  return pat;
+}
 
+SparseMatrix TangentPattern::make_matrix(const Constraints& cons) const {
+  const Index n = static_cast<Index>(col_start.size()) - 1;
   // Free-dof matrix: the columns of particle p (one per free component) share p's rows.
   const Index n_free = cons.n_free;
-  SparseMatrix& A = pat.matrix;
-  A.resize(n_free, n_free);
+  std::vector<Index> col_nnz(n, 0);
+  for (Index p = 0; p < n; ++p)
+    for (Index k = col_start[p]; k < col_start[p + 1]; ++k)
+      for (int d = 0; d < 2; ++d) col_nnz[p] += Index(cons.free_index[2 * row_particle[k] + d] >= 0);
+  SparseMatrix A(n_free, n_free);
   std::vector<Index> outer(n_free + 1, 0);
   for (Index p = 0; p < n; ++p)
     for (int c = 0; c < 2; ++c)
@@ -89,8 +98,8 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
       const Index col = cons.free_index[2 * p + c];
       if (col < 0) continue;
       Index pos = outer[col];
-      for (Index k = pat.col_start[p]; k < pat.col_start[p + 1]; ++k) {
-        const Index q = pat.row_particle[k];
+      for (Index k = col_start[p]; k < col_start[p + 1]; ++k) {
+        const Index q = row_particle[k];
         for (int d = 0; d < 2; ++d)
           if (const Index row = cons.free_index[2 * q + d]; row >= 0) {
             inner[pos] = row;
@@ -99,7 +108,15 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
       }
     }
   }
-  return pat;
+  return A;
+}
+
+std::size_t TangentPattern::matrix_bytes() const {
+  return static_cast<std::size_t>(nonzeros) * (sizeof(double) + sizeof(Index));
+}
+
+std::size_t TangentPattern::memory_bytes() const {
+  return (col_start.capacity() + row_particle.capacity() + row_offset.capacity()) * sizeof(Index);
 }
 
 }  // namespace peristat

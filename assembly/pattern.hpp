@@ -18,10 +18,16 @@ struct TangentPattern {
   std::vector<Index> col_start;
   std::vector<Index> row_particle;
   std::vector<Index> row_offset;
-  int lattice_reach = 0;  ///< max lattice offset between coupled particles
+  int lattice_reach = 0;   ///< max lattice offset between coupled particles
+  long long nonzeros = 0;  ///< of the free-dof matrix
 
-  /// The free-dof matrix (values zero), column-major, rows ascending in each column.
-  SparseMatrix matrix;
+  /// A free-dof matrix with this pattern (values zero), column-major, rows ascending in each
+  /// column. O(nonzeros); the structure above is what is expensive to build.
+  SparseMatrix make_matrix(const Constraints& constraints) const;
+  /// Bytes of one matrix from make_matrix() (values and row indices).
+  std::size_t matrix_bytes() const;
+  /// Bytes of the structure itself.
+  std::size_t memory_bytes() const;
 };
 
 /// Which couplings the pattern holds.
@@ -30,7 +36,7 @@ enum class PatternReach {
   bonds_within,  ///< bond pairs of length <= a given radius only
 };
 
-/// Builds the pattern. Deterministic; O(N n^2) with n the family size.
+/// Builds the pattern's structure. Deterministic; O(N n^2) with n the family size.
 /// `radius` [m] is used with PatternReach::bonds_within only. The candidate pairs of
 /// `contact`, when given, are coupled too.
 TangentPattern build_pattern(const Model& model, PatternReach reach = PatternReach::two_horizons,

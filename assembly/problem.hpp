@@ -1,5 +1,6 @@
 // The small interface the solvers see (STYLE.md, seam 3): residual, tangent, load factor,
-// commit. Header-only and free of physics so solvers/ never includes materials or contact.
+// irreversible state, commit. Header-only and free of physics so solvers/ never includes
+// materials or contact.
 #pragma once
 
 #include <cstdint>
@@ -28,11 +29,11 @@ class Problem {
   /// ||r|| / force_scale() (docs/theory/newton.md).
   virtual double force_scale() const = 0;
 
-  /// A matrix with the tangent's sparsity pattern (built once) and zero values.
+  /// A matrix with the tangent's sparsity pattern and zero values. Each call makes a new one.
   virtual SparseMatrix make_tangent() const = 0;
 
   /// True when the tangent assembled by the last evaluate() that assembled one is symmetric
-  /// (a Cholesky factorisation or CG applies); contact pairs that slip make it unsymmetric.
+  /// (a Cholesky factorisation or CG applies).
   virtual bool tangent_symmetric() const = 0;
 
   /// True when the tangent does not depend on x (linear problem: factorise once).
@@ -41,34 +42,27 @@ class Problem {
   /// An optional cheaper symmetric positive definite matrix over the same unknowns whose
   /// factor preconditions Krylov solves with the tangent (PETSc's Pmat). Empty when the
   /// problem offers none.
-  virtual SparseMatrix make_preconditioner() const { return {}; }
+  virtual SparseMatrix make_preconditioner() { return {}; }
   /// Fills the values of P (from make_preconditioner()) at the state of the last evaluate().
   virtual void assemble_preconditioner(SparseMatrix& /*P*/) {}
 
-  /// A hash of the discrete state of the last evaluate() (the contact and friction active
-  /// set); 0 for a smooth problem. Newton counts the iterations that change it and
-  /// detects cycling.
+  /// A hash of the discrete state of the last evaluate() (e.g. an active set); 0 for a
+  /// smooth problem. Newton counts the iterations that change it and detects cycling.
   virtual std::uint64_t state_signature() const { return 0; }
 
   /// Adds to `row_sums` (per unknown) a bound of the absolute row sums of tangent terms that
-  /// may switch on later in a step and are absent from the current tangent (contact pairs
-  /// not yet in contact). ADR's fictitious density covers them.
+  /// may switch on later in a step and are absent from the current tangent. ADR's
+  /// fictitious density covers them.
   virtual void add_stiffness_bound(VectorXd& /*row_sums*/) const {}
 
-  /// True when evaluate() depends on a pseudo-velocity (the paper's velocity-sign friction).
-  virtual bool wants_velocity() const { return false; }
-  /// The pseudo-velocity of the unknowns for the next evaluate() (ADR only).
-  virtual void set_velocity(const VectorXd& /*v*/) {}
-
-  /// Checks the failure criterion at the converged, committed state x and breaks the bonds
-  /// over it (all, or the most critical fraction), at most `at_most` of them when
-  /// at_most > 0, most critical first. Returns the number of bonds broken (each pair counted
-  /// once); 0 for a problem without failure. Broken bonds never heal once a state with them
-  /// has converged.
-  virtual Index break_bonds(const VectorXd& /*x*/, Index /*at_most*/ = 0) { return 0; }
-  /// Restores the bonds of the last break_bonds() round, whose re-solve did not converge (no
-  /// converged state ever held them broken). Only the last round can be undone.
-  virtual void undo_last_break() {}
+  /// Advances the irreversible state at the converged, committed state x (e.g. damage): a
+  /// trial change of at most `at_most` items when at_most > 0, the most critical first.
+  /// Returns how many items changed; 0 when nothing did (or the problem has no such state),
+  /// and then the load step is done. The change is kept by the next commit() and undone by
+  /// revert_irreversible_state().
+  virtual Index advance_irreversible_state(const VectorXd& /*x*/, Index /*at_most*/ = 0) { return 0; }
+  /// Undoes the last advance_irreversible_state(), whose re-solve did not converge.
+  virtual void revert_irreversible_state() {}
 
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;

@@ -1,78 +1,90 @@
 // The quasi-static peridynamic problem: total energy Pi(u) = sum_i V_i W_i over the bond
-// families, prescribed components eliminated. Residual and tangent are its first and second
-// derivatives, assembled in parallel by gathering per particle (deterministic, no atomics).
+// families plus the contact pairs' work, prescribed components eliminated. Residual and
+// tangent are its first and second derivatives, assembled in parallel by gathering per
+// particle (deterministic, no atomics). The assembler knows indices, not physics: the OSB
+// kernel (materials/osb.hpp), the bonds' failure state (materials/bond_failure.hpp) and the
+// contact pairs with their history (contact/contact.hpp) live in objects of their own.
 #pragma once
 
 #include <memory>
 #include <vector>
 
+#include "assembly/bond_preconditioner.hpp"
 #include "assembly/pattern.hpp"
 #include "assembly/problem.hpp"
+#include "assembly/pseudo_velocity.hpp"
 #include "contact/contact.hpp"
+#include "core/options.hpp"
 #include "discretisation/model.hpp"
+#include "materials/bond_failure.hpp"
 #include "materials/osb.hpp"
 
 namespace peristat {
 
-class QuasiStaticProblem final : public Problem {
+/// What the problem models beyond the bonds: each part is built only when enabled.
+struct ProblemOptions {
+  ContactOptions contact;                         ///< contact.enabled = false: no candidates, no cost
+  FailureOptions failure;                         ///< failure.enabled = false: no failure checks
+  BondPreconditionerOptions bond_preconditioner;  ///< used when a solver asks for a preconditioner
+};
+
+class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
  public:
-  QuasiStaticProblem(const Model& model, const Scene& scene);
+  QuasiStaticProblem(const Model& model, const ProblemOptions& options);
 
   Index n_unknowns() const override { return m_model.constraints.n_free; }
-  void set_load_factor(double lambda) override;
+  void set_load_factor(double lambda) override { m_lambda = lambda; }
   double load_factor() const override { return m_lambda; }
   void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override;
   double force_scale() const override { return m_force_scale; }
-  /// The first call hands over the pattern built at construction (no copy of a matrix that
-  /// can hold hundreds of MB); later calls rebuild it.
-  SparseMatrix make_tangent() const override;
+  SparseMatrix make_tangent() const override { return m_pattern.make_matrix(m_model.constraints); }
   /// False while a pair slips with friction (the Jacobian of eq 14 is not symmetric).
   bool tangent_symmetric() const override { return !m_contact || m_contact->symmetric(); }
-  bool tangent_constant() const override { return m_linear && !m_contact && !m_failure.enabled; }
+  bool tangent_constant() const override { return m_small_kinematics && !m_contact && !m_failure; }
+  /// The contact and friction active set.
   std::uint64_t state_signature() const override { return m_contact ? m_contact->signature() : 0; }
-  /// The bond-based part of the tangent restricted to bonds shorter than
-  /// solver.krylov.bond_radius * dx: sum of V alpha' omega w M M^T with alpha' = 8 mu / m'
-  /// and m' the weighted volume of those bonds (docs/theory/newton.md, "Bond preconditioner"),
-  /// plus k_n n n^T (+ k_t t t^T when sticking) of every contact pair in contact.
-  SparseMatrix make_preconditioner() const override;
+  /// The `bond` preconditioner (assembly/bond_preconditioner.hpp), built on first request.
+  SparseMatrix make_preconditioner() override;
   void assemble_preconditioner(SparseMatrix& P) override;
   void commit(const VectorXd& x) override;
   /// Every candidate pair, whatever its state: 4 x ContactSystem::stiffness_bound on the two
   /// components of both particles (a 2 x 2 block appears twice in a row, +J and -J).
   void add_stiffness_bound(VectorXd& row_sums) const override;
-  /// The scene's failure criterion (docs/theory/failure.md) at x: a bond breaks when
-  /// max(value/critical) over its two directions exceeds 1; the most critical
-  /// `failure.fraction` of those (at least one) break.
-  Index break_bonds(const VectorXd& x, Index at_most = 0) override;
-  void undo_last_break() override;
-  /// Bonds broken since the start (pairs), and the damage of each particle,
-  /// 1 - sum of intact bond weights / sum of all (N).
-  Index broken_bonds() const { return m_broken; }
-  void damage(VectorXd& d) const;
-  bool models_failure() const { return m_failure.enabled; }
-  bool wants_velocity() const override { return m_contact && m_contact->wants_velocity(); }
+  /// Bond failure: the bonds over the scene's criterion at x break (BondFailure) and join
+  /// the contact candidates when the scene models contact. Returns the bonds broken.
+  Index advance_irreversible_state(const VectorXd& x, Index at_most = 0) override;
+  void revert_irreversible_state() override;
+
+  /// This problem as ADR's pseudo-velocity input when its friction law reads a velocity
+  /// (the paper's eq 13), else null.
+  PseudoVelocityInput* pseudo_velocity_input() { return m_contact && m_contact->wants_velocity() ? this : nullptr; }
   /// Expands v (unknowns) to all components, zero on prescribed ones, for the contact pairs.
   void set_velocity(const VectorXd& v) override;
 
   /// Full displacement (2N, interleaved) of x at the current load factor.
-  void expand(const VectorXd& x, VectorXd& u) const;
+  void expand(const VectorXd& x, VectorXd& u) const { m_model.constraints.expand(x, m_lambda, u); }
   /// Internal force dPi/du of every component (2N) from the last evaluate; on prescribed
   /// components these are the reactions.
   const VectorXd& internal_force() const { return m_force; }
   /// First Piola stress at particle i from the last evaluate, P = sum_b t_b M_b xi_b^T: the
   /// derivative of W with respect to the deformation gradient when the family deforms
-  /// homogeneously (docs/theory/osb.md, "Stress"). Meaningful away from boundaries.
+  /// homogeneously (docs/theory/osb.md, section 5). Meaningful away from boundaries.
   Mat2 stress(Index i) const;
   /// Total strain energy Pi [J] of the last evaluate.
   double energy() const { return m_energy; }
   const Model& model() const { return m_model; }
   /// The contact candidates and their state, or null when the scene has no contact.
   const ContactSystem* contact() const { return m_contact.get(); }
+  /// The bonds' failure state, or null when the scene models no failure.
+  const BondFailure* failure() const { return m_failure.get(); }
   /// Wall time spent building the contact candidates, and evaluating the pairs (summed over
   /// every evaluate so far) [s].
   double contact_setup_seconds() const { return m_contact_setup_seconds; }
   double contact_seconds() const { return m_contact_seconds; }
   const TangentPattern& pattern() const { return m_pattern; }
+  /// Bytes held by the problem's state, its pattern and its physics objects (not the model,
+  /// not the matrices handed out).
+  std::size_t memory_bytes() const;
 
  private:
   /// m_eta of particle i's bonds from m_u.
@@ -82,23 +94,16 @@ class QuasiStaticProblem final : public Problem {
   void gather_tangent(SparseMatrix& K) const;
 
   const Model& m_model;
+  ProblemOptions m_options;
   double m_contact_setup_seconds = 0.0;      ///< declared first: m_contact's initialiser sets it
   std::unique_ptr<ContactSystem> m_contact;  ///< null without contact: no candidates, no cost
-  mutable TangentPattern m_pattern;  ///< its matrix is moved out by the first make_tangent()
-  mutable std::unique_ptr<TangentPattern> m_bond_pattern;  ///< built on first request
-  double m_bond_radius = 0.0;                              ///< [m]
-  std::vector<double> m_bond_alpha_volume;                 ///< per particle V 8 mu / m'
-  std::vector<OsbConstants> m_body_constants;              ///< per body
-  std::vector<double> m_weighted_volume;                   ///< m_i (eq 4), intact bonds at the start
-  std::vector<double> m_weight;  ///< bond quadrature weights, 0 once broken (the kernel's input)
-  FailureOptions m_failure;
-  std::vector<double> m_critical;        ///< per body: s_c or gamma_c
-  std::vector<Index> m_reference_bond;   ///< skew: per particle, the reference bond (global index)
-  std::vector<double> m_ratio;           ///< per bond: criterion value / critical (scratch)
-  Index m_broken = 0;
-  std::vector<Index> m_last_round;   ///< bonds (b < reverse) broken by the last round
-  Index m_contact_before_round = 0;  ///< contact candidates before the last round
-  bool m_linear = false;
+  std::unique_ptr<BondFailure> m_failure;    ///< null without failure: no checks, no state
+  TangentPattern m_pattern;
+  std::unique_ptr<BondPreconditioner> m_preconditioner;  ///< built on first request
+  std::vector<OsbConstants> m_body_constants;            ///< per body
+  std::vector<double> m_weighted_volume;                 ///< m_i (eq 4), intact bonds at the start
+  std::span<const double> m_weight;  ///< bond quadrature weights, 0 once broken (the kernel's input)
+  bool m_small_kinematics = false;   ///< every body linearised: the bond tangent is constant
   double m_contact_seconds = 0.0;
   double m_lambda = 0.0;
 

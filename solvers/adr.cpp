@@ -8,7 +8,8 @@
 
 namespace peristat {
 
-AdrSolver::AdrSolver(Problem& problem, const AdrOptions& options) : m_problem(problem), m_options(options) {}
+AdrSolver::AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocityInput* velocity)
+    : m_problem(problem), m_velocity(velocity), m_options(options) {}
 
 void AdrSolver::prepare(const VectorXd& x) {
   if (m_have_density && m_problem.tangent_constant()) return;
@@ -32,8 +33,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   const Index n = x.size();
   m_v.setZero(n);
   m_r_old.resize(n);
-  const bool velocity = m_problem.wants_velocity();
-  if (velocity) m_problem.set_velocity(m_v);
+  if (m_velocity) m_velocity->set_velocity(m_v);
 
   double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, nullptr);
@@ -57,7 +57,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   double c = 0.0;
   for (long it = 1; it <= o.max_iterations; ++it) {
     m_r_old.swap(m_r);
-    if (velocity) m_problem.set_velocity(m_v);
+    if (m_velocity) m_velocity->set_velocity(m_v);
     t0 = wall_seconds();
     m_problem.evaluate(x, m_r, nullptr);
     report.seconds_evaluate += wall_seconds() - t0;

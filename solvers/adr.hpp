@@ -4,6 +4,7 @@
 // docs/theory/adr.md.
 #pragma once
 
+#include "assembly/pseudo_velocity.hpp"
 #include "core/options.hpp"
 #include "solvers/step_solver.hpp"
 
@@ -11,7 +12,9 @@ namespace peristat {
 
 class AdrSolver final : public StepSolver {
  public:
-  AdrSolver(Problem& problem, const AdrOptions& options);
+  /// `velocity`: where the pseudo-velocity goes when the problem's residual reads one (the
+  /// paper's velocity-sign friction); null otherwise.
+  AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocityInput* velocity = nullptr);
 
   /// Relaxes from x (at rest) to r(x) = 0 at the problem's current load factor.
   SolveReport solve(VectorXd& x, const SolveMonitor& monitor = {}) override;
@@ -26,6 +29,7 @@ class AdrSolver final : public StepSolver {
 
  private:
   Problem& m_problem;
+  PseudoVelocityInput* m_velocity;
   AdrOptions m_options;
   VectorXd m_density;
   SparseMatrix m_K;  ///< tangent for the row sums (pattern kept across load steps)

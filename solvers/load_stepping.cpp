@@ -44,10 +44,10 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
   Index at_most = 0;  // 0: no cap beyond failure.fraction
   int successes = 0;  // converged rounds since the last halving
   for (int resolve = 1;; ++resolve) {
-    const Index broken = problem.break_bonds(x, at_most);
+    const Index broken = problem.advance_irreversible_state(x, at_most);
     if (broken == 0) return {};
     if (resolve > loading.max_resolves) {
-      problem.undo_last_break();
+      problem.revert_irreversible_state();
       std::snprintf(buf, sizeof buf,
                     "load step %d/%d: bonds still breaking after %d re-solves at load factor %.6g "
                     "(loading.max_resolves)",
@@ -70,7 +70,7 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
       }
       continue;
     }
-    problem.undo_last_break();
+    problem.revert_irreversible_state();
     solver.invalidate_factorization();
     if (broken == 1) {
       std::snprintf(buf, sizeof buf,

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "core/error.hpp"
+#include "scene/geometry.hpp"
 
 namespace peristat {
 
@@ -58,14 +59,14 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
   out.status = PairStatus::slip;  // frictionless pairs slide freely
   if (law.friction > 0.0 && law.velocity_sign) {
     // Eq 13: f_c F_n opposing the relative tangential velocity; none while it is zero.
-    const Vec2 t(-n.y(), n.x());
+    const Vec2 t = pair.tangent();
     const double sign = tangential_velocity > 0.0 ? 1.0 : (tangential_velocity < 0.0 ? -1.0 : 0.0);
     out.status = sign == 0.0 ? PairStatus::stick : PairStatus::slip;
     out.tangential = sign * law.friction * F;
     if (want_jacobian) out.J += (sign * law.friction) * t * dF.transpose();
     out.g += out.tangential * t;
   } else if (law.friction > 0.0) {
-    const Vec2 t(-n.y(), n.x());
+    const Vec2 t = pair.tangent();
     const double kt = law.tangential_factor * C / a;
     const double trial = kt * (t.dot(du) - slip);
     const double limit = law.friction * F;
@@ -84,13 +85,6 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
 }
 
 namespace {
-
-double distance_to_segment(const Vec2& p, const Vec2& a, const Vec2& b) {
-  const Vec2 d = b - a;
-  const double len2 = d.squaredNorm();
-  const double s = len2 > 0.0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
-  return (p - (a + s * d)).norm();
-}
 
 /// A straight piece of interface with the unit normal pointing from body A into body B.
 struct Segment {
@@ -118,35 +112,6 @@ std::vector<Segment> shared_segments(const Polygon& A, const Polygon& B, double 
   return out;
 }
 
-/// Dense map from lattice coordinates to particle index.
-class Grid {
- public:
-  explicit Grid(const Particles& p) {
-    if (p.size() == 0) return;
-    m_lo = m_hi = p.lattice[0];
-    for (const auto& l : p.lattice)
-      for (int c = 0; c < 2; ++c) {
-        m_lo[c] = std::min(m_lo[c], l[c]);
-        m_hi[c] = std::max(m_hi[c], l[c]);
-      }
-    m_nx = m_hi[0] - m_lo[0] + 1;
-    m_cells.assign(static_cast<std::size_t>(m_nx) * (m_hi[1] - m_lo[1] + 1), -1);
-    for (Index i = 0; i < p.size(); ++i) m_cells[cell(p.lattice[i][0], p.lattice[i][1])] = i;
-  }
-  Index at(int x, int y) const {
-    if (m_cells.empty() || x < m_lo[0] || x > m_hi[0] || y < m_lo[1] || y > m_hi[1]) return -1;
-    return m_cells[cell(x, y)];
-  }
-
- private:
-  std::size_t cell(int x, int y) const {
-    return static_cast<std::size_t>(y - m_lo[1]) * m_nx + static_cast<std::size_t>(x - m_lo[0]);
-  }
-  std::array<int, 2> m_lo{0, 0}, m_hi{0, 0};
-  int m_nx = 0;
-  std::vector<Index> m_cells;
-};
-
 /// Contact modulus of eq 17 (or the scene's override).
 double contact_modulus(const Material& m1, const Material& m2, double override_value) {
   if (override_value > 0.0) return override_value;
@@ -155,8 +120,7 @@ double contact_modulus(const Material& m1, const Material& m2, double override_v
 
 }  // namespace
 
-ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(model) {
-  const ContactOptions& o = scene.contact;
+ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_model(model) {
   const double dx = model.spacing;
   m_law.normal = o.normal;
   m_law.radius = o.radius_factor * dx;
@@ -170,9 +134,6 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
   const double band = m_law.radius * (1.0 + 1e-9);
   const double min_gap = 0.2 * dx;  // pairs nearly parallel to the interface are skipped
   const double delta3 = std::pow(model.horizon, 3);
-  const Grid grid(p);
-
-  for (const Body& b : scene.bodies) m_body_material.push_back(scene.materials.at(b.material));
   m_modulus_override = o.stiffness;
   m_delta3 = delta3;
   auto add_pair = [&](Index i, Index j, const Vec2& normal) {
@@ -189,7 +150,7 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
   };
   auto for_partners = [&](Index i, auto&& visit) {
     for (const auto& off : model.stencil.offset) {
-      const Index j = grid.at(p.lattice[i][0] + off[0], p.lattice[i][1] + off[1]);
+      const Index j = model.lattice_index.at(p.lattice[i][0] + off[0], p.lattice[i][1] + off[1]);
       if (j > i && !p.fictitious[j]) visit(j);
     }
   };
@@ -198,12 +159,12 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
   if (o.cracks) {
     for (Index i = 0; i < n; ++i) {
       if (p.fictitious[i]) continue;
-      for (const Crack& crack : scene.cracks) {
-        if (distance_to_segment(p.position[i], crack.a, crack.b) > band) continue;
+      for (const Crack& crack : model.cracks) {
+        if (geometry::distance_to_segment(p.position[i], crack.a, crack.b) > band) continue;
         const Vec2 d = (crack.b - crack.a).normalized();
         const Vec2 normal(-d.y(), d.x());
         for_partners(i, [&](Index j) {
-          if (p.body[j] != p.body[i] || distance_to_segment(p.position[j], crack.a, crack.b) > band) return;
+          if (p.body[j] != p.body[i] || geometry::distance_to_segment(p.position[j], crack.a, crack.b) > band) return;
           if (bond_crosses_crack(p.position[i], p.position[j], crack.a, crack.b)) add_pair(i, j, normal);
         });
       }
@@ -213,15 +174,15 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
   // Declared interfaces: particles of the two bodies, both within delta_c of a shared segment.
   for (const ContactInterface& itf : o.interfaces) {
     int a = -1, b = -1;
-    for (std::size_t k = 0; k < scene.bodies.size(); ++k) {
-      if (scene.bodies[k].name == itf.body_a) a = static_cast<int>(k);
-      if (scene.bodies[k].name == itf.body_b) b = static_cast<int>(k);
+    for (std::size_t k = 0; k < model.bodies.size(); ++k) {
+      if (model.bodies[k].name == itf.body_a) a = static_cast<int>(k);
+      if (model.bodies[k].name == itf.body_b) b = static_cast<int>(k);
     }
     PERISTAT_ASSERT(a >= 0 && b >= 0);
     double extent = 0.0;
-    for (const Vec2& v : scene.bodies[a].shape.vertices) extent = std::max(extent, v.cwiseAbs().maxCoeff());
+    for (const Vec2& v : model.bodies[a].shape.vertices) extent = std::max(extent, v.cwiseAbs().maxCoeff());
     const std::vector<Segment> segments =
-        shared_segments(scene.bodies[a].shape, scene.bodies[b].shape, 1e-9 * std::max(extent, dx));
+        shared_segments(model.bodies[a].shape, model.bodies[b].shape, 1e-9 * std::max(extent, dx));
     if (segments.empty()) {
       throw InputError(itf.where, "bodies '" + itf.body_a + "' and '" + itf.body_b +
                                       "' share no boundary segment: an interface needs a common edge");
@@ -230,7 +191,7 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
       std::size_t best = 0;
       dist = std::numeric_limits<double>::max();
       for (std::size_t k = 0; k < segments.size(); ++k) {
-        const double d = distance_to_segment(x, segments[k].a, segments[k].b);
+        const double d = geometry::distance_to_segment(x, segments[k].a, segments[k].b);
         if (d < dist) {
           dist = d;
           best = k;
@@ -265,18 +226,20 @@ ContactSystem::ContactSystem(const Model& model, const Scene& scene) : m_model(m
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
   m_counts.candidates = np;
   m_counts.open = np;
+  m_round_start = np;
   build_incidence();
 }
 
 double ContactSystem::pair_stiffness(Index i, Index j) const {
   const Particles& p = m_model.particles;
-  const Material &mi = m_body_material[p.body[i]], &mj = m_body_material[p.body[j]];
+  const Material &mi = m_model.bodies[p.body[i]].material, &mj = m_model.bodies[p.body[j]].material;
   const double thickness = 0.5 * (mi.thickness + mj.thickness);
   return 3.0 * contact_modulus(mi, mj, m_modulus_override) * p.volume[i] * p.volume[j] / (m_delta3 * thickness);
 }
 
 void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u) {
   const Particles& p = m_model.particles;
+  m_round_start = size();
   for (const auto& [a, b] : bonds) {
     const Index i = std::min(a, b), j = std::max(a, b);
     if (p.fictitious[i] || p.fictitious[j]) continue;
@@ -290,8 +253,7 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
     m_pairs.push_back(c);
     m_result.push_back(PairResult{});
     if (!m_slip.empty()) {  // no stored tangential force: like a pair that was open
-      const Vec2 t(-c.normal.y(), c.normal.x());
-      m_slip.push_back(t.dot(Vec2(u[2 * j] - u[2 * i], u[2 * j + 1] - u[2 * i + 1])));
+      m_slip.push_back(c.tangent().dot(Vec2(u[2 * j] - u[2 * i], u[2 * j + 1] - u[2 * i + 1])));
     }
     if (m_law.velocity_sign) m_tangential_velocity.push_back(0.0);
   }
@@ -299,8 +261,8 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
   build_incidence();
 }
 
-void ContactSystem::remove_pairs_from(Index first) {
-  const auto n = static_cast<std::size_t>(first);
+void ContactSystem::drop_last_round() {
+  const auto n = static_cast<std::size_t>(m_round_start);
   m_pairs.resize(n);
   m_result.resize(n);
   if (!m_slip.empty()) m_slip.resize(n);
@@ -384,7 +346,7 @@ Mat2 ContactSystem::preconditioner_block(Index k) const {
   const PairResult& r = m_result[k];
   if (r.status == PairStatus::open) return Mat2::Zero();
   const ContactPair& c = m_pairs[k];
-  const Vec2 t(-c.normal.y(), c.normal.x());
+  const Vec2 t = c.tangent();
   const double kn = c.stiffness / c.gap0;
   Mat2 S = kn * c.normal * c.normal.transpose();
   if (r.status == PairStatus::stick) S += m_law.tangential_factor * kn * t * t.transpose();
@@ -404,19 +366,18 @@ void ContactSystem::set_velocity(const VectorXd& v) {
   const Index np = size();
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
-    const Vec2 t(-c.normal.y(), c.normal.x());
-    m_tangential_velocity[k] = t.dot(Vec2(v[2 * c.j] - v[2 * c.i], v[2 * c.j + 1] - v[2 * c.i + 1]));
+    m_tangential_velocity[k] = c.tangent().dot(Vec2(v[2 * c.j] - v[2 * c.i], v[2 * c.j + 1] - v[2 * c.i + 1]));
   }
 }
 
 void ContactSystem::commit(const VectorXd& u) {
+  m_round_start = size();
   evaluate(u, false);
   if (m_slip.empty()) return;
   const Index np = size();
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
-    const Vec2 t(-c.normal.y(), c.normal.x());
-    const double w = t.dot(Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]));
+    const double w = c.tangent().dot(Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]));
     const PairResult& r = m_result[k];
     const double kt = m_law.tangential_factor * c.stiffness / c.gap0;
     if (r.status == PairStatus::open)
@@ -424,6 +385,12 @@ void ContactSystem::commit(const VectorXd& u) {
     else if (r.status == PairStatus::slip)
       m_slip[k] = w - r.tangential / kt;
   }
+}
+
+std::size_t ContactSystem::memory_bytes() const {
+  auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  return bytes(m_pairs) + bytes(m_slip) + bytes(m_tangential_velocity) + bytes(m_result) + bytes(m_incident_start) +
+         bytes(m_incident);
 }
 
 }  // namespace peristat

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "core/options.hpp"
 #include "discretisation/model.hpp"
-#include "scene/scene.hpp"
 
 namespace peristat {
 
@@ -27,6 +27,8 @@ struct ContactPair {
   Vec2 normal = Vec2::Zero();  ///< unit interface normal, oriented so that normal . (X_j - X_i) > 0
   double gap0 = 0.0;           ///< a = normal . (X_j - X_i) > 0, reference normal distance [m]
   double stiffness = 0.0;      ///< C = 3 E_c V_i V_j / (delta^3 t_h) [N], force at unit stretch
+  /// The unit tangent t = (-n_y, n_x) of the friction law (eq 14).
+  Vec2 tangent() const { return {-normal.y(), normal.x()}; }
 };
 
 /// The pair law's parameters, shared by all pairs.
@@ -64,9 +66,10 @@ struct ContactCounts {
 
 class ContactSystem {
  public:
-  /// Builds the candidate pairs the scene asks for (crack faces if contact.cracks, declared
-  /// interfaces). Throws InputError when a declared interface has no common boundary.
-  ContactSystem(const Model& model, const Scene& scene);
+  /// Builds the candidate pairs the options ask for (the faces of the model's pre-cracks if
+  /// options.cracks, declared interfaces between the model's bodies). Throws InputError when
+  /// a declared interface has no common boundary.
+  ContactSystem(const Model& model, const ContactOptions& options);
 
   const std::vector<ContactPair>& pairs() const { return m_pairs; }
   const ContactLaw& law() const { return m_law; }
@@ -78,14 +81,15 @@ class ContactSystem {
   void add_internal_force(VectorXd& force) const;
   /// The contact force acting on each particle (2N) [N] of the last evaluation.
   void contact_force(VectorXd& out) const;
-  /// Accepts the last evaluation as converged: slip history is updated.
+  /// Accepts u as converged: slip history is updated, pairs added since the last commit stay.
   void commit(const VectorXd& u);
   /// Bonds broken during the run become candidates (paper section 4.4): pair (i, j) with
   /// normal along the bond, gap0 = |X_j - X_i|, no stored tangential force. Pairs with a
-  /// fictitious end are skipped. `u` is the current displacement (2N).
+  /// fictitious end are skipped. `u` is the current displacement (2N). The pairs are a trial
+  /// round until commit(); drop_last_round() removes them.
   void add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u);
-  /// Drops the candidates from index `first` on (undoes add_broken_bonds for a failed round).
-  void remove_pairs_from(Index first);
+  /// Removes the pairs of the last add_broken_bonds() (a round whose re-solve failed).
+  void drop_last_round();
   /// Velocity-sign law only: the full pseudo-velocity (2N) that the next evaluations use.
   void set_velocity(const VectorXd& v);
   bool wants_velocity() const { return m_law.velocity_sign; }
@@ -116,6 +120,8 @@ class ContactSystem {
   std::uint64_t signature() const { return m_signature; }
   /// Smallest current distance |Y| over the candidate pairs at the last evaluation [m].
   double min_distance() const { return m_min_distance; }
+  /// Bytes held by the pairs, their history and results, and the incidence lists.
+  std::size_t memory_bytes() const;
 
  private:
   double pair_stiffness(Index i, Index j) const;  ///< C of the pair (eq 17 modulus)
@@ -123,10 +129,10 @@ class ContactSystem {
 
   const Model& m_model;
   ContactLaw m_law;
-  std::vector<Material> m_body_material;  ///< per body
-  double m_modulus_override = 0.0;        ///< contact.stiffness (0: eq 17)
+  double m_modulus_override = 0.0;  ///< contact.stiffness (0: eq 17)
   double m_delta3 = 0.0;
   std::vector<ContactPair> m_pairs;
+  Index m_round_start = 0;  ///< first pair of the last add_broken_bonds() round
   std::vector<double> m_slip;  ///< committed w_p per pair (empty without friction)
   std::vector<double> m_tangential_velocity;  ///< per pair, velocity-sign law only
   std::vector<PairResult> m_result;

@@ -1,5 +1,7 @@
 #include "discretisation/model.hpp"
 
+#include "scene/geometry.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -25,26 +27,6 @@ double cell_area_in_disc(int ci, int cj, double r) {
   return area / n;
 }
 
-/// Dense index from lattice coordinates to particle number over a bounding box.
-class LatticeIndex {
- public:
-  LatticeIndex(int i0, int j0, int i1, int j1)
-      : m_i0(i0),
-        m_j0(j0),
-        m_ni(i1 - i0 + 1),
-        m_nj(j1 - j0 + 1),
-        m_cell(static_cast<std::size_t>(m_ni) * m_nj, -1) {}
-  Index at(int i, int j) const {
-    if (i < m_i0 || j < m_j0 || i >= m_i0 + m_ni || j >= m_j0 + m_nj) return -1;
-    return m_cell[static_cast<std::size_t>(i - m_i0) * m_nj + (j - m_j0)];
-  }
-  void set(int i, int j, Index p) { m_cell[static_cast<std::size_t>(i - m_i0) * m_nj + (j - m_j0)] = p; }
-
- private:
-  int m_i0, m_j0, m_ni, m_nj;
-  std::vector<Index> m_cell;
-};
-
 struct Box {
   Vec2 lo{std::numeric_limits<double>::max(), std::numeric_limits<double>::max()};
   Vec2 hi{-std::numeric_limits<double>::max(), -std::numeric_limits<double>::max()};
@@ -64,17 +46,11 @@ double cross(const Vec2& a, const Vec2& b) {
   return a.x() * b.y() - a.y() * b.x();
 }
 
-double distance_to_segment(const Vec2& p, const Vec2& a, const Vec2& b) {
-  const Vec2 d = b - a;
-  const double t = std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0);
-  return (p - (a + t * d)).norm();
-}
-
 double distance_to_boundary(const Polygon& polygon, const Vec2& p) {
   double d = std::numeric_limits<double>::max();
   const std::size_t n = polygon.vertices.size();
   for (std::size_t k = 0; k < n; ++k)
-    d = std::min(d, distance_to_segment(p, polygon.vertices[k], polygon.vertices[(k + 1) % n]));
+    d = std::min(d, geometry::distance_to_segment(p, polygon.vertices[k], polygon.vertices[(k + 1) % n]));
   return d;
 }
 
@@ -82,7 +58,9 @@ double distance_to_boundary(const Polygon& polygon, const Vec2& p) {
 class Builder {
  public:
   explicit Builder(const Scene& scene) : m_scene(scene), m_dx(scene.discretization.spacing) {
-    for (const auto& [name, material] : scene.materials) m_model.material_names.push_back(name);
+    for (const Body& body : scene.bodies)
+      m_model.bodies.push_back({body.name, scene.materials.at(body.material), body.shape});
+    m_model.cracks = scene.cracks;
     Box box;
     for (const Body& body : scene.bodies) {
       const Box b = polygon_box(body.shape);
@@ -97,7 +75,7 @@ class Builder {
     int max_layers = scene.discretization.fictitious_layers;
     for (const BoundaryCondition& bc : scene.boundary) max_layers = std::max(max_layers, bc.layers);
     const int pad = max_layers + 2;
-    m_index = LatticeIndex(lattice_floor(box.lo.x(), 0) - pad, lattice_floor(box.lo.y(), 1) - pad,
+    m_model.lattice_index = LatticeIndex(lattice_floor(box.lo.x(), 0) - pad, lattice_floor(box.lo.y(), 1) - pad,
                            lattice_floor(box.hi.x(), 0) + pad, lattice_floor(box.hi.y(), 1) + pad);
   }
 
@@ -119,7 +97,6 @@ class Builder {
   const Scene& m_scene;
   double m_dx;
   Model m_model;
-  LatticeIndex m_index{0, 0, 0, 0};
 
   int lattice_floor(double x, int axis) const {
     return static_cast<int>(std::floor((x - m_scene.discretization.origin[axis]) / m_dx - 0.5));
@@ -137,21 +114,18 @@ class Builder {
     p.body.push_back(body);
     p.fictitious.push_back(fictitious ? 1 : 0);
     p.lattice.push_back({i, j});
-    m_index.set(i, j, id);
+    m_model.lattice_index.set(i, j, id);
     return id;
   }
 
   void add_body(int b) {
     const Body& body = m_scene.bodies[b];
     const Box box = polygon_box(body.shape);
-    const auto& names = m_model.material_names;
-    m_model.body_material.push_back(
-        static_cast<int>(std::find(names.begin(), names.end(), body.material) - names.begin()));
     Index count = 0;
     for (int i = lattice_floor(box.lo.x(), 0); i <= lattice_floor(box.hi.x(), 0) + 1; ++i) {
       for (int j = lattice_floor(box.lo.y(), 1); j <= lattice_floor(box.hi.y(), 1) + 1; ++j) {
         if (!inside_polygon(body.shape, lattice_point(i, j))) continue;
-        const Index other = m_index.at(i, j);
+        const Index other = m_model.lattice_index.at(i, j);
         if (other >= 0) {
           throw InputError(body.where, "body '" + body.name + "' overlaps body '" +
                                            m_scene.bodies[m_model.particles.body[other]].name +
@@ -179,7 +153,7 @@ class Builder {
   /// The particle at lattice point (i, j) as a fictitious particle of `body`, created if
   /// absent. Throws when the point belongs to something else.
   Index fictitious_at(const BoundaryCondition& bc, int body, int i, int j) {
-    const Index existing = m_index.at(i, j);
+    const Index existing = m_model.lattice_index.at(i, j);
     if (existing < 0) return add_particle(body, i, j, true);
     const Particles& p = m_model.particles;
     if (p.body[existing] == body && p.fictitious[existing]) return existing;
@@ -308,7 +282,7 @@ class Builder {
           near.push_back(&crack);
       }
       for (std::size_t k = 0; k < s.offset.size(); ++k) {
-        const Index j = m_index.at(p.lattice[i][0] + s.offset[k][0], p.lattice[i][1] + s.offset[k][1]);
+        const Index j = m_model.lattice_index.at(p.lattice[i][0] + s.offset[k][0], p.lattice[i][1] + s.offset[k][1]);
         if (j < 0 || p.body[j] != p.body[i]) continue;
         const bool cut = std::any_of(near.begin(), near.end(), [&](const Crack* c) {
           return bond_crosses_crack(p.position[i], p.position[j], c->a, c->b);
@@ -422,6 +396,31 @@ bool inside_polygon(const Polygon& polygon, const Vec2& p) {
 
 Model discretise(const Scene& scene) {
   return Builder(scene).build();
+}
+
+void Constraints::expand(const VectorXd& x, double lambda, VectorXd& u) const {
+  u.resize(static_cast<Index>(prescribed.size()));
+  for (std::size_t d = 0; d < prescribed.size(); ++d) u[d] = prescribed[d] ? lambda * value[d] : x[free_index[d]];
+}
+
+void Constraints::scatter(const VectorXd& x, VectorXd& full) const {
+  full.resize(static_cast<Index>(free_index.size()));
+  for (std::size_t d = 0; d < free_index.size(); ++d) full[d] = free_index[d] >= 0 ? x[free_index[d]] : 0.0;
+}
+
+void Constraints::gather(const VectorXd& full, VectorXd& x) const {
+  x.resize(n_free);
+  for (std::size_t d = 0; d < free_index.size(); ++d)
+    if (free_index[d] >= 0) x[free_index[d]] = full[d];
+}
+
+std::size_t Model::memory_bytes() const {
+  auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  const Particles& p = particles;
+  return bytes(p.position) + bytes(p.volume) + bytes(p.body) + bytes(p.fictitious) + bytes(p.lattice) +
+         bytes(bonds.start) + bytes(bonds.neighbour) + bytes(bonds.xi) + bytes(bonds.weight) +
+         bytes(bonds.reverse) + bytes(constraints.prescribed) + bytes(constraints.value) +
+         bytes(constraints.free_index) + lattice_index.memory_bytes();
 }
 
 }  // namespace peristat

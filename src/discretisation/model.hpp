@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "discretisation/lattice_index.hpp"
 #include "scene/scene.hpp"
 
 namespace peristat {
@@ -51,6 +52,21 @@ struct Constraints {
   std::vector<double> value;      ///< 2N values at load factor 1
   std::vector<Index> free_index;  ///< 2N: index among the unknowns, or -1 if prescribed
   Index n_free = 0;
+
+  // The one map between the unknowns x (n_free) and full vectors over every component (2N).
+  /// u = x on free components, lambda times the prescribed value on the others.
+  void expand(const VectorXd& x, double lambda, VectorXd& u) const;
+  /// full = x on free components, 0 on the others.
+  void scatter(const VectorXd& x, VectorXd& full) const;
+  /// x = the free components of full.
+  void gather(const VectorXd& full, VectorXd& x) const;
+};
+
+/// A body as the solver sees it: its name, its material, its reference shape.
+struct BodyInfo {
+  std::string name;
+  Material material;
+  Polygon shape;
 };
 
 struct Model {
@@ -60,9 +76,13 @@ struct Model {
   Constraints constraints;
   double spacing = 0.0;
   double horizon = 0.0;
-  Index n_cut_bonds = 0;           ///< bonds removed by pre-cracks (counted once per pair)
-  std::vector<int> body_material;  ///< body index -> index into material_names
-  std::vector<std::string> material_names;
+  Index n_cut_bonds = 0;  ///< bonds removed by pre-cracks (counted once per pair)
+  std::vector<BodyInfo> bodies;  ///< per body, in Scene::bodies order (particles' body index)
+  std::vector<Crack> cracks;     ///< the pre-crack segments
+  LatticeIndex lattice_index;    ///< lattice point -> particle
+
+  /// Bytes held by the particles, bonds, constraints and lattice index.
+  std::size_t memory_bytes() const;
 };
 
 /// Builds the model. Throws InputError (with the condition's or body's location) when

@@ -1,7 +1,8 @@
 // Bond failure criteria of issue 5 (paper section 4.4, eqs 19-23; docs/theory/failure.md):
 // critical stretch from the critical energy release rate, and the critical bond skew of
-// Zhang and Qiao (2019) for shear-driven cracks. Pure functions of one family's bonds; the
-// quasi-static breaking loop that uses them is not built yet.
+// Zhang and Qiao (2019) for shear-driven cracks. Pure functions of one family's bonds;
+// BondFailure (materials/bond_failure.hpp) holds the state that uses them, and the
+// quasi-static breaking loop is break_and_resolve in solvers/load_stepping.cpp.
 #pragma once
 
 #include <span>

@@ -21,6 +21,9 @@ struct OsbConstants {
   static OsbConstants from(const Material& material);
 };
 
+/// The plane-stress bulk modulus kappa = E / (2 (1 - nu)) (docs/theory/failure.md, "Critical stretch").
+inline double bulk_modulus_2d(const Material& material) { return material.E / (2.0 * (1.0 - material.nu)); }
+
 /// Symmetric 2x2 block stored as (xx, xy, yy).
 using Sym2 = std::array<double, 3>;
 

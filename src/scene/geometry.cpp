@@ -5,6 +5,13 @@
 
 namespace peristat::geometry {
 
+double distance_to_segment(const Vec2& p, const Vec2& a, const Vec2& b) {
+  const Vec2 d = b - a;
+  const double len2 = d.squaredNorm();
+  const double s = len2 > 0.0 ? std::clamp((p - a).dot(d) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + s * d)).norm();
+}
+
 namespace {
 
 int orientation(const Vec2& a, const Vec2& b, const Vec2& c) {

@@ -9,6 +9,9 @@
 
 namespace peristat::geometry {
 
+/// Distance from p to the closed segment [a, b] (a point when a == b).
+double distance_to_segment(const Vec2& p, const Vec2& a, const Vec2& b);
+
 /// Shoelace area, > 0 for counter-clockwise vertices.
 double signed_area(const std::vector<Vec2>& vertices);
 

@@ -14,6 +14,7 @@
 #include <Eigen/CholmodSupport>
 #include <omp.h>
 
+#include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
 #include "core/clock.hpp"
 #include "solvers/linear/linear_solver.hpp"
@@ -58,9 +59,9 @@ int tension(int n, const std::vector<Override>& overrides) {
   const Scene scene = parse_scene_text(plate_scene(n), "bench_plate.yaml", overrides);
   const Model model = discretise(scene);
   const double t_discretise = wall_seconds() - t0;
-  QuasiStaticProblem problem(model, scene);
+  QuasiStaticProblem problem(model, problem_options(scene));
   const double t_model = wall_seconds() - t0;
-  const long long nonzeros = problem.pattern().matrix.nonZeros();
+  const long long nonzeros = problem.pattern().nonzeros;
   std::fprintf(stderr, "discretise %.2f s, problem set-up (pattern) %.2f s\n", t_discretise,
                t_model - t_discretise);
   auto linear = make_linear_solver(scene.solver.linear);
@@ -99,7 +100,7 @@ int tension(int n, const std::vector<Override>& overrides) {
 int factor(int n, const std::string& which, const std::string& ordering) {
   const Scene scene = parse_scene_text(plate_scene(n), "bench_plate.yaml");
   const Model model = discretise(scene);
-  QuasiStaticProblem problem(model, scene);
+  QuasiStaticProblem problem(model, problem_options(scene));
   problem.set_load_factor(1.0);
   VectorXd x = VectorXd::Zero(problem.n_unknowns()), r;
   SparseMatrix K = problem.make_tangent();

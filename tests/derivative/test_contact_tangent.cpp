@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
 #include "contact/contact.hpp"
 #include "support/scenes.hpp"
@@ -108,7 +109,7 @@ TEST(ContactTangent, AssembledTangentMatchesFiniteDifferences) {
     yaml += std::string("contact:\n  friction: ") + friction + "\n  radius_factor: 1.2\n  normal: " + normal + "\n";
     const Scene scene = test::scene_from_yaml(yaml);
     const Model model = discretise(scene);
-    QuasiStaticProblem problem(model, scene);
+    QuasiStaticProblem problem(model, problem_options(scene));
     problem.set_load_factor(1.0);
     ASSERT_GT(problem.contact()->size(), 0);
 

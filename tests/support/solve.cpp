@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 
+#include "app/setup.hpp"
 #include "core/clock.hpp"
 #include "support/scenes.hpp"
 
@@ -19,15 +20,9 @@ std::unique_ptr<Solved> solve_parsed(Scene scene) {
   auto s = std::make_unique<Solved>();
   s->scene = std::move(scene);
   s->model = discretise(s->scene);
-  s->problem = std::make_unique<QuasiStaticProblem>(s->model, s->scene);
+  s->problem = std::make_unique<QuasiStaticProblem>(s->model, problem_options(s->scene));
   std::unique_ptr<LinearSolver> linear;
-  std::unique_ptr<StepSolver> solver;
-  if (s->scene.solver.type == SolverKind::adr) {
-    solver = std::make_unique<AdrSolver>(*s->problem, s->scene.solver.adr);
-  } else {
-    linear = make_linear_solver(s->scene.solver.linear);
-    solver = std::make_unique<NewtonSolver>(*s->problem, *linear, s->scene.solver.newton);
-  }
+  const std::unique_ptr<StepSolver> solver = make_step_solver(s->scene, *s->problem, linear);
   s->x = VectorXd::Zero(s->problem->n_unknowns());
   s->problem->set_load_factor(0.0);
   LoadSteppingCallbacks cb;

@@ -4,6 +4,7 @@
 #include <memory>
 #include <vector>
 
+#include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
 #include "solvers/adr.hpp"
 #include "solvers/linear/linear_solver.hpp"

@@ -120,7 +120,7 @@ TEST(LoadStepping, SubStepsAreCommittedOnlyWhenConverged) {
 class RunningCrackProblem final : public OneUnknownProblem {
  public:
   RunningCrackProblem(Index pending, Index tolerable) : m_pending(pending), m_tolerable(tolerable) {}
-  Index break_bonds(const VectorXd& x, Index at_most) override {
+  Index advance_irreversible_state(const VectorXd& x, Index at_most) override {
     EXPECT_TRUE(std::isfinite(x[0])) << "criterion checked at a state that is not an equilibrium";
     m_round = 0;
     if (m_lambda < 0.5) return 0;
@@ -130,7 +130,7 @@ class RunningCrackProblem final : public OneUnknownProblem {
     if (m_round > 0) rounds.push_back(m_round);
     return m_round;
   }
-  void undo_last_break() override {
+  void revert_irreversible_state() override {
     m_pending += m_round;
     broken -= m_round;
     ++undone;

@@ -301,7 +301,7 @@ PathEnd follow(double friction, const std::vector<double>& path) {
   spec.friction = friction;
   const Scene scene = test::scene_from_yaml(blocks_yaml(spec));
   const Model model = discretise(scene);
-  QuasiStaticProblem problem(model, scene);
+  QuasiStaticProblem problem(model, problem_options(scene));
   auto linear = make_linear_solver(scene.solver.linear);
   NewtonSolver newton(problem, *linear, scene.solver.newton);
   VectorXd x = VectorXd::Zero(problem.n_unknowns());

@@ -23,7 +23,7 @@ TEST(Failure, NoBondBreaksBelowTheThreshold) {
   auto with = test::solve_scene(notch(2e-5, true));
   auto without = test::solve_scene(notch(2e-5, false));
   ASSERT_TRUE(with->run.completed && without->run.completed);
-  EXPECT_EQ(with->problem->broken_bonds(), 0);
+  EXPECT_EQ(with->problem->failure()->broken(), 0);
   EXPECT_EQ(with->steps.at(0).resolves, 0);
   // Checking the criterion changes nothing else: the same answer to round-off.
   EXPECT_LT((with->u - without->u).norm(), 1e-12 * without->u.norm());
@@ -33,7 +33,7 @@ TEST(Failure, FirstBondsBreakAtTheNotchTip) {
   auto s = test::solve_scene(notch(2.5e-5, true));
   ASSERT_TRUE(s->run.completed) << s->run.message;
   VectorXd d;
-  s->problem->damage(d);
+  s->problem->failure()->damage(d);
   const Vec2 tip(0.015, 0.01);
   const double delta = 3e-3;
   int damaged = 0;
@@ -45,8 +45,8 @@ TEST(Failure, FirstBondsBreakAtTheNotchTip) {
   }
   std::printf("notch, pull 2.5e-5 m: %ld bonds broken in %d re-solves; %d damaged particles, farthest %.2f delta "
               "from the tip\n",
-              static_cast<long>(s->problem->broken_bonds()), s->steps.at(0).resolves, damaged, far / delta);
-  EXPECT_GT(s->problem->broken_bonds(), 0);
+              static_cast<long>(s->problem->failure()->broken()), s->steps.at(0).resolves, damaged, far / delta);
+  EXPECT_GT(s->problem->failure()->broken(), 0);
   EXPECT_GE(s->steps.at(0).resolves, 1);
   // Every damaged particle is an end of a broken bond: within two horizons of the tip.
   EXPECT_LT(far, 2.0 * delta);
@@ -57,14 +57,14 @@ TEST(Failure, NewtonAndAdrBreakTheSameBonds) {
   auto adr = test::solve_scene(notch(2.5e-5, true, "{type: adr, adr: {rtol: 1.0e-10}}"));
   ASSERT_TRUE(newton->run.completed && adr->run.completed) << adr->run.message;
   VectorXd dn, da;
-  newton->problem->damage(dn);
-  adr->problem->damage(da);
+  newton->problem->failure()->damage(dn);
+  adr->problem->failure()->damage(da);
   std::printf("Newton broke %ld bonds in %d re-solves, ADR %ld in %d (%ld ADR iterations); max damage difference "
               "%.3e\n",
-              static_cast<long>(newton->problem->broken_bonds()), newton->steps.at(0).resolves,
-              static_cast<long>(adr->problem->broken_bonds()), adr->steps.at(0).resolves, adr->iterations(),
+              static_cast<long>(newton->problem->failure()->broken()), newton->steps.at(0).resolves,
+              static_cast<long>(adr->problem->failure()->broken()), adr->steps.at(0).resolves, adr->iterations(),
               (dn - da).cwiseAbs().maxCoeff());
-  EXPECT_EQ(newton->problem->broken_bonds(), adr->problem->broken_bonds());
+  EXPECT_EQ(newton->problem->failure()->broken(), adr->problem->failure()->broken());
   EXPECT_EQ((dn - da).cwiseAbs().maxCoeff(), 0.0);  // the same bonds, hence the same damage
 }
 
@@ -81,9 +81,9 @@ TEST(Failure, BrokenBondsBecomeContactCandidates) {
   const ContactCounts& c = with->problem->contact()->counts();
   std::printf("contact candidates: %ld from the notch, %ld after %ld bonds broke; %ld in contact\n",
               static_cast<long>(initial), static_cast<long>(c.candidates),
-              static_cast<long>(with->problem->broken_bonds()), static_cast<long>(c.active()));
-  EXPECT_EQ(c.candidates, initial + with->problem->broken_bonds());
-  EXPECT_EQ(with->problem->broken_bonds(), plain->problem->broken_bonds());
+              static_cast<long>(with->problem->failure()->broken()), static_cast<long>(c.active()));
+  EXPECT_EQ(c.candidates, initial + with->problem->failure()->broken());
+  EXPECT_EQ(with->problem->failure()->broken(), plain->problem->failure()->broken());
   EXPECT_EQ(c.active(), 0);
 }
 
@@ -94,26 +94,26 @@ TEST(Failure, BrokenBondsBecomeContactCandidates) {
 TEST(Failure, UndoingARoundRestoresTheProblemExactly) {
   const Scene scene = test::scene_from_yaml(notch(1e-6, true, "{linear: umfpack}", "contact: {friction: 0.3}\n"));
   const Model model = discretise(scene);
-  QuasiStaticProblem problem(model, scene);
+  QuasiStaticProblem problem(model, problem_options(scene));
   problem.set_load_factor(1.0);
   VectorXd x = VectorXd::Zero(problem.n_unknowns());
   for (Index i = 0; i < x.size(); ++i) x[i] = 5e-5 * std::sin(1.7 * static_cast<double>(i));
   VectorXd before, after;
   problem.evaluate(x, before, nullptr);
   const Index candidates = problem.contact()->size();
-  ASSERT_EQ(problem.break_bonds(x, 25), 25);
-  EXPECT_EQ(problem.broken_bonds(), 25);
+  ASSERT_EQ(problem.advance_irreversible_state(x, 25), 25);
+  EXPECT_EQ(problem.failure()->broken(), 25);
   EXPECT_GT(problem.contact()->size(), candidates);
   VectorXd broken;
   problem.evaluate(x, broken, nullptr);
   EXPECT_GT((broken - before).norm(), 0.0);  // the round changed the problem
-  problem.undo_last_break();
+  problem.revert_irreversible_state();
   problem.evaluate(x, after, nullptr);
-  EXPECT_EQ(problem.broken_bonds(), 0);
+  EXPECT_EQ(problem.failure()->broken(), 0);
   EXPECT_EQ(problem.contact()->size(), candidates);
   EXPECT_TRUE((after.array() == before.array()).all());
   VectorXd d;
-  problem.damage(d);
+  problem.failure()->damage(d);
   EXPECT_EQ(d.maxCoeff(), 0.0);
 }
 
@@ -134,15 +134,15 @@ TEST(Failure, NewtonAndAdrGrowTheSameCrackInCase44) {
   for (std::size_t k = 0; k < newton->steps.size(); ++k)
     EXPECT_EQ(newton->steps[k].bonds_broken, adr->steps[k].bonds_broken) << "step " << k + 1;
   VectorXd dn, da;
-  newton->problem->damage(dn);
-  adr->problem->damage(da);
+  newton->problem->failure()->damage(dn);
+  adr->problem->failure()->damage(da);
   const double du = (newton->u - adr->u).norm() / newton->u.norm();
   std::printf("case 4.4 (dx 0.05, 10 mm): Newton broke %ld bonds, ADR %ld (%ld ADR iterations); max damage "
               "difference %.3e; relative displacement difference %.3e\n",
-              static_cast<long>(newton->problem->broken_bonds()), static_cast<long>(adr->problem->broken_bonds()),
+              static_cast<long>(newton->problem->failure()->broken()), static_cast<long>(adr->problem->failure()->broken()),
               adr->iterations(), (dn - da).cwiseAbs().maxCoeff(), du);
-  EXPECT_GT(newton->problem->broken_bonds(), 0);
-  EXPECT_EQ(newton->problem->broken_bonds(), adr->problem->broken_bonds());
+  EXPECT_GT(newton->problem->failure()->broken(), 0);
+  EXPECT_EQ(newton->problem->failure()->broken(), adr->problem->failure()->broken());
   EXPECT_EQ((dn - da).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_LT(du, 1e-5);
 }

@@ -1,0 +1,67 @@
+#include "assembly/bond_preconditioner.hpp"
+
+#include "assembly/column_writer.hpp"
+
+namespace peristat {
+
+namespace {
+/// Bonds of length up to the radius, with a relative margin for lattice round-off.
+constexpr double kRadiusMargin = 1e-9;
+}  // namespace
+
+BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
+                                       std::span<const OsbConstants> body_constants,
+                                       const ContactSystem* contact)
+    : m_model(model),
+      m_radius(options.bond_radius * model.spacing),
+      m_pattern(build_pattern(model, PatternReach::bonds_within, m_radius, contact)) {
+  const Bonds& bonds = model.bonds;
+  const Particles& part = model.particles;
+  const Index n = part.size();
+  const double r2 = m_radius * m_radius * (1.0 + kRadiusMargin);
+  m_alpha_volume.resize(n);
+  for (Index i = 0; i < n; ++i) {
+    double m = 0.0;
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+      if (bonds.xi[b].squaredNorm() <= r2) m += bonds.weight[b] * bonds.xi[b].squaredNorm();
+    m_alpha_volume[i] = m > 0.0 ? 8.0 * body_constants[part.body[i]].mu / m * part.volume[i] : 0.0;
+  }
+}
+
+void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weight, std::span<const Vec2> direction,
+                                  const ContactSystem* contact) const {
+  const Bonds& bonds = m_model.bonds;
+  const Index n = m_model.particles.size();
+  const double r2 = m_radius * m_radius * (1.0 + kRadiusMargin);
+#pragma omp parallel
+  {
+    ColumnWriter col(m_model, m_pattern, P);
+#pragma omp for schedule(static)
+    for (Index p = 0; p < n; ++p) {
+      if (!col.begin(p)) continue;
+      for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
+        if (bonds.xi[b].squaredNorm() > r2) continue;
+        const Index j = bonds.neighbour[b], r = bonds.reverse[b];
+        const double k = m_alpha_volume[p] * weight[b] + m_alpha_volume[j] * weight[r];
+        const Vec2& M = direction[b];
+        col.add_outer(p, k, M, M);
+        col.add_outer(j, -k, M, M);
+      }
+      if (contact) {
+        for (auto e = contact->incident_begin(p); e != contact->incident_end(p); ++e) {
+          // Pairs added at run time (broken bonds) longer than the preconditioner's stencil
+          // have no block in its pattern; the preconditioner does without them.
+          if (!col.has(e->other)) continue;
+          col.add_pair(e->other, contact->preconditioner_block(e->pair));
+        }
+      }
+      col.end();
+    }
+  }
+}
+
+std::size_t BondPreconditioner::memory_bytes() const {
+  return m_pattern.memory_bytes() + m_alpha_volume.capacity() * sizeof(double);
+}
+
+}  // namespace peristat

@@ -1,0 +1,45 @@
+// The `bond` preconditioner matrix of factor-preconditioned Krylov solves
+// (docs/theory/newton.md, "Bond preconditioner"): the material bond part of the OSB tangent
+// on a short stencil, without the rank-one dilatation coupling, plus the normal (and stick)
+// stiffness of every contact pair in contact. Symmetric positive semi-definite bond by bond.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <vector>
+
+#include "assembly/pattern.hpp"
+#include "contact/contact.hpp"
+#include "core/options.hpp"
+#include "discretisation/model.hpp"
+#include "materials/osb.hpp"
+
+namespace peristat {
+
+class BondPreconditioner {
+ public:
+  /// `body_constants`: the OSB constants per body (only mu is read).
+  BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
+                     std::span<const OsbConstants> body_constants, const ContactSystem* contact);
+
+  /// A matrix with the preconditioner's pattern and zero values.
+  SparseMatrix make_matrix() const { return m_pattern.make_matrix(m_model.constraints); }
+
+  /// P = sum over bonds b = i -> j with |xi_b| <= bond_radius dx of V_i alpha'_i omega w_b
+  /// (g_b g_b^T), g_b the gradient of the extension along the current direction M_b,
+  /// alpha' = 8 mu / m' with m' the weighted volume of those bonds (so the short stencil
+  /// keeps the long-wave stiffness), plus each contact pair's preconditioner block.
+  /// `weight`: the intact bond weights; `direction`: M_b of the last evaluation.
+  void assemble(SparseMatrix& P, std::span<const double> weight, std::span<const Vec2> direction,
+                const ContactSystem* contact) const;
+
+  std::size_t memory_bytes() const;
+
+ private:
+  const Model& m_model;
+  double m_radius;                           ///< [m]
+  TangentPattern m_pattern;                  ///< bonds within m_radius, plus contact candidates
+  std::vector<double> m_alpha_volume;        ///< per particle V 8 mu / m'
+};
+
+}  // namespace peristat

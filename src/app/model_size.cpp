@@ -1,0 +1,30 @@
+#include "app/model_size.hpp"
+
+#include <cstdio>
+
+namespace peristat {
+
+ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
+  ModelSize s;
+  const Particles& p = model.particles;
+  s.particles = p.size();
+  for (char f : p.fictitious) s.fictitious += f;
+  s.bonds = model.bonds.n_bonds() / 2;
+  s.cut_bonds = model.n_cut_bonds;
+  s.unknowns = model.constraints.n_free;
+  s.prescribed = 2 * p.size() - s.unknowns;
+  s.nonzeros = problem.pattern().nonzeros;
+  s.memory_bytes = static_cast<double>(model.memory_bytes() + problem.memory_bytes() + problem.pattern().matrix_bytes());
+  return s;
+}
+
+void print_size(const ModelSize& s) {
+  std::printf("  particles      %d (%d fictitious)\n", s.particles, s.fictitious);
+  std::printf("  bonds          %d (%d cut by pre-cracks)\n", s.bonds, s.cut_bonds);
+  std::printf("  unknowns       %d (%d prescribed components)\n", s.unknowns, s.prescribed);
+  std::printf("  tangent        %lld nonzeros\n", s.nonzeros);
+  std::printf("  memory         %.1f MB for model, problem state and tangent (factorisation not included)\n",
+              s.memory_bytes / 1e6);
+}
+
+}  // namespace peristat

@@ -1,0 +1,18 @@
+// The model size figures printed by `check` and `run` and stored in summary.json. The memory
+// estimate asks each object for the bytes it holds.
+#pragma once
+
+#include "assembly/quasi_static.hpp"
+
+namespace peristat {
+
+struct ModelSize {
+  Index particles = 0, fictitious = 0, bonds = 0, cut_bonds = 0, unknowns = 0, prescribed = 0;
+  long long nonzeros = 0;
+  double memory_bytes = 0.0;  ///< model + problem state + one tangent (factorisation excluded)
+};
+
+ModelSize measure(const Model& model, const QuasiStaticProblem& problem);
+void print_size(const ModelSize& size);
+
+}  // namespace peristat

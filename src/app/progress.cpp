@@ -1,0 +1,107 @@
+#include "app/progress.hpp"
+
+#include <cstdio>
+
+#include <omp.h>
+
+#include "app/interrupt.hpp"
+
+namespace peristat {
+
+namespace {
+void check_interrupt() {
+  if (const int sig = interrupt_signal()) throw Interrupted{sig};
+}
+}  // namespace
+
+ProgressPrinter::ProgressPrinter(bool verbose, SolverKind solver, const QuasiStaticProblem& problem)
+    : m_verbose(verbose), m_adr(solver == SolverKind::adr), m_problem(problem) {}
+
+void ProgressPrinter::header(const Scene& scene, const ModelSize& size, double model_seconds,
+                             const std::string& method) const {
+  if (!m_verbose) return;
+  std::printf("peristat: %s (%s)\n", scene.name.c_str(), scene.path.c_str());
+  print_size(size);
+  std::printf("  model built in %.2f s; %s, %d threads\n", model_seconds, method.c_str(), omp_get_max_threads());
+  if (m_adr)
+    std::printf("  ADR: rtol %.1e, budget %ld iterations per step (%s when exhausted)\n", scene.solver.adr.rtol,
+                scene.solver.adr.max_iterations, scene.solver.adr.accept_on_budget ? "keep the state" : "stop");
+  if (const ContactSystem* contact = m_problem.contact())
+    std::printf("  contact        %d candidate pairs (found in %.3f s), radius %g m, %s law, friction %g\n",
+                contact->size(), m_problem.contact_setup_seconds(), contact->law().radius,
+                scene.contact.normal == NormalLaw::paper ? "paper" : "pair", contact->law().friction);
+}
+
+LoadSteppingCallbacks ProgressPrinter::callbacks() const {
+  LoadSteppingCallbacks cb;
+  const bool verbose = m_verbose, adr = m_adr;
+  const QuasiStaticProblem& problem = m_problem;
+  cb.on_attempt = [verbose](int k, int n, double lambda, int cutbacks) {
+    check_interrupt();
+    if (!verbose) return;
+    std::printf("step %d/%d  load factor %.6g%s\n", k, n, lambda, cutbacks ? "  (after cut-back)" : "");
+    std::fflush(stdout);
+  };
+  cb.on_iteration = [verbose, adr, &problem](int it, double rel, double extra) {
+    check_interrupt();
+    if (!verbose) return;
+    if (adr)
+      std::printf("  adr %9d  residual %.3e  damping %.4f", it, rel, extra);
+    else if (it == 0)
+      std::printf("  newton %2d  residual %.3e", it, rel);
+    else
+      std::printf("  newton %2d  residual %.3e  step %.3g", it, rel, extra);
+    if (const ContactSystem* contact = problem.contact()) {
+      const ContactCounts& c = contact->counts();
+      std::printf("  contact open %d stick %d slip %d", c.open, c.stick, c.slip);
+    }
+    std::printf("\n");
+    std::fflush(stdout);
+  };
+  cb.on_resolve = [verbose, &problem](Index broken, int resolve) {
+    check_interrupt();
+    if (!verbose) return;
+    std::printf("  %ld bonds broke (%ld in all); re-solve %d at the same load\n", static_cast<long>(broken),
+                static_cast<long>(problem.failure()->broken()), resolve);
+    std::fflush(stdout);
+  };
+  cb.on_break_cutback = [verbose](const std::string& reason, Index broken, Index next) {
+    if (!verbose) return;
+    std::printf("  re-solve failed (%s): the %ld bonds are restored; retrying with the %ld most critical\n",
+                reason.c_str(), static_cast<long>(broken), static_cast<long>(next));
+    std::fflush(stdout);
+  };
+  cb.on_cutback = [verbose](const std::string& reason, double next) {
+    if (verbose) std::printf("  cut-back: %s; next increment %.4g\n", reason.c_str(), next);
+  };
+  return cb;
+}
+
+void ProgressPrinter::step_done(const StepReport& s) const {
+  if (!m_verbose) return;
+  if (const ContactSystem* contact = m_problem.contact()) {
+    const ContactCounts& c = contact->counts();
+    std::printf("  contact: %d open, %d stick, %d slip of %d pairs; active set changed in %d iterations; "
+                "closest pair %.3g dx\n",
+                c.open, c.stick, c.slip, c.candidates, s.active_set_changes,
+                contact->min_distance() / m_problem.model().spacing);
+  }
+  if (const BondFailure* failure = m_problem.failure())
+    std::printf("  failure: %ld bonds broke in this step (%d re-solves, %d halved after a failed re-solve), "
+                "%ld in all\n",
+                static_cast<long>(s.bonds_broken), s.resolves, s.break_cutbacks,
+                static_cast<long>(failure->broken()));
+  if (m_adr) {
+    std::printf("  %s: %d ADR iterations, relative residual %.3e; %.2f s (force evaluations %.2f s)\n",
+                s.unconverged ? "NOT converged, kept (on_budget: accept)" : "converged", s.newton_iterations,
+                s.final_residual, s.wall_seconds, s.seconds_evaluate);
+  } else {
+    std::printf(
+        "  converged: %d Newton iterations, %d factorisations, %d Krylov iterations; %.2f s "
+        "(assembly %.2f incl. contact, factorisation %.2f, solves %.2f)\n",
+        s.newton_iterations, s.factorizations, s.linear_iterations, s.wall_seconds, s.seconds_evaluate,
+        s.seconds_factorize, s.seconds_solve);
+  }
+}
+
+}  // namespace peristat

@@ -1,0 +1,39 @@
+// The results record of `peristat run` (DESIGN.md section 4): the HDF5, XDMF and summary.json
+// files through ResultsWriter, one converged step at a time, every `output.every` steps and
+// the last.
+#pragma once
+
+#include <string>
+
+#include "app/model_size.hpp"
+#include "io/results.hpp"
+#include "scene/scene.hpp"
+#include "solvers/load_stepping.hpp"
+
+namespace peristat {
+
+class StepRecorder {
+ public:
+  /// Creates the files in `dir` with the scene, the particles and the run information
+  /// (model size, resolved options; `linear` is the linear solver's name, empty for ADR).
+  StepRecorder(const std::string& dir, const Scene& scene, const QuasiStaticProblem& problem,
+               const ModelSize& size, const std::string& linear, int threads);
+
+  /// Whether step k is written (every output.every-th and the last).
+  bool due(int step) const;
+  /// Writes the converged step s with state x when it is due. The contact counts and forces
+  /// are those of the problem's last evaluation (the commit's, at x).
+  void record(const StepReport& s, const VectorXd& x);
+  /// The final status ("completed", "no_convergence", "interrupted") and message.
+  void finish(const std::string& status, const std::string& message) { m_writer.finish(status, message); }
+  std::string h5_path() const { return m_writer.h5_path(); }
+
+ private:
+  const Scene& m_scene;
+  const QuasiStaticProblem& m_problem;
+  ResultsWriter m_writer;
+  double m_contact_seconds_before = 0.0;  ///< contact evaluation time up to the previous step
+  VectorXd m_u, m_contact_force, m_damage;
+};
+
+}  // namespace peristat

@@ -1,0 +1,53 @@
+// The failure state of the bonds (docs/theory/failure.md): critical values per body, the
+// skew's reference bond per particle, and the intact bond weights the OSB kernel reads. A
+// round of breaking is a trial until commit(); revert() restores its bonds (a round whose
+// re-solve did not converge). Broken bonds never heal once a state with them converged.
+#pragma once
+
+#include <span>
+#include <utility>
+#include <vector>
+
+#include "core/options.hpp"
+#include "discretisation/model.hpp"
+
+namespace peristat {
+
+class BondFailure {
+ public:
+  /// options.enabled must be true.
+  BondFailure(const Model& model, const FailureOptions& options);
+
+  /// Evaluates the criterion of every bond from the relative displacements eta (per bond,
+  /// eta_b = u_j - u_i) and breaks the intact pairs over it: a pair breaks when
+  /// max(value / critical) over its two directions exceeds 1; the most critical
+  /// `fraction` of those (at least one), at most `at_most` when at_most > 0. Pairs between
+  /// two fictitious particles never break. Returns the pairs broken (i, j), each once.
+  const std::vector<std::pair<Index, Index>>& break_over_criterion(std::span<const Vec2> eta, Index at_most);
+  /// The last round is kept for good.
+  void commit();
+  /// Restores the bonds of the last round (only the last round can be undone).
+  void revert();
+
+  /// Bond quadrature weights with the broken bonds at 0 (the kernel's input).
+  std::span<const double> weights() const { return m_weight; }
+  /// Bonds broken since the start (pairs).
+  Index broken() const { return m_broken; }
+  /// Damage of each particle, 1 - sum of intact bond weights / sum of all (N).
+  void damage(VectorXd& d) const;
+  std::size_t memory_bytes() const;
+
+ private:
+  const Model& m_model;
+  FailureOptions m_options;
+  std::vector<double> m_critical;       ///< per body: s_c or gamma_c
+  std::vector<Index> m_reference_bond;  ///< skew: per particle, the reference bond (global index)
+  std::vector<double> m_weight;         ///< per bond, 0 once broken
+  std::vector<double> m_ratio;          ///< per bond: criterion value / critical (scratch)
+  std::vector<std::pair<double, Index>> m_over;      ///< scratch: (ratio, bond) over the criterion
+  std::vector<std::pair<Index, Index>> m_round;      ///< pairs broken by the last round
+  std::vector<Index> m_round_bonds;                  ///< their bonds b (b < reverse[b])
+  Index m_broken = 0;
+};
+
+}  // namespace peristat
