@@ -1,6 +1,7 @@
 #include "assembly/bond_preconditioner.hpp"
 
 #include "assembly/column_writer.hpp"
+#include "materials/osb.hpp"
 
 namespace peristat {
 
@@ -10,7 +11,6 @@ constexpr double kRadiusMargin = 1e-9;
 }  // namespace
 
 BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
-                                       std::span<const OsbConstants> body_constants,
                                        const ContactSystem* contact)
     : m_model(model),
       m_radius(options.bond_radius * model.spacing),
@@ -24,7 +24,7 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
     double m = 0.0;
     for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
       if (bonds.xi[b].squaredNorm() <= r2) m += bonds.weight[b] * bonds.xi[b].squaredNorm();
-    m_alpha_volume[i] = m > 0.0 ? 8.0 * body_constants[part.body[i]].mu / m * part.volume[i] : 0.0;
+    m_alpha_volume[i] = m > 0.0 ? 8.0 * shear_modulus(model.bodies[part.body[i]].material) / m * part.volume[i] : 0.0;
   }
 }
 

@@ -12,15 +12,13 @@
 #include "contact/contact.hpp"
 #include "core/options.hpp"
 #include "discretisation/model.hpp"
-#include "materials/osb.hpp"
 
 namespace peristat {
 
 class BondPreconditioner {
  public:
-  /// `body_constants`: the OSB constants per body (only mu is read).
-  BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
-                     std::span<const OsbConstants> body_constants, const ContactSystem* contact);
+  /// `contact`: its candidate pairs join the pattern (null without contact).
+  BondPreconditioner(const Model& model, const BondPreconditionerOptions& options, const ContactSystem* contact);
 
   /// A matrix with the preconditioner's pattern and zero values.
   SparseMatrix make_matrix() const { return m_pattern.make_matrix(m_model.constraints); }

@@ -9,7 +9,7 @@
 
 #include "assembly/pattern.hpp"
 #include "discretisation/model.hpp"
-#include "materials/osb.hpp"
+#include "materials/family_kernel.hpp"
 
 namespace peristat {
 

@@ -26,8 +26,8 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
       m_weight(m_failure ? m_failure->weights() : std::span<const double>(model.bonds.weight)) {
   m_small_kinematics = true;
   for (const BodyInfo& body : model.bodies) {
-    m_body_constants.push_back(OsbConstants::from(body.material));
-    m_small_kinematics = m_small_kinematics && m_body_constants.back().kinematics == Kinematics::small;
+    m_kernels.push_back(make_family_kernel(body.material));
+    m_small_kinematics = m_small_kinematics && m_kernels.back()->constant_tangent();
   }
   const Index n = model.particles.size();
   const Bonds& bonds = model.bonds;
@@ -101,9 +101,9 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
     family_displacements(i);
     const FamilyOutputs out{std::span(m_t).subspan(b0, nb), std::span(m_direction).subspan(b0, nb),
                             std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
-    const FamilyResult res = osb_family(
-        m_body_constants[p.body[i]], m_weighted_volume[i], std::span(bonds.xi).subspan(b0, nb),
-        std::span(m_weight).subspan(b0, nb), std::span(m_eta).subspan(b0, nb), out, want_tangent);
+    const FamilyResult res = m_kernels[p.body[i]]->evaluate(
+        m_weighted_volume[i], std::span(bonds.xi).subspan(b0, nb), m_weight.subspan(b0, nb),
+        std::span(m_eta).subspan(b0, nb), out, want_tangent);
     energy += p.volume[i] * res.energy_density;
     if (want_tangent) {
       Vec2 s = Vec2::Zero();
@@ -182,8 +182,8 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
 
 SparseMatrix QuasiStaticProblem::make_preconditioner() {
   if (!m_preconditioner)
-    m_preconditioner = std::make_unique<BondPreconditioner>(m_model, m_options.bond_preconditioner,
-                                                            m_body_constants, m_contact.get());
+    m_preconditioner =
+        std::make_unique<BondPreconditioner>(m_model, m_options.bond_preconditioner, m_contact.get());
   return m_preconditioner->make_matrix();
 }
 

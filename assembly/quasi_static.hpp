@@ -17,7 +17,7 @@
 #include "core/options.hpp"
 #include "discretisation/model.hpp"
 #include "materials/bond_failure.hpp"
-#include "materials/osb.hpp"
+#include "materials/family_kernel.hpp"
 
 namespace peristat {
 
@@ -100,7 +100,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   std::unique_ptr<BondFailure> m_failure;    ///< null without failure: no checks, no state
   TangentPattern m_pattern;
   std::unique_ptr<BondPreconditioner> m_preconditioner;  ///< built on first request
-  std::vector<OsbConstants> m_body_constants;            ///< per body
+  std::vector<std::unique_ptr<FamilyKernel>> m_kernels;  ///< per body: its material's kernel
   std::vector<double> m_weighted_volume;                 ///< m_i (eq 4), intact bonds at the start
   std::span<const double> m_weight;  ///< bond quadrature weights, 0 once broken (the kernel's input)
   bool m_small_kinematics = false;   ///< every body linearised: the bond tangent is constant

@@ -14,7 +14,7 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options)
   const Bonds& bonds = model.bonds;
   const Index n = model.particles.size();
   for (const BodyInfo& body : model.bodies) {
-    const double mu = OsbConstants::from(body.material).mu;
+    const double mu = shear_modulus(body.material);
     m_critical.push_back(options.criterion == FailureCriterion::skew
                              ? critical_skew(options.G_c, mu, model.horizon)
                              : critical_stretch(options.G_c, bulk_modulus_2d(body.material), mu, model.horizon));

@@ -7,7 +7,7 @@ namespace peristat {
 OsbConstants OsbConstants::from(const Material& material) {
   const double E = material.E, nu = material.nu;
   OsbConstants k;
-  k.mu = E / (2.0 * (1.0 + nu));
+  k.mu = shear_modulus(material);
   const double bulk = E / (3.0 * (1.0 - 2.0 * nu));
   // eq 8: k' = k + mu (nu + 1)^2 / (9 (2 nu - 1)^2)
   k.k_prime = bulk + k.mu * (nu + 1.0) * (nu + 1.0) / (9.0 * (2.0 * nu - 1.0) * (2.0 * nu - 1.0));

@@ -3,10 +3,10 @@
 // No global numbering, no options. Derivations: docs/theory/osb.md.
 #pragma once
 
-#include <array>
 #include <span>
 
 #include "core/types.hpp"
+#include "materials/family_kernel.hpp"
 #include "scene/scene.hpp"
 
 namespace peristat {
@@ -21,28 +21,11 @@ struct OsbConstants {
   static OsbConstants from(const Material& material);
 };
 
+/// The shear modulus mu = E / (2 (1 + nu)).
+inline double shear_modulus(const Material& material) { return material.E / (2.0 * (1.0 + material.nu)); }
+
 /// The plane-stress bulk modulus kappa = E / (2 (1 - nu)) (docs/theory/failure.md, "Critical stretch").
 inline double bulk_modulus_2d(const Material& material) { return material.E / (2.0 * (1.0 - material.nu)); }
-
-/// Symmetric 2x2 block stored as (xx, xy, yy).
-using Sym2 = std::array<double, 3>;
-
-/// Outputs of one family, written into caller-owned arrays of the family's size.
-struct FamilyOutputs {
-  std::span<double> t;        ///< dW/de_b: scalar force state times bond weight [Pa m^2 / m]
-  std::span<Vec2> direction;  ///< M_b: unit current bond direction (reference one if small)
-  std::span<Vec2> s;          ///< b_b M_b with b_b = omega w_b |xi_b| (rank-one vectors)
-  std::span<Sym2> k_bond;     ///< alpha omega w_b M M^T + (t_b / y_b)(I - M M^T) (finite only)
-};
-
-struct FamilyResult {
-  double energy_density = 0.0;  ///< W (eq 5) [J/m^3]
-  double theta = 0.0;           ///< dilatation (eq 3)
-  double beta = 0.0;            ///< coefficient of the rank-one tangent term
-};
-
-/// Weighted volume m = sum omega |xi|^2 w (eq 4), over the bonds given.
-double weighted_volume(std::span<const Vec2> xi, std::span<const double> weight);
 
 /// Evaluates one family. Inputs: reference bond vectors xi, quadrature weights w (area),
 /// relative displacements eta_b = u_j - u_i, weighted volume m. When want_tangent is false
@@ -57,5 +40,19 @@ double weighted_volume(std::span<const Vec2> xi, std::span<const double> weight)
 FamilyResult osb_family(const OsbConstants& material, double m, std::span<const Vec2> xi,
                         std::span<const double> weight, std::span<const Vec2> eta, const FamilyOutputs& out,
                         bool want_tangent);
+
+/// The OSB model behind the FamilyKernel seam (materials/family_kernel.hpp).
+class OsbKernel final : public FamilyKernel {
+ public:
+  explicit OsbKernel(const Material& material) : m_constants(OsbConstants::from(material)) {}
+  FamilyResult evaluate(double m, std::span<const Vec2> xi, std::span<const double> weight,
+                        std::span<const Vec2> eta, const FamilyOutputs& out, bool want_tangent) const override {
+    return osb_family(m_constants, m, xi, weight, eta, out, want_tangent);
+  }
+  bool constant_tangent() const override { return m_constants.kinematics == Kinematics::small; }
+
+ private:
+  OsbConstants m_constants;
+};
 
 }  // namespace peristat

@@ -1,0 +1,52 @@
+// The seam between the assembler and a constitutive model: one particle's bond family in,
+// energy density, per-bond force scalars and directions, and the tangent pieces out
+// (docs/theory/osb.md, section 3: the tangent of a family is diag(k_b) + beta s s^T in the
+// bonds' relative displacements; a bond-based model has beta = 0). No global numbering, no
+// options. A new material is one kernel file and one line in make_family_kernel().
+#pragma once
+
+#include <array>
+#include <memory>
+#include <span>
+
+#include "core/types.hpp"
+#include "scene/scene.hpp"
+
+namespace peristat {
+
+/// Symmetric 2x2 block stored as (xx, xy, yy).
+using Sym2 = std::array<double, 3>;
+
+/// Outputs of one family, written into caller-owned arrays of the family's size.
+struct FamilyOutputs {
+  std::span<double> t;        ///< dW/de_b: scalar force state times bond weight [Pa m^2 / m]
+  std::span<Vec2> direction;  ///< M_b: unit current bond direction (reference one if small)
+  std::span<Vec2> s;          ///< b_b M_b with b_b = omega w_b |xi_b| (rank-one vectors)
+  std::span<Sym2> k_bond;     ///< alpha omega w_b M M^T + (t_b / y_b)(I - M M^T) (finite only)
+};
+
+struct FamilyResult {
+  double energy_density = 0.0;  ///< W (eq 5) [J/m^3]
+  double theta = 0.0;           ///< dilatation (eq 3)
+  double beta = 0.0;            ///< coefficient of the rank-one tangent term
+};
+
+/// Weighted volume m = sum omega |xi|^2 w (eq 4), over the bonds given.
+double weighted_volume(std::span<const Vec2> xi, std::span<const double> weight);
+
+class FamilyKernel {
+ public:
+  virtual ~FamilyKernel() = default;
+  /// Evaluates one family: reference bond vectors xi, quadrature weights w (0 for a broken
+  /// bond), relative displacements eta_b = u_j - u_i, weighted volume m of the intact
+  /// reference family. When want_tangent is false only t and direction are written.
+  virtual FamilyResult evaluate(double m, std::span<const Vec2> xi, std::span<const double> weight,
+                                std::span<const Vec2> eta, const FamilyOutputs& out, bool want_tangent) const = 0;
+  /// True when the tangent does not depend on the displacement (linearised kinematics).
+  virtual bool constant_tangent() const = 0;
+};
+
+/// The kernel of a body's material (the registry: today every material is plane-stress OSB).
+std::unique_ptr<FamilyKernel> make_family_kernel(const Material& material);
+
+}  // namespace peristat
