@@ -8,10 +8,13 @@
 #include <cstdio>
 #include <optional>
 #include <stdexcept>
+#include <utility>
+
+#include <nlohmann/json.hpp>
 
 #include "app/commands.hpp"
 #include "core/error.hpp"
-#include "io/json.hpp"
+#include "core/number_text.hpp"
 #include "io/results.hpp"
 
 namespace peristat {
@@ -44,51 +47,36 @@ void require_step(const ResultsReader& reader, const std::string& path, int step
   }
 }
 
-void write_measures(json::Writer& w, const DifferenceMeasures& m) {
-  w.field("relative_l2", m.relative_l2);
-  w.field("max_abs", m.max_abs);
-  w.field("max_relative", m.max_relative);
-  w.field("absolute", m.absolute);
+/// The four measures as keys of `out`.
+void add_measures(nlohmann::ordered_json& out, const DifferenceMeasures& m) {
+  out["relative_l2"] = m.relative_l2;
+  out["max_abs"] = m.max_abs;
+  out["max_relative"] = m.max_relative;
+  out["absolute"] = m.absolute;
 }
 
+/// Pretty-printed; NaN and infinities become null, bytes that are not UTF-8 (in a file
+/// name, say) U+FFFD.
 std::string to_json(const CompareArguments& args, int step_a, int step_b, double lambda_a, double lambda_b,
                     const Comparison& c, std::optional<bool> within) {
-  json::Writer w;
-  w.begin_object();
-  w.field("a", std::string_view(args.a));
-  w.field("b", std::string_view(args.b));
-  w.field("step_a", step_a);
-  w.field("step_b", step_b);
-  w.field("load_factor", lambda_b);
-  w.field("load_factor_a", lambda_a);
-  w.field("load_factor_b", lambda_b);
-  w.field("particles", c.all.particles);
-  write_measures(w, c.all);
-  w.key("bodies");
-  w.begin_object();
+  nlohmann::ordered_json out = {{"a", args.a},
+                                {"b", args.b},
+                                {"step_a", step_a},
+                                {"step_b", step_b},
+                                {"load_factor", lambda_b},
+                                {"load_factor_a", lambda_a},
+                                {"load_factor_b", lambda_b},
+                                {"particles", c.all.particles}};
+  add_measures(out, c.all);
+  nlohmann::ordered_json& bodies = out["bodies"] = nlohmann::ordered_json::object();
   for (const BodyDifference& body : c.bodies) {
-    w.key(body.name);
-    w.begin_object();
-    w.field("index", body.index);
-    w.field("particles", body.measures.particles);
-    write_measures(w, body.measures);
-    w.end_object();
+    nlohmann::ordered_json entry = {{"index", body.index}, {"particles", body.measures.particles}};
+    add_measures(entry, body.measures);
+    bodies[body.name] = std::move(entry);
   }
-  w.end_object();
-  w.key("tol");
-  if (args.tol) {
-    w.value(*args.tol);
-  } else {
-    w.null();
-  }
-  w.key("within_tol");
-  if (within) {
-    w.value(*within);
-  } else {
-    w.null();
-  }
-  w.end_object();
-  return w.str();
+  out["tol"] = args.tol ? nlohmann::ordered_json(*args.tol) : nlohmann::ordered_json(nullptr);
+  out["within_tol"] = within ? nlohmann::ordered_json(*within) : nlohmann::ordered_json(nullptr);
+  return out.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
 }
 
 void print_measures(const std::string& label, int width, const DifferenceMeasures& m) {
@@ -105,8 +93,8 @@ void print_text(const CompareArguments& args, int step_a, int step_b, double lam
                 const Comparison& c) {
   std::printf(
       "compare %s (step %d, load factor %s) against %s (step %d, load factor %s): %d real particles\n",
-      args.a.c_str(), step_a, json::number(lambda_a).c_str(), args.b.c_str(), step_b,
-      json::number(lambda_b).c_str(), c.all.particles);
+      args.a.c_str(), step_a, shortest_decimal(lambda_a).c_str(), args.b.c_str(), step_b,
+      shortest_decimal(lambda_b).c_str(), c.all.particles);
   int width = 3;  // "all"
   for (const BodyDifference& body : c.bodies) width = std::max(width, static_cast<int>(5 + body.name.size()));
   print_measures("all", width, c.all);
@@ -117,7 +105,7 @@ void print_text(const CompareArguments& args, int step_a, int step_b, double lam
 
 int compare_command(const CompareArguments& args) {
   if (args.tol && !(*args.tol > 0.0 && std::isfinite(*args.tol))) {
-    throw InputError("--tol: expected a positive number, got " + json::number(*args.tol));
+    throw InputError("--tol: expected a positive number, got " + shortest_decimal(*args.tol));
   }
   const ResultsReader a = open_reader(args.a);
   const ResultsReader b = open_reader(args.b);
@@ -136,13 +124,13 @@ int compare_command(const CompareArguments& args) {
   const double lambda_b = b.load_factor(step_b);
   if (!(std::abs(lambda_a - lambda_b) <= k_same_load)) {
     if (!args.step) {
-      throw InputError(args.a + " ends at load factor " + json::number(lambda_a) + ", " + args.b + " at " +
-                       json::number(lambda_b) + ": choose --step K");
+      throw InputError(args.a + " ends at load factor " + shortest_decimal(lambda_a) + ", " + args.b +
+                       " at " + shortest_decimal(lambda_b) + ": choose --step K");
     }
     std::fprintf(stderr,
                  "peristat: warning: step %d is at load factor %s in %s and %s in %s; compared anyway\n",
-                 *args.step, json::number(lambda_a).c_str(), args.a.c_str(), json::number(lambda_b).c_str(),
-                 args.b.c_str());
+                 *args.step, shortest_decimal(lambda_a).c_str(), args.a.c_str(),
+                 shortest_decimal(lambda_b).c_str(), args.b.c_str());
   }
 
   const Comparison c = compare_results(a, args.a, step_a, b, args.b, step_b);
@@ -160,11 +148,11 @@ int compare_command(const CompareArguments& args) {
   std::FILE* verdict = args.json ? stderr : stdout;
   if (*within) {
     std::fprintf(verdict, "%s %.4e is within --tol %s\n", measure, c.all.relative_l2,
-                 json::number(*args.tol).c_str());
+                 shortest_decimal(*args.tol).c_str());
     return exit_success;
   }
   std::fprintf(verdict, "%s %.4e exceeds --tol %s\n", measure, c.all.relative_l2,
-               json::number(*args.tol).c_str());
+               shortest_decimal(*args.tol).c_str());
   return exit_tolerance_exceeded;
 }
 

@@ -1,7 +1,8 @@
 #include "app/step_recorder.hpp"
 
+#include <nlohmann/json.hpp>
+
 #include "app/interrupt.hpp"
-#include "io/json.hpp"
 
 namespace peristat {
 
@@ -10,38 +11,33 @@ namespace {
 /// The resolved options and model size, stored under "run" in summary.json.
 std::string run_info_json(const Scene& scene, const ModelSize& s, const std::string& linear, int threads) {
   const NewtonOptions& n = scene.solver.newton;
-  json::Writer w;
-  w.begin_object();
-  w.field("particles", s.particles);
-  w.field("fictitious", s.fictitious);
-  w.field("bonds", s.bonds);
-  w.field("cut_bonds", s.cut_bonds);
-  w.field("unknowns", s.unknowns);
-  w.field("tangent_nonzeros", s.nonzeros);
-  w.field("threads", threads);
-  w.field("spacing", scene.discretization.spacing);
-  w.field("horizon_factor", scene.discretization.horizon_factor);
-  w.field("load_steps", scene.loading.steps);
-  w.key("solver");
-  w.begin_object();
-  w.field("type", to_string(scene.solver.type));
+  nlohmann::ordered_json solver = {{"type", to_string(scene.solver.type)}};
   if (scene.solver.type == SolverKind::adr) {
     const AdrOptions& a = scene.solver.adr;
-    w.field("adr_rtol", a.rtol);
-    w.field("adr_max_iterations", static_cast<double>(a.max_iterations));
-    w.field("adr_on_budget", a.accept_on_budget ? "accept" : "fail");
-    w.field("adr_density_factor", a.density_factor);
+    solver["adr_rtol"] = a.rtol;
+    solver["adr_max_iterations"] = static_cast<double>(a.max_iterations);  // a double, as always written
+    solver["adr_on_budget"] = a.accept_on_budget ? "accept" : "fail";
+    solver["adr_density_factor"] = a.density_factor;
   } else {
-    w.field("linear", std::string_view(linear));
-    w.field("newton_rtol", n.rtol);
-    w.field("newton_atol", n.atol);
-    w.field("newton_max_iterations", n.max_iterations);
-    w.field("line_search", n.line_search);
-    w.field("tangent", n.tangent == TangentKind::consistent ? "consistent" : "initial");
+    solver["linear"] = linear;
+    solver["newton_rtol"] = n.rtol;
+    solver["newton_atol"] = n.atol;
+    solver["newton_max_iterations"] = n.max_iterations;
+    solver["line_search"] = n.line_search;
+    solver["tangent"] = n.tangent == TangentKind::consistent ? "consistent" : "initial";
   }
-  w.end_object();
-  w.end_object();
-  return w.str();
+  const nlohmann::ordered_json info = {{"particles", s.particles},
+                                       {"fictitious", s.fictitious},
+                                       {"bonds", s.bonds},
+                                       {"cut_bonds", s.cut_bonds},
+                                       {"unknowns", s.unknowns},
+                                       {"tangent_nonzeros", s.nonzeros},
+                                       {"threads", threads},
+                                       {"spacing", scene.discretization.spacing},
+                                       {"horizon_factor", scene.discretization.horizon_factor},
+                                       {"load_steps", scene.loading.steps},
+                                       {"solver", solver}};
+  return info.dump();
 }
 
 ParticleTable particle_table(const Scene& scene, const Model& model) {

@@ -47,8 +47,9 @@ class ResultsWriter {
  public:
   /// Creates DIR (and parents) if needed, writes /scene and /particles to
   /// DIR/<name>.h5 (via DIR/<name>.h5.tmp and a rename) and an initial summary.json.
-  /// `run_info` is a JSON object text (model size, resolved options, ...) stored verbatim
-  /// under "run" in summary.json. Throws std::runtime_error on I/O failure.
+  /// `run_info_json` is a JSON object text (model size, resolved options, ...) stored
+  /// under "run" in summary.json (null if blank). Throws std::invalid_argument if it is not
+  /// a JSON object, std::runtime_error on I/O failure.
   ResultsWriter(const std::string& dir, const std::string& name, const std::string& scene_text,
                 const ParticleTable& particles, const std::string& run_info_json);
   ~ResultsWriter();

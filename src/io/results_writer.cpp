@@ -1,11 +1,13 @@
 // ResultsWriter: DIR/<name>.h5, DIR/<name>.xdmf and DIR/summary.json (DESIGN.md section 4).
+#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <set>
 #include <stdexcept>
 
+#include <nlohmann/json.hpp>
+
 #include "io/h5.hpp"
-#include "io/json.hpp"
 #include "io/layout.hpp"
 #include "io/results.hpp"
 #include "io/safe_write.hpp"
@@ -146,34 +148,41 @@ void write_step_contents(const h5::File& file, hid_t group, const StepRecord& st
   for (const auto& [key, value] : step.timings) file.write_attribute(group, "time_" + key, value);
 }
 
-void write_json_map(json::Writer& w, const std::map<std::string, double>& entries) {
-  w.begin_object();
-  for (const auto& [key, value] : entries) {
-    w.key(key);
-    w.value(value);
+/// One entry of "steps" in summary.json (keys in this order; NaN and infinities become null).
+nlohmann::ordered_json step_json(const StepSummary& s) {
+  return {{"step", s.index},
+          {"load_factor", s.load_factor},
+          {"newton_iterations", s.newton_iterations},
+          {"active_set_iterations", s.active_set_iterations},
+          {"residual_norm", s.residual_norm},
+          {"wall_seconds", s.wall_seconds},
+          {"residual_history", s.residual_history},
+          {"counts", s.counts},
+          {"timings", s.timings}};
+}
+
+/// Writes integral floating-point values (counts, load factor 1) as JSON integers, "30" and
+/// not "30.0", as summary.json has always had them; every other number keeps its shortest
+/// round-trip form.
+void integral_floats_as_integers(nlohmann::ordered_json& j) {
+  constexpr double kExactIntegers = 9007199254740992.0;  // 2^53: larger doubles may not be integers exactly
+  if (j.is_structured()) {
+    for (auto& item : j) integral_floats_as_integers(item);
+  } else if (j.is_number_float()) {
+    const double v = j.get<double>();
+    if (std::isfinite(v) && v == std::trunc(v) && std::abs(v) < kExactIntegers && !(v == 0.0 && std::signbit(v)))
+      j = static_cast<long long>(v);
   }
-  w.end_object();
 }
 
-void write_json_step(json::Writer& w, const StepSummary& s) {
-  w.begin_object();
-  w.field("step", s.index);
-  w.field("load_factor", s.load_factor);
-  w.field("newton_iterations", s.newton_iterations);
-  w.field("active_set_iterations", s.active_set_iterations);
-  w.field("residual_norm", s.residual_norm);
-  w.field("wall_seconds", s.wall_seconds);
-  w.key("residual_history");
-  w.numbers(s.residual_history);
-  w.key("counts");
-  write_json_map(w, s.counts);
-  w.key("timings");
-  write_json_map(w, s.timings);
-  w.end_object();
-}
-
-bool is_blank(const std::string& text) {
-  return text.find_first_not_of(" \t\r\n") == std::string::npos;
+/// The run info text as a JSON value: null when blank, else it must be a JSON object.
+nlohmann::ordered_json parse_run_info(const std::string& text) {
+  if (text.find_first_not_of(" \t\r\n") == std::string::npos) return nullptr;
+  nlohmann::ordered_json info = nlohmann::ordered_json::parse(text, nullptr, false);
+  if (!info.is_object()) {
+    throw std::invalid_argument("ResultsWriter: the run info is not a JSON object: " + text);
+  }
+  return info;
 }
 
 }  // namespace
@@ -181,7 +190,7 @@ bool is_blank(const std::string& text) {
 struct ResultsWriter::Impl {
   std::string name;
   fs::path dir;
-  std::string run_info_json;
+  nlohmann::ordered_json run_info;
   std::size_t n_particles = 0;
   std::vector<StepSummary> steps;
   std::string status = "running";
@@ -235,27 +244,16 @@ struct ResultsWriter::Impl {
     io::write_file_atomically(xdmf().string(), io::xdmf_document(name + ".h5", n_particles, xs));
   }
 
+  /// Pretty-printed; bytes that are not UTF-8 (a message quoting a file name, say) are
+  /// written as U+FFFD rather than failing the write.
   void write_summary() const {
-    json::Writer w;
-    w.begin_object();
-    w.key("scene");
-    w.value(name);
-    w.key("status");
-    w.value(status);
-    w.key("message");
-    w.value(message);
-    w.key("run");
-    if (is_blank(run_info_json)) {
-      w.null();
-    } else {
-      w.raw(run_info_json);
-    }
-    w.key("steps");
-    w.begin_array();
-    for (const StepSummary& s : steps) write_json_step(w, s);
-    w.end_array();
-    w.end_object();
-    io::write_file_atomically(summary().string(), w.str() + "\n");
+    nlohmann::ordered_json doc = {
+        {"scene", name}, {"status", status}, {"message", message}, {"run", run_info}};
+    nlohmann::ordered_json& list = doc["steps"] = nlohmann::ordered_json::array();
+    for (const StepSummary& s : steps) list.push_back(step_json(s));
+    integral_floats_as_integers(doc);
+    const std::string text = doc.dump(2, ' ', false, nlohmann::ordered_json::error_handler_t::replace);
+    io::write_file_atomically(summary().string(), text + "\n");
   }
 };
 
@@ -267,7 +265,7 @@ ResultsWriter::ResultsWriter(const std::string& dir, const std::string& name, co
   auto impl = std::make_unique<Impl>();
   impl->name = name;
   impl->dir = fs::path(dir);
-  impl->run_info_json = run_info_json;
+  impl->run_info = parse_run_info(run_info_json);
   impl->n_particles = particles.size();
 
   std::error_code error;

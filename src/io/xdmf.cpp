@@ -4,7 +4,7 @@
 #include <sstream>
 #include <utility>
 
-#include "io/json.hpp"
+#include "core/number_text.hpp"
 #include "io/layout.hpp"
 
 namespace peristat::io {
@@ -48,7 +48,7 @@ class GridWriter {
     m_out << "      <Grid Name=\"" << name << "\" GridType=\"Uniform\">\n";
     if (step != nullptr) {
       const double time = std::isfinite(step->time) ? step->time : step->index;
-      m_out << "        <Time Value=\"" << json::number(time) << "\"/>\n";
+      m_out << "        <Time Value=\"" << shortest_decimal(time) << "\"/>\n";
     }
     m_out << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << m_n
           << "\" NodesPerElement=\"1\"/>\n"

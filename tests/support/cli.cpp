@@ -26,6 +26,10 @@ std::string read_file(const std::filesystem::path& path) {
   return s.str();
 }
 
+nlohmann::json read_json(const std::filesystem::path& path) {
+  return nlohmann::json::parse(read_file(path), nullptr, false);
+}
+
 CliResult run_cli(const std::string& arguments) {
   const auto dir = fresh_directory("cli");
   const auto out = dir / "stdout", err = dir / "stderr";

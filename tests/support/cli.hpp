@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 namespace peristat::test {
 
 struct CliResult {
@@ -18,5 +20,8 @@ CliResult run_cli(const std::string& arguments);
 std::filesystem::path fresh_directory(const std::string& stem);
 
 std::string read_file(const std::filesystem::path& path);
+
+/// A JSON file such as summary.json, parsed (a discarded value if it is not JSON).
+nlohmann::json read_json(const std::filesystem::path& path);
 
 }  // namespace peristat::test

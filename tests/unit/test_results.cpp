@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 #include <hdf5.h>  // the raw API, to check the contract paths independently of the reader
+#include <nlohmann/json.hpp>
 #include <pthread.h>
 #include <signal.h>
 
@@ -286,12 +287,20 @@ TEST_F(ResultsTest, HdfLayoutFollowsTheContract) {
   EXPECT_FALSE(fs::exists(path("small.h5.tmp")));
 }
 
+/// The keys of a JSON object, in file order.
+std::vector<std::string> keys_of(const nlohmann::ordered_json& object) {
+  std::vector<std::string> keys;
+  for (const auto& item : object.items()) keys.push_back(item.key());
+  return keys;
+}
+
 TEST_F(ResultsTest, SummaryJsonHoldsStepsStatusAndEscapes) {
+  using nlohmann::ordered_json;
   const ParticleTable table = small_table();
   ResultsWriter writer(dir(), "small", kScene, table, kRunInfo);
-  std::string summary = read_text(path("summary.json"));
-  EXPECT_NE(summary.find(R"("status": "running")"), std::string::npos) << summary;
-  EXPECT_NE(summary.find(R"("steps": [])"), std::string::npos) << summary;
+  ordered_json summary = ordered_json::parse(read_text(path("summary.json")));
+  EXPECT_EQ(summary["status"], "running") << summary;
+  EXPECT_EQ(summary["steps"], ordered_json::array()) << summary;
 
   write_three_steps(writer, table.size());
   StepFields f = fields_of_step(4, table.size());
@@ -300,19 +309,45 @@ TEST_F(ResultsTest, SummaryJsonHoldsStepsStatusAndEscapes) {
   writer.write_step(odd);
   writer.finish("no_convergence", "step 5: \"stalled\"\n\tsee log");
 
-  summary = read_text(path("summary.json"));
-  EXPECT_EQ(count_of(summary, R"("step": )"), 4u) << summary;
-  EXPECT_NE(summary.find(R"("scene": "small")"), std::string::npos);
-  EXPECT_NE(summary.find(R"("status": "no_convergence")"), std::string::npos);
-  EXPECT_NE(summary.find(R"("message": "step 5: \"stalled\"\n\tsee log")"), std::string::npos) << summary;
-  EXPECT_NE(summary.find(kRunInfo), std::string::npos) << "run info is stored verbatim";
-  EXPECT_NE(summary.find(R"("residual_history": [1, 1e-04, 1e-10])"), std::string::npos) << summary;
-  EXPECT_NE(summary.find(R"("residual_history": [1, null, null])"), std::string::npos);
-  EXPECT_NE(summary.find(R"("broken_bonds": 30)"), std::string::npos);
-  EXPECT_NE(summary.find(R"("assembly": 0.01)"), std::string::npos);
-  EXPECT_EQ(summary.front(), '{');
-  EXPECT_EQ(summary.substr(summary.size() - 2), "}\n");
+  const std::string text = read_text(path("summary.json"));
+  summary = ordered_json::parse(text);
+  EXPECT_EQ(keys_of(summary), (std::vector<std::string>{"scene", "status", "message", "run", "steps"}));
+  EXPECT_EQ(summary["scene"], "small");
+  EXPECT_EQ(summary["status"], "no_convergence");
+  EXPECT_EQ(summary["message"], "step 5: \"stalled\"\n\tsee log");
+  EXPECT_NE(text.find(R"("message": "step 5: \"stalled\"\n\tsee log")"), std::string::npos) << text;
+  EXPECT_EQ(summary["run"], ordered_json::parse(kRunInfo)) << "run info is stored as given";
+  ASSERT_EQ(summary["steps"].size(), 4u) << text;
+  for (int k = 1; k <= 4; ++k) {
+    const ordered_json& step = summary["steps"][k - 1];
+    EXPECT_EQ(keys_of(step), (std::vector<std::string>{
+                                 "step", "load_factor", "newton_iterations", "active_set_iterations",
+                                 "residual_norm", "wall_seconds", "residual_history", "counts", "timings"}));
+    EXPECT_TRUE(step["step"].is_number_integer());
+    EXPECT_EQ(step["step"], k);
+    EXPECT_EQ(step["newton_iterations"], 3 + k);
+    EXPECT_TRUE(step["load_factor"].is_number_float());
+    // Doubles round-trip exactly (1e-10 * 3 is 3.0000000000000003e-10).
+    EXPECT_EQ(step["residual_norm"].get<double>(), 1e-10 * k);
+    EXPECT_EQ(step["counts"]["broken_bonds"].get<double>(), 10.0 * k);
+    EXPECT_EQ(step["timings"]["assembly"].get<double>(), 0.01 * k);
+  }
+  EXPECT_EQ(summary["steps"][1]["residual_history"], (ordered_json{1.0, 1e-4 * 2, 1e-10 * 2}));
+  EXPECT_EQ(summary["steps"][3]["residual_history"], (ordered_json{1.0, nullptr, nullptr}))
+      << "NaN and infinity are written as null";
+  EXPECT_NE(text.find("\n  \"scene\": \"small\",\n"), std::string::npos) << "pretty-printed";
+  EXPECT_EQ(text.substr(text.size() - 2), "}\n");
   EXPECT_FALSE(fs::exists(path("summary.json.tmp")));
+}
+
+TEST_F(ResultsTest, RunInfoIsAJsonObjectOrBlank) {
+  const ParticleTable table = small_table();
+  {
+    ResultsWriter writer(dir(), "small", kScene, table, " \n");
+    EXPECT_TRUE(nlohmann::ordered_json::parse(read_text(path("summary.json")))["run"].is_null());
+  }
+  EXPECT_THROW(ResultsWriter(dir(), "small", kScene, table, "[1, 2]"), std::invalid_argument);
+  EXPECT_THROW(ResultsWriter(dir(), "small", kScene, table, "{\"particles\": "), std::invalid_argument);
 }
 
 TEST_F(ResultsTest, XdmfDescribesEveryStep) {
@@ -376,8 +411,9 @@ TEST_F(ResultsTest, SigkillAfterTwoStepsLeavesTwoValidSteps) {
   EXPECT_EQ(reader.load_factor(2), 0.5);
 
   const std::string summary = read_text(path("summary.json"));
-  EXPECT_EQ(count_of(summary, R"("step": )"), 2u) << summary;
-  EXPECT_NE(summary.find(R"("status": "running")"), std::string::npos);
+  const auto parsed = nlohmann::ordered_json::parse(summary);
+  EXPECT_EQ(parsed["steps"].size(), 2u) << summary;
+  EXPECT_EQ(parsed["status"], "running");
   EXPECT_EQ(summary.substr(summary.size() - 2), "}\n");
   EXPECT_EQ(count_of(read_text(path("small.xdmf")), "<Grid Name=\"step_"), 2u);
 }
