@@ -3,10 +3,27 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "core/clock.hpp"
 
 namespace peristat {
+
+namespace {
+/// Damping cap: below 2 so that the velocity factor (2 - c) / (2 + c) stays positive.
+constexpr double kMaxDamping = 1.999;
+/// Floor of the force scale and of the tolerance: no division by zero and a finite test
+/// when every force is zero.
+constexpr double kForceFloor = 1e-300;
+/// Floor of the stiffness row sums relative to the largest: a row without stiffness still
+/// gets a positive density (the update divides by it).
+constexpr double kRowSumFloor = 1e-12;
+
+/// An iteration count (long, like max_iterations) as the int the reports hold, clamped.
+int clamp_to_int(long iteration) {
+  return static_cast<int>(std::min<long>(iteration, std::numeric_limits<int>::max()));
+}
+}  // namespace
 
 AdrSolver::AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocityInput* velocity)
     : m_problem(problem), m_velocity(velocity), m_options(options) {}
@@ -23,7 +40,7 @@ void AdrSolver::prepare(const VectorXd& x) {
     for (SparseMatrix::InnerIterator it(m_K, col); it; ++it) rows[it.row()] += std::abs(it.value());
   m_problem.add_stiffness_bound(rows);
   const double largest = rows.maxCoeff();
-  m_density = 0.25 * m_options.density_factor * rows.cwiseMax(1e-12 * largest);
+  m_density = 0.25 * m_options.density_factor * rows.cwiseMax(kRowSumFloor * largest);
   m_have_density = true;
 }
 
@@ -38,8 +55,8 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, nullptr);
   report.seconds_evaluate += wall_seconds() - t0;
-  const auto tolerance = [&] { return std::max(o.rtol * m_problem.force_scale(), 1e-300); };
-  const auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), 1e-300); };
+  const auto tolerance = [&] { return std::max(o.rtol * m_problem.force_scale(), kForceFloor); };
+  const auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kForceFloor); };
   double norm = m_r.norm();
   report.residuals.push_back(relative(norm));
   if (monitor) monitor(0, report.residuals.back(), 0.0);
@@ -61,7 +78,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
     t0 = wall_seconds();
     m_problem.evaluate(x, m_r, nullptr);
     report.seconds_evaluate += wall_seconds() - t0;
-    report.iterations = static_cast<int>(std::min<long>(it, 2147483647L));
+    report.iterations = clamp_to_int(it);
     norm = m_r.norm();
     const bool done = norm <= tolerance();
     if (!std::isfinite(norm)) {
@@ -70,7 +87,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
     }
     if (done || it % o.report_every == 0 || it == o.max_iterations) {
       report.residuals.push_back(relative(norm));
-      if (monitor) monitor(static_cast<int>(std::min<long>(it, 2147483647L)), report.residuals.back(), c);
+      if (monitor) monitor(clamp_to_int(it), report.residuals.back(), c);
     }
     if (done) {
       report.converged = true;
@@ -86,7 +103,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
       den += xi2;
       if (m_v[i] != 0.0) num += xi2 * (m_r[i] - m_r_old[i]) / (m_density[i] * m_v[i]);
     }
-    c = (num > 0.0 && den > 0.0) ? std::min(2.0 * std::sqrt(num / den), 1.999) : 0.0;
+    c = (num > 0.0 && den > 0.0) ? std::min(2.0 * std::sqrt(num / den), kMaxDamping) : 0.0;
     for (Index i = 0; i < n; ++i) {
       m_v[i] = ((2.0 - c) * m_v[i] - 2.0 * m_r[i] / m_density[i]) / (2.0 + c);
       x[i] += m_v[i];

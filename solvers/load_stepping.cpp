@@ -10,6 +10,10 @@
 namespace peristat {
 
 namespace {
+/// A nominal step is reached when the load factor is within this fraction of the nominal
+/// increment of its target: room for the round-off of halved and doubled increments.
+constexpr double kReachedTarget = 1e-12;
+
 /// Adds one solve's work to the step's report.
 void accumulate(StepReport& step, const SolveReport& r) {
   step.newton_iterations += r.iterations;
@@ -101,7 +105,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
     step.step = k;
     double increment = target - lambda;
     int halvings = 0;  // current depth below the nominal increment
-    while (lambda < target - 1e-12 * nominal) {
+    while (lambda < target - kReachedTarget * nominal) {
       if (!solver.prepared()) solver.prepare(x);  // tangent of the converged state
       const double next = std::min(lambda + increment, target);
       problem.set_load_factor(next);

@@ -1,6 +1,7 @@
 // Load stepping: N equal steps to load factor 1; a failing step is halved (up to
-// Loading::max_cutbacks times) and grown back after success. Only converged states are
-// committed and reported.
+// Loading::max_cutbacks times) and grown back after success; bonds that break at a converged
+// state are followed by re-solves at the same load. Only converged states (and states ADR
+// keeps with `on_budget: accept`, counted as unconverged) are committed and reported.
 #pragma once
 
 #include <functional>
@@ -18,7 +19,7 @@ struct StepReport {
   double load_factor = 0.0;
   int substeps = 0;
   int cutbacks = 0;
-  int newton_iterations = 0;  ///< summed over sub-steps
+  int newton_iterations = 0;  ///< summed over sub-steps and re-solves (ADR: pseudo-time steps)
   int linear_iterations = 0;
   int factorizations = 0;
   int active_set_changes = 0;  ///< Newton iterations that changed the contact active set
@@ -43,7 +44,7 @@ struct LoadSteppingCallbacks {
   std::function<void(const StepReport&, const VectorXd& x)> on_step;
   /// Start of an attempt at load factor lambda (sub-step or retry) of nominal step k.
   std::function<void(int step, int n_steps, double lambda, int cutbacks)> on_attempt;
-  /// Every Newton iterate.
+  /// Every Newton iterate (ADR: every report_every-th iterate, and the first and last).
   SolveMonitor on_iteration;
   /// Bonds broke at a converged state; the same load is solved again (re-solve k).
   std::function<void(Index broken, int resolve)> on_resolve;

@@ -8,7 +8,13 @@
 namespace peristat {
 
 namespace {
+/// Floor of the force scale and of ||x||: keeps the relative measures finite at zero.
 constexpr double kTiny = std::numeric_limits<double>::min();
+/// Armijo sufficient decrease, the customary value (Dennis and Schnabel): a step must achieve
+/// 1e-4 of the decrease alpha ||r|| that the linear model predicts, i.e. almost any decrease.
+constexpr double kArmijo = 1e-4;
+/// Backtracking factor: the step length is halved (1, 1/2, 1/4, ...) until accepted.
+constexpr double kBacktrack = 0.5;
 }  // namespace
 
 NewtonSolver::NewtonSolver(Problem& problem, LinearSolver& linear, const NewtonOptions& options)
@@ -27,7 +33,6 @@ LinearSolver& NewtonSolver::select_solver() {
     m_unsymmetric = make_linear_solver(lu);
   }
   return *m_unsymmetric;
-  return m_linear;
 }
 
 void NewtonSolver::factorize(SolveReport& report) {
@@ -133,7 +138,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
       return report;
     }
 
-    // Backtracking: accept alpha when ||r(x + alpha dx)|| <= (1 - 1e-4 alpha) ||r(x)||.
+    // Backtracking: accept alpha when ||r(x + alpha dx)|| <= (1 - kArmijo alpha) ||r(x)||.
     double alpha = 1.0;
     for (int ls = 0;; ++ls) {
       m_trial = x + alpha * m_dx;
@@ -143,7 +148,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
       report.seconds_evaluate += wall_seconds() - t0;
       const double trial_norm = m_trial_r.norm();
       const bool accept =
-          !o.line_search || converged(trial_norm) || trial_norm <= (1.0 - 1e-4 * alpha) * norm;
+          !o.line_search || converged(trial_norm) || trial_norm <= (1.0 - kArmijo * alpha) * norm;
       if (accept && std::isfinite(trial_norm)) {
         norm = trial_norm;
         break;
@@ -153,7 +158,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
                         std::to_string(relative(trial_norm)) + ")";
         return report;
       }
-      alpha *= 0.5;
+      alpha *= kBacktrack;
     }
     x.swap(m_trial);
     m_r.swap(m_trial_r);

@@ -1,6 +1,7 @@
 // Newton's method with backtracking line search on a Problem (docs/theory/newton.md).
 // Keeps the tangent's pattern and the symbolic factorisation across iterations and load
-// steps; factorises once per run when the tangent is constant or `tangent: initial`.
+// steps; factorises once per run when the tangent is constant or `tangent: initial` (again
+// after a failed attempt or broken bonds).
 // While the tangent is unsymmetric (contact pairs slipping with friction) a symmetric-only
 // solver (CHOLMOD, LDLT) hands over to UMFPACK.
 #pragma once
@@ -28,7 +29,7 @@ class NewtonSolver final : public StepSolver {
   /// Factorises the tangent at x (a converged state, at the current load factor). The
   /// first iteration of the next solve uses this factor: the Euler predictor of the new
   /// step is computed with the tangent of the converged state, not of the state whose
-  /// prescribed components have just jumped (docs/theory/newton.md).
+  /// prescribed components have just jumped (docs/theory/newton.md, "Predictor").
   void prepare(const VectorXd& x) override;
   /// True when a factor usable for the first iteration of the next solve exists.
   bool prepared() const override { return m_have_factor; }

@@ -20,7 +20,7 @@ struct SolveReport {
   std::string reason;              ///< why it stopped (converged, max iterations, ...)
   int iterations = 0;              ///< Newton: linear solves; ADR: pseudo-time steps
   std::vector<double> residuals;   ///< relative residuals (Newton: every iterate; ADR: sampled)
-  std::vector<double> increments;  ///< Newton: ||dx|| / max(||x||, tiny) of each accepted update
+  std::vector<double> increments;  ///< Newton: alpha ||dx|| / max(||x||, tiny) of each accepted update
   int factorizations = 0;
   int linear_iterations = 0;  ///< Krylov iterations, summed
   /// Iterations after which the problem's discrete state (contact active set) differed

@@ -6,6 +6,13 @@ namespace peristat {
 
 namespace {
 
+/// The factor is renewed once a solve needs more than kRefreshGrowth * n + kRefreshSlack
+/// iterations, n those of the first solve with it. A heuristic: renew when the count has
+/// doubled; the slack keeps a factor whose first solve took only a few iterations from
+/// being renewed over a few more.
+constexpr int kRefreshGrowth = 2;
+constexpr int kRefreshSlack = 5;
+
 /// y = A x for a symmetric A stored by columns: y_i = column i . x, parallel over columns,
 /// deterministic (each y_i is one thread's dot product).
 void symmetric_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) {
@@ -48,12 +55,11 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       if (m_info != Eigen::Success) return;
       run(b, x);
     }
-    // Renew the factor at the next factorize() once iterations exceed twice (plus five)
-    // those of the first solve with the current factor.
+    // Renew the factor at the next factorize() once the iterations have climbed (kRefreshGrowth).
     if (m_fresh) {
       m_fresh_iterations = m_iterations;
       m_fresh = false;
-    } else if (m_iterations > 2 * m_fresh_iterations + 5) {
+    } else if (m_iterations > kRefreshGrowth * m_fresh_iterations + kRefreshSlack) {
       m_refresh = true;
     }
   }

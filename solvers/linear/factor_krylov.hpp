@@ -1,8 +1,8 @@
-// Conjugate gradients preconditioned by a reused sparse factorisation (DESIGN.md section 5,
-// "Linear solves are the cost"): the factor of either the system matrix itself, kept
-// across Newton iterations and load steps, or of a cheaper matrix P that the problem
+// Krylov iterations preconditioned by a reused sparse factorisation: CG while the matrix is
+// symmetric, restarted GMRES otherwise. The factor is of either the system matrix itself,
+// kept across Newton iterations and load steps, or of a cheaper matrix P that the problem
 // supplies (the bond-based part of the tangent). The factor is renewed only when the
-// iteration count climbs (docs/theory/newton.md, "Factor-preconditioned CG").
+// iteration count climbs (docs/theory/newton.md, "Factor-preconditioned Krylov (`cg`)").
 #pragma once
 
 #include <memory>

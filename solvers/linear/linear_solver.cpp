@@ -28,73 +28,63 @@ std::string describe(Eigen::ComputationInfo info) {
 
 namespace {
 
-/// Any Eigen sparse direct solver (analyzePattern / factorize / solve / info).
+/// What every Eigen sparse solver shares behind LinearSolver: analyzePattern, factorize
+/// (counted), info, the name and whether it needs a symmetric matrix. Subclasses add solve.
 template <class Solver>
-class DirectSolver final : public LinearSolver {
+class EigenSolverAdapter : public LinearSolver {
  public:
-  DirectSolver(std::string name, bool symmetric) : m_name(std::move(name)), m_symmetric(symmetric) {}
-  void analyzePattern(const SparseMatrix& A) override {
+  EigenSolverAdapter(std::string name, bool symmetric) : m_name(std::move(name)), m_symmetric(symmetric) {}
+  void analyzePattern(const SparseMatrix& A) final {
     m_solver.analyzePattern(A);
     m_info = m_solver.info();
   }
-  void factorize(const SparseMatrix& A) override {
+  void factorize(const SparseMatrix& A) final {
     m_solver.factorize(A);
     m_info = m_solver.info();
     ++m_factorizations;
   }
-  long factorizations() const override { return m_factorizations; }
-  void solve(const VectorXd& b, VectorXd& x) override {
-    x = m_solver.solve(b);
-    m_info = m_solver.info();
-  }
-  Eigen::ComputationInfo info() const override { return m_info; }
-  std::string name() const override { return m_name; }
-  bool needs_symmetric() const override { return m_symmetric; }
+  long factorizations() const final { return m_factorizations; }
+  Eigen::ComputationInfo info() const final { return m_info; }
+  std::string name() const final { return m_name; }
+  bool needs_symmetric() const final { return m_symmetric; }
+
+ protected:
+  Solver m_solver;
+  Eigen::ComputationInfo m_info = Eigen::Success;
 
  private:
-  Solver m_solver;
   std::string m_name;
   bool m_symmetric;
-  Eigen::ComputationInfo m_info = Eigen::Success;
   long m_factorizations = 0;
 };
 
-/// Any Eigen Krylov solver; factorize() builds the preconditioner.
+/// Any Eigen sparse direct solver (CHOLMOD, UMFPACK, KLU, SimplicialLDLT).
 template <class Solver>
-class KrylovSolver final : public LinearSolver {
+class DirectSolver final : public EigenSolverAdapter<Solver> {
+ public:
+  using EigenSolverAdapter<Solver>::EigenSolverAdapter;
+  void solve(const VectorXd& b, VectorXd& x) override {
+    x = this->m_solver.solve(b);
+    this->m_info = this->m_solver.info();
+  }
+};
+
+/// Any Eigen Krylov solver; factorize() builds the preconditioner, solve() starts from x.
+template <class Solver>
+class KrylovSolver final : public EigenSolverAdapter<Solver> {
  public:
   KrylovSolver(std::string name, bool symmetric, const LinearOptions& options)
-      : m_name(std::move(name)), m_symmetric(symmetric) {
-    m_solver.setTolerance(options.rtol);
-    m_solver.setMaxIterations(options.max_iterations);
+      : EigenSolverAdapter<Solver>(std::move(name), symmetric) {
+    this->m_solver.setTolerance(options.rtol);
+    this->m_solver.setMaxIterations(options.max_iterations);
   }
-  void analyzePattern(const SparseMatrix& A) override {
-    m_solver.analyzePattern(A);
-    m_info = m_solver.info();
-  }
-  void factorize(const SparseMatrix& A) override {
-    m_solver.factorize(A);
-    m_info = m_solver.info();
-    ++m_factorizations;
-  }
-  long factorizations() const override { return m_factorizations; }
   void solve(const VectorXd& b, VectorXd& x) override {
     if (x.size() != b.size()) x = VectorXd::Zero(b.size());
-    x = m_solver.solveWithGuess(b, x);
-    m_info = m_solver.info();
+    x = this->m_solver.solveWithGuess(b, x);
+    this->m_info = this->m_solver.info();
   }
-  Eigen::ComputationInfo info() const override { return m_info; }
-  std::string name() const override { return m_name; }
-  bool needs_symmetric() const override { return m_symmetric; }
-  int iterations() const override { return static_cast<int>(m_solver.iterations()); }
-  double error() const override { return m_solver.error(); }
-
- private:
-  Solver m_solver;
-  std::string m_name;
-  bool m_symmetric;
-  Eigen::ComputationInfo m_info = Eigen::Success;
-  long m_factorizations = 0;
+  int iterations() const override { return static_cast<int>(this->m_solver.iterations()); }
+  double error() const override { return this->m_solver.error(); }
 };
 
 using Full = SparseMatrix;

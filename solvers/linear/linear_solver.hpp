@@ -44,7 +44,7 @@ class LinearSolver {
   virtual void set_preconditioner_matrix(const SparseMatrix& /*P*/) {}
 
   /// Tells the solver whether the next matrices are symmetric. Solvers that handle both
-  /// (factor-preconditioned Krylov: CG or BiCGSTAB) pick their method by it.
+  /// (factor-preconditioned Krylov: CG or GMRES) pick their method by it.
   virtual void set_symmetric(bool /*symmetric*/) {}
 };
 

@@ -1,6 +1,6 @@
 // The two tiers of error: input errors (always checked, exit code 2) and internal
 // invariants (PERISTAT_ASSERT, debug builds). Non-convergence is not an exception:
-// solvers return a report (see solvers/solve_report.hpp).
+// solvers return a report (SolveReport, solvers/step_solver.hpp).
 #pragma once
 
 #include <cassert>
@@ -9,7 +9,8 @@
 
 namespace peristat {
 
-/// Process exit codes (DESIGN.md section 3).
+/// Process exit codes, as README.md lists them ("Using it"); an interrupted run exits with
+/// 128 + the signal (src/app).
 enum ExitCode : int {
   exit_success = 0,
   exit_internal_error = 1,

@@ -1,7 +1,8 @@
 // ADR, the explicit path, against known answers and against Newton (issue 4). ADR solves
 // the same discrete problem as Newton (same Problem, same residual, same friction return
 // map), so converged to a relative residual of 1e-8 the two must agree to far better than
-// the 1e-4 the issue asks; each test prints how long ADR ran.
+// the 1e-4 the issue asks. The error bounds are 18x to 34x the values measured on 2026-11-23
+// (one thread), so that a real regression fails; each test prints them and how long ADR ran.
 #include <cmath>
 #include <sstream>
 
@@ -62,10 +63,11 @@ TEST(Adr, PatchTestConvergesToTheAffineField) {
               s->iterations(), s->seconds, err / ref);
   for (double m : mean) std::printf(" %.2f", m);
   std::printf("\n");
-  // 1e-7: the residual 1e-10 times the condition number of this small stiffness (~1e3).
-  EXPECT_LT(err / ref, 1e-7);
+  // Measured 5.7e-11 on 2026-11-23; bound 1e-9 (18x). The residual 1e-10 times the
+  // condition number of this small stiffness (~1e3) would allow 1e-7.
+  EXPECT_LT(err / ref, 1e-9);
   for (int k = 1; k < windows; ++k) EXPECT_LT(mean[k], mean[k - 1]) << "window " << k;
-  EXPECT_LE(h.back(), 1e-10);
+  EXPECT_LE(h.back(), 1e-10);  // the rtol: converged (measured 7.8e-11 on 2026-11-23)
 }
 
 // A uniaxial tension plate in both kinematics: ADR at rtol 1e-8 against Newton at 1e-12.
@@ -86,14 +88,15 @@ TEST(Adr, AgreesWithNewtonOnTheTensionPlate) {
     std::printf("tension plate, %s kinematics: ADR %ld iterations in %.3f s (Newton %ld in %.3f s); "
                 "relative L2 difference %.3e\n",
                 kin, adr->iterations(), adr->seconds, newton->iterations(), newton->seconds, d);
-    EXPECT_LT(d, 1e-4);
+    // Measured 1.12e-8 (small) and 1.09e-8 (finite) on 2026-11-23; bound 3e-7 (27x).
+    EXPECT_LT(d, 3e-7);
   }
 }
 
 // The paper's cases at coarser spacing, every contact variant the issue names. ADR and Newton
 // share the friction return map, so they solve the same discrete problem.
 void compare_case(const std::string& name, const std::vector<std::string>& common,
-                  const std::vector<std::string>& variant) {
+                  const std::vector<std::string>& variant, double bound) {
   std::vector<std::string> n = common, a = common;
   n.insert(n.end(), variant.begin(), variant.end());
   a.insert(a.end(), variant.begin(), variant.end());
@@ -110,22 +113,27 @@ void compare_case(const std::string& name, const std::vector<std::string>& commo
   for (const std::string& v : variant) label += " " + v;
   std::printf("%s%s: ADR %ld iterations in %.2f s, Newton %ld iterations in %.2f s; relative L2 difference %.3e\n",
               name.c_str(), label.c_str(), adr->iterations(), adr->seconds, newton->iterations(), newton->seconds, d);
-  EXPECT_LT(d, 1e-4);
+  EXPECT_LT(d, bound);
 }
 
 TEST(Adr, AgreesWithNewtonOnCase41Coarse) {
   // dx = 2 mm: 16 x 30 particles per plate (the paper: 0.4 mm, 80 x 150).
   const std::vector<std::string> common = {"discretization.spacing=2e-3"};
-  compare_case("paper_4_1_sliding_plates", common, {"contact.friction=0.8"});
-  compare_case("paper_4_1_sliding_plates", common, {"contact.friction=0.01"});
+  // Measured 8.9e-9 (f_c = 0.8) and 5.9e-9 (f_c = 0.01) on 2026-11-23; bound 3e-7 (34x).
+  constexpr double bound = 3e-7;
+  compare_case("paper_4_1_sliding_plates", common, {"contact.friction=0.8"}, bound);
+  compare_case("paper_4_1_sliding_plates", common, {"contact.friction=0.01"}, bound);
 }
 
 TEST(Adr, AgreesWithNewtonOnCase43Coarse) {
   // dx = 20 mm: 50 x 50 particles (the paper: 10 mm, 100 x 100).
   const std::vector<std::string> common = {"discretization.spacing=0.02"};
-  compare_case("paper_4_3_precracked_plate", common, {"contact.enabled=false"});
-  compare_case("paper_4_3_precracked_plate", common, {"contact.friction=0"});
-  compare_case("paper_4_3_precracked_plate", common, {"contact.friction=0.8"});
+  // Measured 3.4e-8 (no contact), 1.7e-8 (frictionless) and 1.7e-8 (f_c = 0.8) on
+  // 2026-11-23; bound 1e-6 (30x the largest).
+  constexpr double bound = 1e-6;
+  compare_case("paper_4_3_precracked_plate", common, {"contact.enabled=false"}, bound);
+  compare_case("paper_4_3_precracked_plate", common, {"contact.friction=0"}, bound);
+  compare_case("paper_4_3_precracked_plate", common, {"contact.friction=0.8"}, bound);
 }
 
 }  // namespace
