@@ -1,4 +1,4 @@
-// The peristat commands (DESIGN.md section 3). Each returns a process exit code; input
+// The peristat commands (README.md, "Using it"). Each returns a process exit code; input
 // errors propagate as InputError and are turned into exit code 2 by main().
 #pragma once
 

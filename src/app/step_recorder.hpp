@@ -1,4 +1,4 @@
-// The results record of `peristat run` (DESIGN.md section 4): the HDF5, XDMF and summary.json
+// The results record of `peristat run` (docs/guide/results.md): the HDF5, XDMF and summary.json
 // files through ResultsWriter, one converged step at a time, every `output.every` steps and
 // the last.
 #pragma once

@@ -1,5 +1,5 @@
 // Contact between particles that hold no bond: the faces of pre-cracks and declared body
-// interfaces (paper section 3, eqs 12-17; DESIGN.md section 5). A pair kernel computes the
+// interfaces (paper section 3, eqs 12-17; docs/theory/contact.md). A pair kernel computes the
 // normal force (paper law or a smooth pair law), Coulomb friction by a return map on the
 // tangential slip since the last converged step (eq 14), and the consistent Jacobian of
 // both. ContactSystem owns the candidate pairs, their committed slip and the state of the

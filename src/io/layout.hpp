@@ -1,4 +1,4 @@
-// Private to src/io: names fixed by the results-file contract (DESIGN.md section 4).
+// Private to src/io: names fixed by the results-file contract (docs/guide/results.md).
 #pragma once
 
 #include <array>

@@ -1,4 +1,4 @@
-// Results files (DESIGN.md section 4): DIR/<name>.h5, DIR/<name>.xdmf, DIR/summary.json.
+// Results files (docs/guide/results.md): DIR/<name>.h5, DIR/<name>.xdmf, DIR/summary.json.
 // The writer keeps every file valid between steps: the HDF5 file is created under a
 // temporary name and renamed, then reopened, appended and closed once per converged step
 // (SIGINT/SIGTERM are held back while a step is written), and the XDMF and JSON files are

@@ -1,4 +1,4 @@
-// ResultsWriter: DIR/<name>.h5, DIR/<name>.xdmf and DIR/summary.json (DESIGN.md section 4).
+// ResultsWriter: DIR/<name>.h5, DIR/<name>.xdmf and DIR/summary.json (docs/guide/results.md).
 #include <cmath>
 #include <filesystem>
 #include <memory>

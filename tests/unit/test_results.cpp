@@ -1,4 +1,4 @@
-// Results files (DESIGN.md section 4): layout, read-back, crash safety, probe_line.
+// Results files (docs/guide/results.md): layout, read-back, crash safety, probe_line.
 #include <cmath>
 #include <filesystem>
 #include <fstream>

@@ -1,4 +1,4 @@
-// Every linear solver reaches the same equilibrium (DESIGN.md section 5: the reused-factor
+// Every linear solver reaches the same equilibrium (docs/theory/newton.md, "Factor-preconditioned Krylov": the reused-factor
 // Krylov path and a fresh factorisation every iteration "must reach the same answer").
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // peristat: quasi-static peridynamics with frictional contact. Exit codes: 0 success,
 // 1 internal error (for compare: the difference exceeds --tol), 2 bad input or usage,
-// 3 no convergence (DESIGN.md section 3).
+// 3 no convergence (README.md, "Using it").
 #include <cstdio>
 #include <exception>
 
