@@ -1,51 +1,28 @@
 #include "core/options.hpp"
 
+#include <array>
+
 namespace peristat {
 
+namespace {
+/// The name of enum value k: names[k], in the order of the enum's declaration.
+template <class Kind, std::size_t N>
+std::string_view name_of(Kind kind, const std::array<std::string_view, N>& names) {
+  const auto k = static_cast<std::size_t>(kind);
+  return k < N ? names[k] : "?";
+}
+}  // namespace
+
 std::string_view to_string(SolverKind kind) {
-  switch (kind) {
-    case SolverKind::newton:
-      return "newton";
-    case SolverKind::adr:
-      return "adr";
-  }
-  return "?";
+  return name_of(kind, std::array<std::string_view, 2>{"newton", "adr"});
 }
 
 std::string_view to_string(LinearSolverKind kind) {
-  switch (kind) {
-    case LinearSolverKind::cholmod:
-      return "cholmod";
-    case LinearSolverKind::umfpack:
-      return "umfpack";
-    case LinearSolverKind::klu:
-      return "klu";
-    case LinearSolverKind::ldlt:
-      return "ldlt";
-    case LinearSolverKind::cg:
-      return "cg";
-    case LinearSolverKind::bicgstab:
-      return "bicgstab";
-  }
-  return "?";
+  return name_of(kind, std::array<std::string_view, 6>{"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab"});
 }
 
 std::string_view to_string(PreconditionerKind kind) {
-  switch (kind) {
-    case PreconditionerKind::automatic:
-      return "auto";
-    case PreconditionerKind::bond:
-      return "bond";
-    case PreconditionerKind::cholmod:
-      return "cholmod";
-    case PreconditionerKind::ic:
-      return "ic";
-    case PreconditionerKind::diagonal:
-      return "diagonal";
-    case PreconditionerKind::ilut:
-      return "ilut";
-  }
-  return "?";
+  return name_of(kind, std::array<std::string_view, 6>{"auto", "bond", "cholmod", "ic", "diagonal", "ilut"});
 }
 
 }  // namespace peristat

@@ -27,19 +27,24 @@ struct ParticleTable {
 };
 
 /// One converged load step.
-struct StepRecord {
+/// The numbers of one converged load step (HDF5 attributes and summary.json).
+struct StepFigures {
   int index = 0;  ///< 1-based step number -> group /steps/%06d
   double load_factor = 0.0;
   int newton_iterations = 0;
   int active_set_iterations = 0;
-  double residual_norm = 0.0;               ///< final relative residual
-  double wall_seconds = 0.0;                ///< wall time of this step
+  double residual_norm = 0.0;            ///< final relative residual
+  double wall_seconds = 0.0;             ///< wall time of this step
+  std::vector<double> residual_history;  ///< relative residual per Newton iteration
+  std::map<std::string, double> counts;  ///< e.g. "cutbacks", "open", "stick", "broken_bonds"
+  std::map<std::string, double> timings;  ///< seconds, e.g. "assembly", "factorize", "solve"
+};
+
+/// One converged load step: its figures and its fields.
+struct StepRecord : StepFigures {
   const VectorXd* displacement = nullptr;   ///< 2N, interleaved (ux0, uy0, ux1, ...)
   const VectorXd* damage = nullptr;         ///< N, only where failure is modelled
   const VectorXd* contact_force = nullptr;  ///< 2N, only where contact is modelled
-  std::vector<double> residual_history;     ///< relative residual per Newton iteration
-  std::map<std::string, double> counts;     ///< e.g. "cutbacks", "open", "stick", "broken_bonds"
-  std::map<std::string, double> timings;    ///< seconds, e.g. "assembly", "factorize", "solve"
 };
 
 /// Writes the three result files of a run.

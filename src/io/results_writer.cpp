@@ -26,31 +26,14 @@ const std::set<std::string>& fixed_step_attributes() {
 }
 
 /// What summary.json and the XDMF need from a written step.
-struct StepSummary {
-  int index = 0;
-  double load_factor = 0.0;
-  int newton_iterations = 0;
-  int active_set_iterations = 0;
-  double residual_norm = 0.0;
-  double wall_seconds = 0.0;
-  std::vector<double> residual_history;
-  std::map<std::string, double> counts;
-  std::map<std::string, double> timings;
+struct StepSummary : StepFigures {
   bool has_damage = false;
   bool has_contact_force = false;
 };
 
 StepSummary summarise(const StepRecord& step) {
   StepSummary s;
-  s.index = step.index;
-  s.load_factor = step.load_factor;
-  s.newton_iterations = step.newton_iterations;
-  s.active_set_iterations = step.active_set_iterations;
-  s.residual_norm = step.residual_norm;
-  s.wall_seconds = step.wall_seconds;
-  s.residual_history = step.residual_history;
-  s.counts = step.counts;
-  s.timings = step.timings;
+  static_cast<StepFigures&>(s) = step;
   s.has_damage = step.damage != nullptr;
   s.has_contact_force = step.contact_force != nullptr;
   return s;
