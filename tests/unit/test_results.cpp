@@ -326,7 +326,10 @@ TEST_F(ResultsTest, SummaryJsonHoldsStepsStatusAndEscapes) {
     EXPECT_TRUE(step["step"].is_number_integer());
     EXPECT_EQ(step["step"], k);
     EXPECT_EQ(step["newton_iterations"], 3 + k);
-    EXPECT_TRUE(step["load_factor"].is_number_float());
+    EXPECT_EQ(step["load_factor"].get<double>(), 0.25 * k);
+    // Integral values are written as integers (counts read as ints, as they always did).
+    EXPECT_TRUE(step["counts"]["broken_bonds"].is_number_integer()) << step["counts"];
+    EXPECT_EQ(step["load_factor"].is_number_integer(), k == 4) << step["load_factor"];
     // Doubles round-trip exactly (1e-10 * 3 is 3.0000000000000003e-10).
     EXPECT_EQ(step["residual_norm"].get<double>(), 1e-10 * k);
     EXPECT_EQ(step["counts"]["broken_bonds"].get<double>(), 10.0 * k);
