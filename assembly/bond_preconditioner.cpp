@@ -5,11 +5,6 @@
 
 namespace peristat {
 
-namespace {
-/// Bonds of length up to the radius, with a relative margin for lattice round-off.
-constexpr double kRadiusMargin = 1e-9;
-}  // namespace
-
 BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
                                        const ContactSystem* contact)
     : m_model(model),
@@ -18,7 +13,7 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
   const Bonds& bonds = model.bonds;
   const Particles& part = model.particles;
   const Index n = part.size();
-  const double r2 = m_radius * m_radius * (1.0 + kRadiusMargin);
+  const double r2 = m_radius * m_radius * (1.0 + kBondRadiusMargin);
   m_alpha_volume.resize(n);
   for (Index i = 0; i < n; ++i) {
     double m = 0.0;
@@ -32,7 +27,7 @@ void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weigh
                                   const ContactSystem* contact) const {
   const Bonds& bonds = m_model.bonds;
   const Index n = m_model.particles.size();
-  const double r2 = m_radius * m_radius * (1.0 + kRadiusMargin);
+  const double r2 = m_radius * m_radius * (1.0 + kBondRadiusMargin);
 #pragma omp parallel
   {
     ColumnWriter col(m_model, m_pattern, P);

@@ -9,7 +9,7 @@ namespace peristat {
 
 TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double radius,
                              const ContactSystem* contact) {
-  const double radius2 = radius * radius * (1.0 + 1e-9);
+  const double radius2 = radius * radius * (1.0 + kBondRadiusMargin);
   const Index n = model.particles.size();
   const Bonds& bonds = model.bonds;
   const Constraints& cons = model.constraints;

@@ -30,6 +30,10 @@ struct TangentPattern {
   std::size_t memory_bytes() const;
 };
 
+/// PatternReach::bonds_within takes bonds of length up to the radius with this relative
+/// margin for lattice round-off; the bond preconditioner's values use the same test.
+inline constexpr double kBondRadiusMargin = 1e-9;
+
 /// Which couplings the pattern holds.
 enum class PatternReach {
   two_horizons,  ///< the OSB tangent: families of p and of its neighbours

@@ -9,6 +9,13 @@
 
 namespace peristat {
 
+/// Relative margin for distances computed from lattice coordinates (a partner exactly at
+/// the contact radius or on the interface line counts).
+constexpr double kLatticeRoundOff = 1e-9;
+/// A pair Jacobian is symmetric when its off-diagonal entries agree to this fraction of its
+/// largest entry (round-off of n n^T and t t^T products).
+constexpr double kSymmetryTolerance = 1e-12;
+
 PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip, const ContactLaw& law,
                         bool want_jacobian, double tangential_velocity) {
   PairResult out;
@@ -131,7 +138,7 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
 
   const Particles& p = model.particles;
   const Index n = p.size();
-  const double band = m_law.radius * (1.0 + 1e-9);
+  const double band = m_law.radius * (1.0 + kLatticeRoundOff);
   const double min_gap = 0.2 * dx;  // pairs nearly parallel to the interface are skipped
   const double delta3 = std::pow(model.horizon, 3);
   m_modulus_override = o.stiffness;
@@ -182,7 +189,7 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
     double extent = 0.0;
     for (const Vec2& v : model.bodies[a].shape.vertices) extent = std::max(extent, v.cwiseAbs().maxCoeff());
     const std::vector<Segment> segments =
-        shared_segments(model.bodies[a].shape, model.bodies[b].shape, 1e-9 * std::max(extent, dx));
+        shared_segments(model.bodies[a].shape, model.bodies[b].shape, kLatticeRoundOff * std::max(extent, dx));
     if (segments.empty()) {
       throw InputError(itf.where, "bodies '" + itf.body_a + "' and '" + itf.body_b +
                                       "' share no boundary segment: an interface needs a common edge");
@@ -308,7 +315,7 @@ void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
   for (Index k = 0; k < np; ++k) {
     const PairStatus s = m_result[k].status;
     const Mat2& J = m_result[k].J;
-    symmetric = symmetric && std::abs(J(0, 1) - J(1, 0)) <= 1e-12 * J.cwiseAbs().maxCoeff();
+    symmetric = symmetric && std::abs(J(0, 1) - J(1, 0)) <= kSymmetryTolerance * J.cwiseAbs().maxCoeff();
     counts.open += s == PairStatus::open;
     counts.stick += s == PairStatus::stick;
     counts.slip += s == PairStatus::slip;

@@ -5,6 +5,14 @@
 
 namespace peristat {
 
+namespace {
+/// Cosines closer than this are the same lattice direction (the shortest bond wins).
+constexpr double kSameDirection = 1e-12;
+/// A bond whose offset across the reference direction is below this fraction of its length
+/// is parallel to it and has no skew.
+constexpr double kParallel = 1e-9;
+}  // namespace
+
 double critical_stretch(double G_c, double kappa, double mu, double delta) {
   const double pi = std::numbers::pi;
   return std::sqrt(G_c / ((6.0 * mu / pi + 16.0 * (kappa - 2.0 * mu) / (9.0 * pi * pi)) * delta));
@@ -25,7 +33,7 @@ Index reference_bond(std::span<const Vec2> xi, const Vec2& direction) {
     const double c = std::abs(xi[b].dot(d)) / len;
     // Directions on a lattice repeat exactly; compare with a tolerance so that the
     // shortest of parallel bonds wins.
-    if (c > best_cos + 1e-12 || (std::abs(c - best_cos) <= 1e-12 && len < best_len)) {
+    if (c > best_cos + kSameDirection || (std::abs(c - best_cos) <= kSameDirection && len < best_len)) {
       best = static_cast<Index>(b);
       best_cos = c;
       best_len = len;
@@ -45,7 +53,7 @@ void bond_skews(std::span<const Vec2> xi, std::span<const Vec2> eta, Index r, st
     const Vec2 y = xi[b] + eta[b];
     const Vec2 back(c * y.x() + s * y.y(), -s * y.x() + c * y.y());  // R^T y (eq 23)
     const double across = xi[b].dot(e2);
-    gamma[b] = std::abs(across) < 1e-9 * xi[b].norm() ? 0.0 : std::abs((back - xi[b]).dot(e1) / across);
+    gamma[b] = std::abs(across) < kParallel * xi[b].norm() ? 0.0 : std::abs((back - xi[b]).dot(e1) / across);
   }
 }
 
