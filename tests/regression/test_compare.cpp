@@ -22,13 +22,7 @@ const std::string kTension = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_
 const std::string kSmoke =
     " --quiet --set discretization.spacing=5e-3 --set materials.aluminium.kinematics=small";
 
-/// The value of the first `"key": ` in JSON text, or NaN.
-double json_number(const std::string& text, const std::string& key) {
-  const std::string pattern = "\"" + key + "\": ";
-  const auto at = text.find(pattern);
-  if (at == std::string::npos) return std::nan("");
-  return std::strtod(text.c_str() + at + pattern.size(), nullptr);
-}
+using test::json_number;
 
 bool contains(const std::string& text, const std::string& what) {
   return text.find(what) != std::string::npos;

@@ -1,6 +1,7 @@
 #include "support/cli.hpp"
 
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <random>
@@ -24,6 +25,21 @@ std::string read_file(const std::filesystem::path& path) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+double json_number(const std::string& text, const std::string& key) {
+  const std::string pattern = "\"" + key + "\": ";
+  const auto at = text.find(pattern);
+  if (at == std::string::npos) return std::nan("");
+  return std::strtod(text.c_str() + at + pattern.size(), nullptr);
+}
+
+double step_number(const std::string& summary, int step, const std::string& key) {
+  const std::string marker = "\"step\": ";
+  const auto at = summary.find(marker + std::to_string(step) + ",");
+  if (at == std::string::npos) return std::nan("");
+  const auto next = summary.find(marker, at + marker.size());  // the next step's object
+  return json_number(summary.substr(at, next == std::string::npos ? std::string::npos : next - at), key);
 }
 
 CliResult run_cli(const std::string& arguments) {

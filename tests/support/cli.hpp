@@ -19,4 +19,12 @@ std::filesystem::path fresh_directory(const std::string& stem);
 
 std::string read_file(const std::filesystem::path& path);
 
+/// The number after the first `"key": ` in JSON text (e.g. summary.json or compare --json),
+/// or NaN when the key is absent.
+double json_number(const std::string& text, const std::string& key);
+
+/// The number `key` of load step `step` in a summary.json text (a field of the step or of its
+/// "counts", e.g. "contact_stick", "broken_bonds_total"), or NaN when the step lacks it.
+double step_number(const std::string& summary, int step, const std::string& key);
+
 }  // namespace peristat::test

@@ -7,6 +7,10 @@
 
 namespace peristat::test {
 
+std::unique_ptr<QuasiStaticProblem> make_problem(const Model& model, const Scene& scene) {
+  return std::make_unique<QuasiStaticProblem>(model, scene);
+}
+
 std::unique_ptr<Solved> solve_scene(const std::string& yaml) { return solve_parsed(scene_from_yaml(yaml)); }
 
 std::unique_ptr<Solved> solve_case(const std::string& name, const std::vector<std::string>& overrides) {
@@ -19,7 +23,7 @@ std::unique_ptr<Solved> solve_parsed(Scene scene) {
   auto s = std::make_unique<Solved>();
   s->scene = std::move(scene);
   s->model = discretise(s->scene);
-  s->problem = std::make_unique<QuasiStaticProblem>(s->model, s->scene);
+  s->problem = make_problem(s->model, s->scene);
   std::unique_ptr<LinearSolver> linear;
   std::unique_ptr<StepSolver> solver;
   if (s->scene.solver.type == SolverKind::adr) {

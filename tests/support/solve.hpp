@@ -28,6 +28,11 @@ struct Solved {
   }
 };
 
+/// The problem of a discretised scene, as `peristat run` builds it. Every test builds its
+/// problem here, so that a change of the constructor's signature touches one line.
+/// `model` must outlive the problem (the problem keeps a reference to it).
+std::unique_ptr<QuasiStaticProblem> make_problem(const Model& model, const Scene& scene);
+
 /// Parses, discretises and solves with the scene's own solver options (solver.type newton or adr).
 std::unique_ptr<Solved> solve_scene(const std::string& yaml);
 /// The same for a parsed scene (e.g. a case file with --set overrides).

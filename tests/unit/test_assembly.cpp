@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
-#include "assembly/quasi_static.hpp"
 #include "support/scenes.hpp"
+#include "support/solve.hpp"
 
 namespace peristat {
 namespace {
@@ -19,7 +19,8 @@ TEST(Assembly, BitIdenticalForAnyThreadCount) {
   spec.cracks = "  - {from: [0.008, 0.004], to: [0.014, 0.01]}\n";
   const Scene scene = test::scene_from_yaml(test::plate_yaml(spec));
   const Model model = discretise(scene);
-  QuasiStaticProblem problem(model, scene);
+  const std::unique_ptr<QuasiStaticProblem> owned = test::make_problem(model, scene);
+  QuasiStaticProblem& problem = *owned;
   problem.set_load_factor(1.0);
   std::mt19937 gen(5);
   std::uniform_real_distribution<double> d(-1e-5, 1e-5);
@@ -53,7 +54,8 @@ TEST(Assembly, RebuiltPatternEqualsTheFirst) {
   spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
   const Scene scene = test::scene_from_yaml(test::plate_yaml(spec));
   const Model model = discretise(scene);
-  QuasiStaticProblem problem(model, scene);
+  const std::unique_ptr<QuasiStaticProblem> owned = test::make_problem(model, scene);
+  QuasiStaticProblem& problem = *owned;
   const SparseMatrix a = problem.make_tangent(), b = problem.make_tangent();
   ASSERT_EQ(a.nonZeros(), b.nonZeros());
   EXPECT_TRUE(std::equal(a.innerIndexPtr(), a.innerIndexPtr() + a.nonZeros(), b.innerIndexPtr()));

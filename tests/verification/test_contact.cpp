@@ -301,7 +301,8 @@ PathEnd follow(double friction, const std::vector<double>& path) {
   spec.friction = friction;
   const Scene scene = test::scene_from_yaml(blocks_yaml(spec));
   const Model model = discretise(scene);
-  QuasiStaticProblem problem(model, scene);
+  const std::unique_ptr<QuasiStaticProblem> owned = test::make_problem(model, scene);
+  QuasiStaticProblem& problem = *owned;
   auto linear = make_linear_solver(scene.solver.linear);
   NewtonSolver newton(problem, *linear, scene.solver.newton);
   VectorXd x = VectorXd::Zero(problem.n_unknowns());

@@ -94,7 +94,8 @@ TEST(Failure, BrokenBondsBecomeContactCandidates) {
 TEST(Failure, UndoingARoundRestoresTheProblemExactly) {
   const Scene scene = test::scene_from_yaml(notch(1e-6, true, "{linear: umfpack}", "contact: {friction: 0.3}\n"));
   const Model model = discretise(scene);
-  QuasiStaticProblem problem(model, scene);
+  const std::unique_ptr<QuasiStaticProblem> owned = test::make_problem(model, scene);
+  QuasiStaticProblem& problem = *owned;
   problem.set_load_factor(1.0);
   VectorXd x = VectorXd::Zero(problem.n_unknowns());
   for (Index i = 0; i < x.size(); ++i) x[i] = 5e-5 * std::sin(1.7 * static_cast<double>(i));
