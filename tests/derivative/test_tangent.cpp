@@ -1,12 +1,14 @@
-// Finite-difference checks of the assembled residual and tangent (DESIGN.md section 5:
-// "prove every tangent"). A deformed, pre-cracked plate; random states and directions.
+// Finite-difference checks of the assembled residual and tangent (the project's
+// habit: "prove every tangent"). A deformed, pre-cracked plate; random states and directions.
 #include <random>
 
 #include <gtest/gtest.h>
 
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
+#include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
+#include "support/solve.hpp"
 
 namespace peristat {
 namespace {
@@ -44,31 +46,11 @@ VectorXd random_vector(Index n, double scale, unsigned seed) {
 // Tolerance 1e-6 of the largest entry: the central-difference truncation error with
 // h = 1e-7 dx is O(h^2 |r'''|), about 1e-9 relative here, and round-off is ~1e-9.
 void check_tangent(QuasiStaticProblem& problem, const VectorXd& x, double h) {
-  const Index n = problem.n_unknowns();
-  SparseMatrix K = problem.make_tangent();
-  VectorXd r, rp, rm;
-  problem.evaluate(x, r, &K);
-  const Eigen::MatrixXd Kd(K);  // tiny test model: a dense copy is fine here
-  const double scale = Kd.cwiseAbs().maxCoeff();
-  double worst = 0.0;
-  int reported = 0;
-  for (Index j = 0; j < n; ++j) {
-    VectorXd xp = x, xm = x;
-    xp[j] += h;
-    xm[j] -= h;
-    problem.evaluate(xp, rp, nullptr);
-    problem.evaluate(xm, rm, nullptr);
-    const VectorXd fd = (rp - rm) / (2 * h);
-    for (Index i = 0; i < n; ++i) {
-      const double err = std::abs(fd[i] - Kd(i, j)) / scale;
-      worst = std::max(worst, err);
-      if (err > 1e-6 && reported++ < 10)
-        ADD_FAILURE() << "K(" << i << "," << j << ") = " << Kd(i, j) << " but finite difference " << fd[i];
-    }
-  }
-  EXPECT_LT(worst, 1e-6);
+  const test::FiniteDifferenceCheck fd = test::check_tangent(problem, x, h);
+  EXPECT_LT(fd.worst, 1e-6) << fd;
   // The tangent is the Hessian of an energy, hence symmetric to round-off.
-  EXPECT_LT((Kd - Kd.transpose()).cwiseAbs().maxCoeff() / scale, 1e-12);
+  const Eigen::MatrixXd& K = fd.jacobian;
+  EXPECT_LT((K - K.transpose()).cwiseAbs().maxCoeff() / fd.scale, 1e-12);
 }
 
 TEST(Tangent, FiniteKinematicsMatchesFiniteDifferences) {
@@ -104,7 +86,7 @@ TEST(Tangent, ConsistentAfterBondsBreak) {
 }
 
 // The residual is the gradient of the total energy: r . v = dPi/dt (x + t v) by central
-// differences, relative tolerance 1e-7 (truncation O(h^2), h = 1e-6 relative).
+// differences in t, relative tolerance 1e-7 (truncation O(h^2), h = 1e-6 relative).
 TEST(Tangent, ResidualIsTheEnergyGradient) {
   for (const char* kin : {"finite", "small"}) {
     auto f = cracked_plate(kin);
@@ -114,14 +96,15 @@ TEST(Tangent, ResidualIsTheEnergyGradient) {
     const VectorXd v = random_vector(n, 1.0, 8u);
     VectorXd r;
     f->problem->evaluate(x, r, nullptr);
-    const double h = 1e-6 * dx;
-    f->problem->evaluate(x + h * v, r, nullptr);
-    const double ep = f->problem->energy();
-    f->problem->evaluate(x - h * v, r, nullptr);
-    const double em = f->problem->energy();
-    f->problem->evaluate(x, r, nullptr);
-    const double fd = (ep - em) / (2 * h);
-    EXPECT_NEAR(r.dot(v), fd, 1e-7 * std::abs(fd)) << kin;
+    const Eigen::MatrixXd slope = Eigen::MatrixXd::Constant(1, 1, r.dot(v));
+    const auto energy_along_v = [&](const VectorXd& t, VectorXd& e) {
+      VectorXd scratch;
+      f->problem->evaluate(x + t[0] * v, scratch, nullptr);
+      e = VectorXd::Constant(1, f->problem->energy());
+    };
+    const test::FiniteDifferenceCheck fd =
+        test::check_jacobian(energy_along_v, VectorXd::Zero(1), 1e-6 * dx, slope);
+    EXPECT_LT(fd.worst, 1e-7) << kin << fd;
   }
 }
 

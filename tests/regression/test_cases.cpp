@@ -1,7 +1,10 @@
 // The cases and the program's contracts, end to end through the command line, in smoke
 // mode (coarse spacing) so the suite stays fast.
+#include <array>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <vector>
 
@@ -15,6 +18,27 @@ namespace peristat {
 namespace {
 
 const std::string kTension = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+
+/// The displacement in step `step` of the real particle at the lattice point X, of body
+/// `body` (Scene::bodies order; -1: any body). Fails the test when no particle sits at X.
+Vec2 displacement_at(const ResultsReader& results, int step, const Vec2& X, int body = -1) {
+  const ParticleTable& p = results.particles();
+  const VectorXd u = results.displacement(step);
+  std::size_t nearest = p.size();
+  double distance = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < p.size(); ++i) {
+    if (p.fictitious[i] || (body >= 0 && p.body[i] != body)) continue;
+    if (const double d = (p.position[i] - X).norm(); d < distance) {
+      distance = d;
+      nearest = i;
+    }
+  }
+  EXPECT_LT(distance, 1e-6 * p.spacing)
+      << "no particle of body " << body << " at (" << X.x() << ", " << X.y() << ")";
+  if (nearest == p.size()) return Vec2::Constant(std::nan(""));
+  const auto k = static_cast<Index>(2 * nearest);
+  return Vec2(u[k], u[k + 1]);
+}
 
 TEST(TensionPlateCase, SmokeRunMatchesUniaxialSolution) {
   const auto dir = test::fresh_directory("tension");
@@ -49,23 +73,66 @@ TEST(TensionPlateCase, SmokeRunMatchesUniaxialSolution) {
     ++rows;
   }
   EXPECT_EQ(rows, 5);
+
+  // The Poisson contraction against the recorded run: uy(0.05, 0.098) - uy(0.05, 0.002) in
+  // step 2 (top and bottom rows at mid-width; uniaxial stress would give -nu eps 0.096 m =
+  // -3.17e-5 m). Recorded: -3.15133904596e-5 m (one thread). Tolerance 1e-6 relative: a
+  // direct solve (cholmod) to a relative residual of 2.5e-15; repeated runs are bit-identical
+  // and two threads differ by 1.4e-16 of max |u|, so only reordered sums move it, by orders
+  // of magnitude less than 1e-6; nu = 0.3299 instead of 0.33 moves it by 3e-4.
+  const ResultsReader reader((dir / "tension_plate.h5").string());
+  const double contraction =
+      displacement_at(reader, 2, {0.05, 0.098}).y() - displacement_at(reader, 2, {0.05, 0.002}).y();
+  std::printf("tension plate, dx = 4 mm, step 2: uy(0.05, 0.098) - uy(0.05, 0.002) = %.12e m\n", contraction);
+  EXPECT_NEAR(contraction, -3.15133904596e-5, 1e-6 * 3.15133904596e-5);
   std::filesystem::remove_all(dir);
 }
 
 // The paper's cases 4.1-4.3 end to end at a coarse spacing: each default scene (the
 // frictional run) converges, every step reports the contact counts (summary.json, HDF5
 // attributes) and writes the contact force, which the XDMF file exposes to ParaView.
+//
+// Numbers against the recorded runs (Newton with CG, these spacings, one thread):
+// - the pairs in stick and in slip in steps 1 and 4, exact: the same scenes solved with a
+//   direct solver (umfpack), or with CG and Newton at rtol 1e-13, give the same counts in
+//   every step;
+// - the sliding of the interface (crack) faces at its middle in step 4,
+//   (u_b - u_a) . t for the two real particles a and b facing each other across it. Tolerance
+//   1e-6 relative: the direct and tight runs above give displacement fields equal to the
+//   default one within 2.3e-11 of max |u| (two threads: 2.7e-16), so neither the Krylov nor
+//   the Newton tolerance limits the number at this level; f_c = 0.79 instead of 0.8 moves it
+//   by 6e-4 (4.1), 3e-3 (4.2) and 8e-3 (4.3).
+struct PaperSmoke {
+  std::string name, spacing;
+  Vec2 a;
+  int body_a;
+  Vec2 b;
+  int body_b;
+  Vec2 tangent;                       ///< direction of the interface (crack)
+  double sliding;                     ///< recorded (u_b - u_a) . tangent / |tangent| in step 4 [m]
+  std::array<double, 2> stick, slip;  ///< recorded pairs in stick and in slip in steps 1 and 4
+};
+
 TEST(PaperCases, SmokeRunsReportContact) {
   const std::string root = std::string(PERISTAT_SOURCE_DIR) + "/cases/";
-  const std::vector<std::pair<std::string, std::string>> cases = {
-      {"paper_4_1_sliding_plates", "1.6e-3"},
-      {"paper_4_2_inclined_interface", "4.0e-5"},
-      {"paper_4_3_precracked_plate", "0.04"},
+  // clang-format off
+  const std::vector<PaperSmoke> cases = {
+      // Across the vertical interface x = 0.032 at y = 0.0296: right plate minus left, along y.
+      {"paper_4_1_sliding_plates", "1.6e-3", {0.0312, 0.0296}, 0, {0.0328, 0.0296}, 1, {0.0, 1.0},
+       -1.172298355177e-4, {24, 37}, {13, 0}},
+      // Across the incline y = 0.2 mm + 0.8 x at x = 0.5 mm: top body minus bottom, along it.
+      {"paper_4_2_inclined_interface", "4.0e-5", {5.0e-4, 5.8e-4}, 0, {5.0e-4, 6.2e-4}, 1, {1.0, 0.8},
+       2.42305263883e-7, {0, 0}, {31, 30}},
+      // Across the crack y = x at its centre: upper-left face minus lower-right, along (1, 1).
+      {"paper_4_3_precracked_plate", "0.04", {0.02, -0.02}, 0, {-0.02, 0.02}, 0, {1.0, 1.0},
+       -2.39223712847e-3, {0, 0}, {10, 10}},
   };
-  for (const auto& [name, spacing] : cases) {
+  // clang-format on
+  for (const PaperSmoke& c : cases) {
+    const std::string& name = c.name;
     const auto dir = test::fresh_directory(name);
     const auto r = test::run_cli("run " + root + name + "/scene.yaml --quiet --out " + dir.string() +
-                                 " --set discretization.spacing=" + spacing);
+                                 " --set discretization.spacing=" + c.spacing);
     ASSERT_EQ(r.exit_code, 0) << name << ": " << r.err;
     const std::string summary = test::read_file(dir / "summary.json");
     for (const char* key : {"contact_candidates", "contact_open", "contact_stick", "contact_slip",
@@ -74,6 +141,17 @@ TEST(PaperCases, SmokeRunsReportContact) {
     EXPECT_NE(test::read_file(dir / (name + ".xdmf")).find("contact_force"), std::string::npos) << name;
     ResultsReader reader((dir / (name + ".h5")).string());
     EXPECT_EQ(reader.steps().size(), 4u) << name;
+
+    for (int k : {0, 1}) {
+      const int step = k == 0 ? 1 : 4;
+      EXPECT_EQ(test::step_number(summary, step, "contact_stick"), c.stick[k]) << name << ", step " << step;
+      EXPECT_EQ(test::step_number(summary, step, "contact_slip"), c.slip[k]) << name << ", step " << step;
+    }
+    const double sliding =
+        (displacement_at(reader, 4, c.b, c.body_b) - displacement_at(reader, 4, c.a, c.body_a))
+            .dot(c.tangent.normalized());
+    std::printf("%s, step 4: sliding of the faces at the middle %.12e m\n", name.c_str(), sliding);
+    EXPECT_NEAR(sliding, c.sliding, 1e-6 * std::abs(c.sliding)) << name;
     std::filesystem::remove_all(dir);
   }
 }
@@ -124,6 +202,20 @@ TEST(PaperCases, CrackGrowthCaseGrowsFromTheTip) {
     before = d;
   }
   EXPECT_GT(first_growth, 0) << "no bond broke in 6 steps";
+
+  // Broken bonds against the recorded run (Newton with CG, one thread): broken_bonds_total
+  // after steps 1-6 was 0, 3, 20, 141, 1190, 1503 and 218 particles carried damage after
+  // step 6. Exact: the same run with a direct solver (umfpack), or on two threads, breaks the
+  // same bonds in every step (displacements within 3.2e-12 of max |u|), so round-off and the
+  // solvers' tolerances do not reach the breaking decisions; G_c 1% lower gives 0, 3, 21,
+  // 143, 1154, 1432 and 209.
+  const std::array<double, 6> broken{0, 3, 20, 141, 1190, 1503};
+  for (int k = 1; k <= 6; ++k)
+    EXPECT_EQ(test::step_number(summary, k, "broken_bonds_total"), broken[k - 1]) << "step " << k;
+  const VectorXd damage = reader.damage(6);
+  const auto damaged = (damage.array() > 0.0).count();
+  std::printf("case 4.4, dx = 0.05 m: %ld particles damaged after step 6\n", static_cast<long>(damaged));
+  EXPECT_EQ(damaged, 218);
   std::filesystem::remove_all(dir);
 }
 

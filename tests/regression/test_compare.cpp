@@ -27,12 +27,7 @@ nlohmann::json parse(const std::string& text) {
   return nlohmann::json::parse(text, nullptr, false);
 }
 
-/// The number under `key` in the top-level JSON object, or NaN (not JSON, absent or null).
-double json_number(const std::string& text, const std::string& key) {
-  const nlohmann::json json = parse(text);
-  const auto it = json.find(key);
-  return it != json.end() && it->is_number() ? it->get<double>() : std::nan("");
-}
+using test::json_number;
 
 bool contains(const std::string& text, const std::string& what) {
   return text.find(what) != std::string::npos;

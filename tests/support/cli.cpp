@@ -1,6 +1,7 @@
 #include "support/cli.hpp"
 
 #include <atomic>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <random>
@@ -28,6 +29,30 @@ std::string read_file(const std::filesystem::path& path) {
 
 nlohmann::json read_json(const std::filesystem::path& path) {
   return nlohmann::json::parse(read_file(path), nullptr, false);
+}
+
+namespace {
+/// The number at `key` of a JSON object, or NaN.
+double number_at(const nlohmann::json& object, const std::string& key) {
+  if (!object.is_object()) return std::nan("");
+  const auto it = object.find(key);
+  return it != object.end() && it->is_number() ? it->get<double>() : std::nan("");
+}
+}  // namespace
+
+double json_number(const std::string& text, const std::string& key) {
+  return number_at(nlohmann::json::parse(text, nullptr, false), key);
+}
+
+double step_number(const std::string& summary, int step, const std::string& key) {
+  const nlohmann::json doc = nlohmann::json::parse(summary, nullptr, false);
+  if (!doc.is_object() || !doc.contains("steps")) return std::nan("");
+  for (const nlohmann::json& s : doc["steps"]) {
+    if (s.value("step", -1) != step) continue;
+    const double direct = number_at(s, key);
+    return std::isnan(direct) && s.contains("counts") ? number_at(s["counts"], key) : direct;
+  }
+  return std::nan("");
 }
 
 CliResult run_cli(const std::string& arguments) {

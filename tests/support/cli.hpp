@@ -24,4 +24,12 @@ std::string read_file(const std::filesystem::path& path);
 /// A JSON file such as summary.json, parsed (a discarded value if it is not JSON).
 nlohmann::json read_json(const std::filesystem::path& path);
 
+/// The number under `key` in the top-level object of JSON text (e.g. compare --json), or NaN
+/// when the text is not JSON or the key is absent or not a number.
+double json_number(const std::string& text, const std::string& key);
+
+/// The number `key` of load step `step` in a summary.json text (a field of the step or of its
+/// "counts", e.g. "contact_stick", "broken_bonds_total"), or NaN when the step lacks it.
+double step_number(const std::string& summary, int step, const std::string& key);
+
 }  // namespace peristat::test

@@ -8,6 +8,7 @@
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
 #include "support/scenes.hpp"
+#include "support/solve.hpp"
 
 namespace peristat {
 namespace {
