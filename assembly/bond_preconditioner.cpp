@@ -19,12 +19,13 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
     double m = 0.0;
     for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
       if (bonds.xi[b].squaredNorm() <= r2) m += bonds.weight[b] * bonds.xi[b].squaredNorm();
-    m_alpha_volume[i] = m > 0.0 ? 8.0 * shear_modulus(model.bodies[part.body[i]].material) / m * part.volume[i] : 0.0;
+    m_alpha_volume[i] =
+        m > 0.0 ? 8.0 * shear_modulus(model.bodies[part.body[i]].material) / m * part.volume[i] : 0.0;
   }
 }
 
-void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weight, std::span<const Vec2> direction,
-                                  const ContactSystem* contact) const {
+void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weight,
+                                  std::span<const Vec2> direction, const ContactSystem* contact) const {
   const Bonds& bonds = m_model.bonds;
   const Index n = m_model.particles.size();
   const double r2 = m_radius * m_radius * (1.0 + kBondRadiusMargin);

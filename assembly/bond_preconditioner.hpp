@@ -18,7 +18,8 @@ namespace peristat {
 class BondPreconditioner {
  public:
   /// `contact`: its candidate pairs join the pattern (null without contact).
-  BondPreconditioner(const Model& model, const BondPreconditionerOptions& options, const ContactSystem* contact);
+  BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
+                     const ContactSystem* contact);
 
   /// A matrix with the preconditioner's pattern and zero values.
   SparseMatrix make_matrix() const { return m_pattern.make_matrix(m_model.constraints); }
@@ -35,9 +36,9 @@ class BondPreconditioner {
 
  private:
   const Model& m_model;
-  double m_radius;                           ///< [m]
-  TangentPattern m_pattern;                  ///< bonds within m_radius, plus contact candidates
-  std::vector<double> m_alpha_volume;        ///< per particle V 8 mu / m'
+  double m_radius;                     ///< [m]
+  TangentPattern m_pattern;            ///< bonds within m_radius, plus contact candidates
+  std::vector<double> m_alpha_volume;  ///< per particle V 8 mu / m'
 };
 
 }  // namespace peristat

@@ -67,8 +67,7 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
     std::vector<Index>().swap(rows[p]);
   }
   pat.lattice_reach = reach;
-  for (Index p = 0; p < n; ++p)
-    pat.nonzeros += static_cast<long long>(col_nnz[p]) * n_free_of(p);
+  for (Index p = 0; p < n; ++p) pat.nonzeros += static_cast<long long>(col_nnz[p]) * n_free_of(p);
   return pat;
 }
 

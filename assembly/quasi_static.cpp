@@ -8,7 +8,8 @@
 namespace peristat {
 
 namespace {
-std::unique_ptr<ContactSystem> make_contact(const Model& model, const ContactOptions& options, double& seconds) {
+std::unique_ptr<ContactSystem> make_contact(const Model& model, const ContactOptions& options,
+                                            double& seconds) {
   if (!options.enabled) return nullptr;
   const double t0 = wall_seconds();
   auto contact = std::make_unique<ContactSystem>(model, options);
@@ -231,10 +232,11 @@ void QuasiStaticProblem::revert_irreversible_state() {
 
 std::size_t QuasiStaticProblem::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  std::size_t total = bytes(m_weighted_volume) + bytes(m_eta) + bytes(m_direction) + bytes(m_s) + bytes(m_t) +
-                      bytes(m_kbond) + bytes(m_s_self) + bytes(m_beta_volume) +
-                      static_cast<std::size_t>(m_u.size() + m_force.size() + m_velocity.size()) * sizeof(double) +
-                      m_pattern.memory_bytes();
+  std::size_t total =
+      bytes(m_weighted_volume) + bytes(m_eta) + bytes(m_direction) + bytes(m_s) + bytes(m_t) +
+      bytes(m_kbond) + bytes(m_s_self) + bytes(m_beta_volume) +
+      static_cast<std::size_t>(m_u.size() + m_force.size() + m_velocity.size()) * sizeof(double) +
+      m_pattern.memory_bytes();
   if (m_failure) total += m_failure->memory_bytes();
   if (m_preconditioner) total += m_preconditioner->memory_bytes();
   if (m_contact) total += m_contact->memory_bytes();

@@ -57,7 +57,9 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
 
   /// This problem as ADR's pseudo-velocity input when its friction law reads a velocity
   /// (the paper's eq 13), else null.
-  PseudoVelocityInput* pseudo_velocity_input() { return m_contact && m_contact->wants_velocity() ? this : nullptr; }
+  PseudoVelocityInput* pseudo_velocity_input() {
+    return m_contact && m_contact->wants_velocity() ? this : nullptr;
+  }
   /// Expands v (unknowns) to all components, zero on prescribed ones, for the contact pairs.
   void set_velocity(const VectorXd& v) override;
 

@@ -41,8 +41,8 @@ void accept(Problem& problem, VectorXd& x, VectorXd& trial, const SolveReport& r
 /// two rounds in a row converge. Returns "" or why the run has to stop (x is then the last
 /// converged state).
 std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x, VectorXd& trial,
-                              const Loading& loading, const LoadSteppingCallbacks& cb, StepReport& step, int n,
-                              double lambda) {
+                              const Loading& loading, const LoadSteppingCallbacks& cb, StepReport& step,
+                              int n, double lambda) {
   const int k = step.step;
   char buf[320];
   Index at_most = 0;  // 0: no cap beyond failure.fraction

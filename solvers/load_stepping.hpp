@@ -22,11 +22,11 @@ struct StepReport {
   int newton_iterations = 0;  ///< summed over sub-steps and re-solves (ADR: pseudo-time steps)
   int linear_iterations = 0;
   int factorizations = 0;
-  int active_set_changes = 0;  ///< Newton iterations that changed the contact active set
-  int unconverged = 0;         ///< sub-steps kept unconverged (ADR `on_budget: accept`)
-  Index bonds_broken = 0;      ///< bonds broken after this step's sub-steps converged
-  int resolves = 0;            ///< re-solves at the same load after breaking bonds (incl. failed ones)
-  int break_cutbacks = 0;      ///< failed re-solves retried with half as many bonds
+  int active_set_changes = 0;     ///< Newton iterations that changed the contact active set
+  int unconverged = 0;            ///< sub-steps kept unconverged (ADR `on_budget: accept`)
+  Index bonds_broken = 0;         ///< bonds broken after this step's sub-steps converged
+  int resolves = 0;               ///< re-solves at the same load after breaking bonds (incl. failed ones)
+  int break_cutbacks = 0;         ///< failed re-solves retried with half as many bonds
   std::vector<double> residuals;  ///< relative residuals of all sub-steps, in order
   double final_residual = 0.0;
   double seconds_evaluate = 0.0, seconds_factorize = 0.0, seconds_solve = 0.0;

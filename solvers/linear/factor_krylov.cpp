@@ -30,11 +30,14 @@ void symmetric_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) {
 }
 
 /// y = A x for a general A stored by columns (serial scatter).
-void general_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) { y.noalias() = A * x; }
+void general_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) {
+  y.noalias() = A * x;
+}
 
 class FactorPreconditionedKrylov final : public LinearSolver {
  public:
-  FactorPreconditionedKrylov(std::unique_ptr<LinearSolver> factor, FactorSource source, const LinearOptions& o)
+  FactorPreconditionedKrylov(std::unique_ptr<LinearSolver> factor, FactorSource source,
+                             const LinearOptions& o)
       : m_factor(std::move(factor)), m_source(source), m_rtol(o.rtol), m_max_iterations(o.max_iterations) {}
 
   void analyzePattern(const SparseMatrix& A) override { m_A = &A; }
@@ -204,14 +207,14 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   double m_error = 0.0;
   Eigen::ComputationInfo m_info = Eigen::Success;
   VectorXd m_r, m_z, m_p, m_q;  // work vectors, reused across solves
-  Eigen::MatrixXd m_basis;     // GMRES Krylov basis (unknowns x 61), reused
+  Eigen::MatrixXd m_basis;      // GMRES Krylov basis (unknowns x 61), reused
 };
 
 }  // namespace
 
 std::unique_ptr<LinearSolver> make_factor_preconditioned_krylov(std::unique_ptr<LinearSolver> factor,
-                                                            FactorSource source,
-                                                            const LinearOptions& options) {
+                                                                FactorSource source,
+                                                                const LinearOptions& options) {
   return std::make_unique<FactorPreconditionedKrylov>(std::move(factor), source, options);
 }
 

@@ -18,7 +18,7 @@ enum class FactorSource {
 
 /// `factor` is a direct solver for symmetric matrices (CHOLMOD in practice).
 std::unique_ptr<LinearSolver> make_factor_preconditioned_krylov(std::unique_ptr<LinearSolver> factor,
-                                                            FactorSource source,
-                                                            const LinearOptions& options);
+                                                                FactorSource source,
+                                                                const LinearOptions& options);
 
 }  // namespace peristat

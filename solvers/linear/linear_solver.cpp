@@ -96,7 +96,9 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
   using LS = LinearSolverKind;
   using PC = PreconditionerKind;
   const LS t = o.type;
-  const PC pc = o.preconditioner != PC::automatic ? o.preconditioner : t == LS::bicgstab ? PC::ilut : PC::bond;
+  const PC pc = o.preconditioner != PC::automatic ? o.preconditioner
+                : t == LS::bicgstab               ? PC::ilut
+                                                  : PC::bond;
   auto not_available = [&](const char* expected) {
     return InputError("solver.krylov.preconditioner: '" + std::string(to_string(pc)) +
                       "' is not available with " + std::string(to_string(t)) + ": expected " + expected);
@@ -114,13 +116,14 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
       if (pc == PC::bond || pc == PC::cholmod) {
         auto factor =
             std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
-        const auto source = pc == PC::bond ? FactorSource::preconditioner_matrix : FactorSource::system_matrix;
+        const auto source =
+            pc == PC::bond ? FactorSource::preconditioner_matrix : FactorSource::system_matrix;
         return make_factor_preconditioned_krylov(std::move(factor), source, o);
       }
       if (pc == PC::ic)
         return std::make_unique<KrylovSolver<Eigen::ConjugateGradient<
-            Full, kBoth, Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::AMDOrdering<Index>>>>>("cg+ic",
-                                                                                                       true, o);
+            Full, kBoth, Eigen::IncompleteCholesky<double, Eigen::Lower, Eigen::AMDOrdering<Index>>>>>(
+            "cg+ic", true, o);
       if (pc == PC::diagonal)
         return std::make_unique<
             KrylovSolver<Eigen::ConjugateGradient<Full, kBoth, Eigen::DiagonalPreconditioner<double>>>>(

@@ -8,8 +8,8 @@
 
 #include <Eigen/SparseCore>
 
-#include "core/types.hpp"
 #include "core/options.hpp"
+#include "core/types.hpp"
 
 namespace peristat {
 

@@ -44,7 +44,8 @@ int finish_run(StepRecorder& recorder, const std::function<RunReport()>& run, bo
   } catch (const Interrupted& stop) {
     const std::string message = "interrupted by signal " + std::to_string(stop.signal);
     recorder.finish("interrupted", message);
-    std::fprintf(stderr, "peristat: %s; converged steps kept in %s\n", message.c_str(), recorder.h5_path().c_str());
+    std::fprintf(stderr, "peristat: %s; converged steps kept in %s\n", message.c_str(),
+                 recorder.h5_path().c_str());
     return 128 + stop.signal;
   }
   if (!report.completed) {
@@ -55,7 +56,8 @@ int finish_run(StepRecorder& recorder, const std::function<RunReport()>& run, bo
   }
   recorder.finish("completed", "completed");
   if (verbose)
-    std::printf("peristat: done in %.2f s; results in %s\n", wall_seconds() - t_start, recorder.h5_path().c_str());
+    std::printf("peristat: done in %.2f s; results in %s\n", wall_seconds() - t_start,
+                recorder.h5_path().c_str());
   return exit_success;
 }
 
@@ -100,8 +102,9 @@ int run_command(const RunArguments& args) {
   };
   VectorXd x = VectorXd::Zero(problem.n_unknowns());
   problem.set_load_factor(0.0);
-  return finish_run(recorder, [&] { return run_load_steps(problem, *solver, x, scene.loading, callbacks); },
-                    !args.quiet, t_start);
+  return finish_run(
+      recorder, [&] { return run_load_steps(problem, *solver, x, scene.loading, callbacks); }, !args.quiet,
+      t_start);
 }
 
 int probe_command(const ProbeArguments& args) {

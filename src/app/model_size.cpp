@@ -14,7 +14,8 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
   s.unknowns = model.constraints.n_free;
   s.prescribed = 2 * p.size() - s.unknowns;
   s.nonzeros = problem.pattern().nonzeros;
-  s.memory_bytes = static_cast<double>(model.memory_bytes() + problem.memory_bytes() + problem.pattern().matrix_bytes());
+  s.memory_bytes =
+      static_cast<double>(model.memory_bytes() + problem.memory_bytes() + problem.pattern().matrix_bytes());
   return s;
 }
 

@@ -22,10 +22,12 @@ void ProgressPrinter::header(const Scene& scene, const ModelSize& size, double m
   if (!m_verbose) return;
   std::printf("peristat: %s (%s)\n", scene.name.c_str(), scene.path.c_str());
   print_size(size);
-  std::printf("  model built in %.2f s; %s, %d threads\n", model_seconds, method.c_str(), omp_get_max_threads());
+  std::printf("  model built in %.2f s; %s, %d threads\n", model_seconds, method.c_str(),
+              omp_get_max_threads());
   if (m_adr)
-    std::printf("  ADR: rtol %.1e, budget %ld iterations per step (%s when exhausted)\n", scene.solver.adr.rtol,
-                scene.solver.adr.max_iterations, scene.solver.adr.accept_on_budget ? "keep the state" : "stop");
+    std::printf("  ADR: rtol %.1e, budget %ld iterations per step (%s when exhausted)\n",
+                scene.solver.adr.rtol, scene.solver.adr.max_iterations,
+                scene.solver.adr.accept_on_budget ? "keep the state" : "stop");
   if (const ContactSystem* contact = m_problem.contact())
     std::printf("  contact        %d candidate pairs (found in %.3f s), radius %g m, %s law, friction %g\n",
                 contact->size(), m_problem.contact_setup_seconds(), contact->law().radius,
@@ -81,16 +83,18 @@ void ProgressPrinter::step_done(const StepReport& s) const {
   if (!m_verbose) return;
   if (const ContactSystem* contact = m_problem.contact()) {
     const ContactCounts& c = contact->counts();
-    std::printf("  contact: %d open, %d stick, %d slip of %d pairs; active set changed in %d iterations; "
-                "closest pair %.3g dx\n",
-                c.open, c.stick, c.slip, c.candidates, s.active_set_changes,
-                contact->min_distance() / m_problem.model().spacing);
+    std::printf(
+        "  contact: %d open, %d stick, %d slip of %d pairs; active set changed in %d iterations; "
+        "closest pair %.3g dx\n",
+        c.open, c.stick, c.slip, c.candidates, s.active_set_changes,
+        contact->min_distance() / m_problem.model().spacing);
   }
   if (const BondFailure* failure = m_problem.failure())
-    std::printf("  failure: %ld bonds broke in this step (%d re-solves, %d halved after a failed re-solve), "
-                "%ld in all\n",
-                static_cast<long>(s.bonds_broken), s.resolves, s.break_cutbacks,
-                static_cast<long>(failure->broken()));
+    std::printf(
+        "  failure: %ld bonds broke in this step (%d re-solves, %d halved after a failed re-solve), "
+        "%ld in all\n",
+        static_cast<long>(s.bonds_broken), s.resolves, s.break_cutbacks,
+        static_cast<long>(failure->broken()));
   if (m_adr) {
     std::printf("  %s: %d ADR iterations, relative residual %.3e; %.2f s (force evaluations %.2f s)\n",
                 s.unconverged ? "NOT converged, kept (on_budget: accept)" : "converged", s.newton_iterations,

@@ -16,7 +16,8 @@ class ProgressPrinter {
   ProgressPrinter(bool verbose, SolverKind solver, const QuasiStaticProblem& problem);
 
   /// The run's header: scene, model size, method, threads, ADR budget, contact candidates.
-  void header(const Scene& scene, const ModelSize& size, double model_seconds, const std::string& method) const;
+  void header(const Scene& scene, const ModelSize& size, double model_seconds,
+              const std::string& method) const;
   /// The load-stepping callbacks that print (and check for a pending signal); on_step is left
   /// to the caller.
   LoadSteppingCallbacks callbacks() const;

@@ -106,7 +106,8 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     rec.counts["contact_slip"] = c.slip;
     rec.counts["contact_min_distance"] = contact->min_distance();
   }
-  rec.timings = {{"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};
+  rec.timings = {
+      {"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};
   if (m_problem.contact()) rec.timings["contact"] = step_contact_seconds;
   const WriteGuard guard;
   m_writer.write_step(rec);

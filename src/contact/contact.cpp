@@ -16,8 +16,8 @@ constexpr double kLatticeRoundOff = 1e-9;
 /// largest entry (round-off of n n^T and t t^T products).
 constexpr double kSymmetryTolerance = 1e-12;
 
-PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip, const ContactLaw& law,
-                        bool want_jacobian, double tangential_velocity) {
+PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip,
+                        const ContactLaw& law, bool want_jacobian, double tangential_velocity) {
   PairResult out;
   const Vec2 Y = X + du;
   const double r = Y.norm();
@@ -171,7 +171,8 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
         const Vec2 d = (crack.b - crack.a).normalized();
         const Vec2 normal(-d.y(), d.x());
         for_partners(i, [&](Index j) {
-          if (p.body[j] != p.body[i] || geometry::distance_to_segment(p.position[j], crack.a, crack.b) > band) return;
+          if (p.body[j] != p.body[i] || geometry::distance_to_segment(p.position[j], crack.a, crack.b) > band)
+            return;
           if (bond_crosses_crack(p.position[i], p.position[j], crack.a, crack.b)) add_pair(i, j, normal);
         });
       }
@@ -188,8 +189,8 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
     PERISTAT_ASSERT(a >= 0 && b >= 0);
     double extent = 0.0;
     for (const Vec2& v : model.bodies[a].shape.vertices) extent = std::max(extent, v.cwiseAbs().maxCoeff());
-    const std::vector<Segment> segments =
-        shared_segments(model.bodies[a].shape, model.bodies[b].shape, kLatticeRoundOff * std::max(extent, dx));
+    const std::vector<Segment> segments = shared_segments(model.bodies[a].shape, model.bodies[b].shape,
+                                                          kLatticeRoundOff * std::max(extent, dx));
     if (segments.empty()) {
       throw InputError(itf.where, "bodies '" + itf.body_a + "' and '" + itf.body_b +
                                       "' share no boundary segment: an interface needs a common edge");
@@ -224,9 +225,10 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
 
   std::sort(m_pairs.begin(), m_pairs.end(),
             [](const ContactPair& x, const ContactPair& y) { return x.i != y.i ? x.i < y.i : x.j < y.j; });
-  m_pairs.erase(std::unique(m_pairs.begin(), m_pairs.end(),
-                            [](const ContactPair& x, const ContactPair& y) { return x.i == y.i && x.j == y.j; }),
-                m_pairs.end());
+  m_pairs.erase(
+      std::unique(m_pairs.begin(), m_pairs.end(),
+                  [](const ContactPair& x, const ContactPair& y) { return x.i == y.i && x.j == y.j; }),
+      m_pairs.end());
   const Index np = size();
   m_result.assign(np, PairResult{});
   if (m_law.friction > 0.0 && !m_law.velocity_sign) m_slip.assign(np, 0.0);
@@ -241,7 +243,8 @@ double ContactSystem::pair_stiffness(Index i, Index j) const {
   const Particles& p = m_model.particles;
   const Material &mi = m_model.bodies[p.body[i]].material, &mj = m_model.bodies[p.body[j]].material;
   const double thickness = 0.5 * (mi.thickness + mj.thickness);
-  return 3.0 * contact_modulus(mi, mj, m_modulus_override) * p.volume[i] * p.volume[j] / (m_delta3 * thickness);
+  return 3.0 * contact_modulus(mi, mj, m_modulus_override) * p.volume[i] * p.volume[j] /
+         (m_delta3 * thickness);
 }
 
 void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u) {
@@ -321,8 +324,8 @@ void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
     counts.slip += s == PairStatus::slip;
     hash = (hash ^ static_cast<std::uint64_t>(s)) * 1099511628211ull;
     const ContactPair& c = m_pairs[k];
-    const Vec2 Y = p.position[c.j] - p.position[c.i] +
-                   Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
+    const Vec2 Y =
+        p.position[c.j] - p.position[c.i] + Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
     dmin = std::min(dmin, Y.norm());
   }
   m_counts = counts;
@@ -373,7 +376,8 @@ void ContactSystem::set_velocity(const VectorXd& v) {
   const Index np = size();
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
-    m_tangential_velocity[k] = c.tangent().dot(Vec2(v[2 * c.j] - v[2 * c.i], v[2 * c.j + 1] - v[2 * c.i + 1]));
+    m_tangential_velocity[k] =
+        c.tangent().dot(Vec2(v[2 * c.j] - v[2 * c.i], v[2 * c.j + 1] - v[2 * c.i + 1]));
   }
 }
 
@@ -396,8 +400,8 @@ void ContactSystem::commit(const VectorXd& u) {
 
 std::size_t ContactSystem::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  return bytes(m_pairs) + bytes(m_slip) + bytes(m_tangential_velocity) + bytes(m_result) + bytes(m_incident_start) +
-         bytes(m_incident);
+  return bytes(m_pairs) + bytes(m_slip) + bytes(m_tangential_velocity) + bytes(m_result) +
+         bytes(m_incident_start) + bytes(m_incident);
 }
 
 }  // namespace peristat

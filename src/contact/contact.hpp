@@ -10,8 +10,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/types.hpp"
 #include "core/options.hpp"
+#include "core/types.hpp"
 #include "discretisation/model.hpp"
 
 namespace peristat {
@@ -55,8 +55,8 @@ struct PairResult {
 
 /// The pair kernel. `du` = u_j - u_i, `slip` = committed plastic slip w_p of the pair;
 /// `tangential_velocity` = t . (v_j - v_i), read only by the velocity-sign law.
-PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip, const ContactLaw& law,
-                        bool want_jacobian, double tangential_velocity = 0.0);
+PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip,
+                        const ContactLaw& law, bool want_jacobian, double tangential_velocity = 0.0);
 
 /// Counts of the last evaluation.
 struct ContactCounts {
@@ -112,8 +112,8 @@ class ContactSystem {
   /// + k_t a / C if friction) plus C / (gate delta_c) on the paper law's ramp (s <= 1).
   double stiffness_bound(Index pair) const;
 
-  /// True when every pair's Jacobian in the last evaluation that computed them is symmetric: no pair slips with
-  /// friction and none is on the switch-on ramp of the paper law.
+  /// True when every pair's Jacobian in the last evaluation that computed them is symmetric: no pair slips
+  /// with friction and none is on the switch-on ramp of the paper law.
   bool symmetric() const { return m_symmetric; }
   const ContactCounts& counts() const { return m_counts; }
   /// A hash of every pair's status in the last evaluation (detects active-set cycling).
@@ -132,8 +132,8 @@ class ContactSystem {
   double m_modulus_override = 0.0;  ///< contact.stiffness (0: eq 17)
   double m_delta3 = 0.0;
   std::vector<ContactPair> m_pairs;
-  Index m_round_start = 0;  ///< first pair of the last add_broken_bonds() round
-  std::vector<double> m_slip;  ///< committed w_p per pair (empty without friction)
+  Index m_round_start = 0;                    ///< first pair of the last add_broken_bonds() round
+  std::vector<double> m_slip;                 ///< committed w_p per pair (empty without friction)
   std::vector<double> m_tangential_velocity;  ///< per pair, velocity-sign law only
   std::vector<PairResult> m_result;
   std::vector<Index> m_incident_start;

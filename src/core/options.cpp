@@ -18,7 +18,8 @@ std::string_view to_string(SolverKind kind) {
 }
 
 std::string_view to_string(LinearSolverKind kind) {
-  return name_of(kind, std::array<std::string_view, 6>{"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab"});
+  return name_of(kind,
+                 std::array<std::string_view, 6>{"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab"});
 }
 
 std::string_view to_string(PreconditionerKind kind) {

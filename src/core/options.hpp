@@ -54,8 +54,8 @@ enum class PreconditionerKind { automatic, bond, cholmod, ic, diagonal, ilut };
 /// Linear solver (key solver.linear) and its iterative settings (solver.krylov.*).
 struct LinearOptions {
   LinearSolverKind type = LinearSolverKind::cholmod;
-  double rtol = 1e-10;         ///< Krylov relative residual
-  int max_iterations = 2000;   ///< Krylov iteration cap
+  double rtol = 1e-10;        ///< Krylov relative residual
+  int max_iterations = 2000;  ///< Krylov iteration cap
   /// auto | bond | cholmod | ic | diagonal (cg); auto | ilut | diagonal (bicgstab)
   PreconditionerKind preconditioner = PreconditionerKind::automatic;
 };
@@ -88,7 +88,7 @@ struct FailureOptions {
   FailureCriterion criterion = FailureCriterion::stretch;
   double G_c = 0.0;               ///< critical energy release rate [J/m^2], > 0
   Vec2 direction = Vec2::Zero();  ///< skew: reference direction (non-zero)
-  double fraction = 1.0;          ///< break this most critical fraction of the bonds over the criterion, (0, 1]
+  double fraction = 1.0;  ///< break this most critical fraction of the bonds over the criterion, (0, 1]
   SourceLocation where;
 };
 

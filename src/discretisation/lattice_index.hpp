@@ -15,7 +15,11 @@ class LatticeIndex {
  public:
   LatticeIndex() = default;
   LatticeIndex(int i0, int j0, int i1, int j1)
-      : m_i0(i0), m_j0(j0), m_ni(i1 - i0 + 1), m_nj(j1 - j0 + 1), m_cell(static_cast<std::size_t>(m_ni) * m_nj, -1) {}
+      : m_i0(i0),
+        m_j0(j0),
+        m_ni(i1 - i0 + 1),
+        m_nj(j1 - j0 + 1),
+        m_cell(static_cast<std::size_t>(m_ni) * m_nj, -1) {}
 
   /// The particle at lattice point (i, j), or -1 (also outside the box).
   Index at(int i, int j) const {

@@ -1,11 +1,11 @@
 #include "discretisation/model.hpp"
 
-#include "scene/geometry.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
+
+#include "scene/geometry.hpp"
 
 namespace peristat {
 
@@ -75,8 +75,9 @@ class Builder {
     int max_layers = scene.discretization.fictitious_layers;
     for (const BoundaryCondition& bc : scene.boundary) max_layers = std::max(max_layers, bc.layers);
     const int pad = max_layers + 2;
-    m_model.lattice_index = LatticeIndex(lattice_floor(box.lo.x(), 0) - pad, lattice_floor(box.lo.y(), 1) - pad,
-                           lattice_floor(box.hi.x(), 0) + pad, lattice_floor(box.hi.y(), 1) + pad);
+    m_model.lattice_index =
+        LatticeIndex(lattice_floor(box.lo.x(), 0) - pad, lattice_floor(box.lo.y(), 1) - pad,
+                     lattice_floor(box.hi.x(), 0) + pad, lattice_floor(box.hi.y(), 1) + pad);
   }
 
   Model build() {
@@ -282,7 +283,8 @@ class Builder {
           near.push_back(&crack);
       }
       for (std::size_t k = 0; k < s.offset.size(); ++k) {
-        const Index j = m_model.lattice_index.at(p.lattice[i][0] + s.offset[k][0], p.lattice[i][1] + s.offset[k][1]);
+        const Index j =
+            m_model.lattice_index.at(p.lattice[i][0] + s.offset[k][0], p.lattice[i][1] + s.offset[k][1]);
         if (j < 0 || p.body[j] != p.body[i]) continue;
         const bool cut = std::any_of(near.begin(), near.end(), [&](const Crack* c) {
           return bond_crosses_crack(p.position[i], p.position[j], c->a, c->b);
@@ -400,7 +402,8 @@ Model discretise(const Scene& scene) {
 
 void Constraints::expand(const VectorXd& x, double lambda, VectorXd& u) const {
   u.resize(static_cast<Index>(prescribed.size()));
-  for (std::size_t d = 0; d < prescribed.size(); ++d) u[d] = prescribed[d] ? lambda * value[d] : x[free_index[d]];
+  for (std::size_t d = 0; d < prescribed.size(); ++d)
+    u[d] = prescribed[d] ? lambda * value[d] : x[free_index[d]];
 }
 
 void Constraints::scatter(const VectorXd& x, VectorXd& full) const {

@@ -76,7 +76,7 @@ struct Model {
   Constraints constraints;
   double spacing = 0.0;
   double horizon = 0.0;
-  Index n_cut_bonds = 0;  ///< bonds removed by pre-cracks (counted once per pair)
+  Index n_cut_bonds = 0;         ///< bonds removed by pre-cracks (counted once per pair)
   std::vector<BodyInfo> bodies;  ///< per body, in Scene::bodies order (particles' body index)
   std::vector<Crack> cracks;     ///< the pre-crack segments
   LatticeIndex lattice_index;    ///< lattice point -> particle

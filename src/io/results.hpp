@@ -33,10 +33,10 @@ struct StepFigures {
   double load_factor = 0.0;
   int newton_iterations = 0;
   int active_set_iterations = 0;
-  double residual_norm = 0.0;            ///< final relative residual
-  double wall_seconds = 0.0;             ///< wall time of this step
-  std::vector<double> residual_history;  ///< relative residual per Newton iteration
-  std::map<std::string, double> counts;  ///< e.g. "cutbacks", "open", "stick", "broken_bonds"
+  double residual_norm = 0.0;             ///< final relative residual
+  double wall_seconds = 0.0;              ///< wall time of this step
+  std::vector<double> residual_history;   ///< relative residual per Newton iteration
+  std::map<std::string, double> counts;   ///< e.g. "cutbacks", "open", "stick", "broken_bonds"
   std::map<std::string, double> timings;  ///< seconds, e.g. "assembly", "factorize", "solve"
 };
 

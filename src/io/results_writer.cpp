@@ -153,7 +153,8 @@ void integral_floats_as_integers(nlohmann::ordered_json& j) {
     for (auto& item : j) integral_floats_as_integers(item);
   } else if (j.is_number_float()) {
     const double v = j.get<double>();
-    if (std::isfinite(v) && v == std::trunc(v) && std::abs(v) < kExactIntegers && !(v == 0.0 && std::signbit(v)))
+    if (std::isfinite(v) && v == std::trunc(v) && std::abs(v) < kExactIntegers &&
+        !(v == 0.0 && std::signbit(v)))
       j = static_cast<long long>(v);
   }
 }

@@ -15,9 +15,10 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options)
   const Index n = model.particles.size();
   for (const BodyInfo& body : model.bodies) {
     const double mu = shear_modulus(body.material);
-    m_critical.push_back(options.criterion == FailureCriterion::skew
-                             ? critical_skew(options.G_c, mu, model.horizon)
-                             : critical_stretch(options.G_c, bulk_modulus_2d(body.material), mu, model.horizon));
+    m_critical.push_back(
+        options.criterion == FailureCriterion::skew
+            ? critical_skew(options.G_c, mu, model.horizon)
+            : critical_stretch(options.G_c, bulk_modulus_2d(body.material), mu, model.horizon));
   }
   if (options.criterion == FailureCriterion::skew) {
     m_reference_bond.assign(n, -1);

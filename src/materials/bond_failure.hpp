@@ -40,13 +40,13 @@ class BondFailure {
  private:
   const Model& m_model;
   FailureOptions m_options;
-  std::vector<double> m_critical;       ///< per body: s_c or gamma_c
-  std::vector<Index> m_reference_bond;  ///< skew: per particle, the reference bond (global index)
-  std::vector<double> m_weight;         ///< per bond, 0 once broken
-  std::vector<double> m_ratio;          ///< per bond: criterion value / critical (scratch)
-  std::vector<std::pair<double, Index>> m_over;      ///< scratch: (ratio, bond) over the criterion
-  std::vector<std::pair<Index, Index>> m_round;      ///< pairs broken by the last round
-  std::vector<Index> m_round_bonds;                  ///< their bonds b (b < reverse[b])
+  std::vector<double> m_critical;                ///< per body: s_c or gamma_c
+  std::vector<Index> m_reference_bond;           ///< skew: per particle, the reference bond (global index)
+  std::vector<double> m_weight;                  ///< per bond, 0 once broken
+  std::vector<double> m_ratio;                   ///< per bond: criterion value / critical (scratch)
+  std::vector<std::pair<double, Index>> m_over;  ///< scratch: (ratio, bond) over the criterion
+  std::vector<std::pair<Index, Index>> m_round;  ///< pairs broken by the last round
+  std::vector<Index> m_round_bonds;              ///< their bonds b (b < reverse[b])
   Index m_broken = 0;
 };
 

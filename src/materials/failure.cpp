@@ -22,7 +22,9 @@ double critical_skew(double G_c, double mu, double delta) {
   return std::sqrt(75.0 * std::numbers::pi * G_c / (64.0 * mu * delta));
 }
 
-double bond_stretch(const Vec2& xi, const Vec2& eta) { return (xi + eta).norm() / xi.norm() - 1.0; }
+double bond_stretch(const Vec2& xi, const Vec2& eta) {
+  return (xi + eta).norm() / xi.norm() - 1.0;
+}
 
 Index reference_bond(std::span<const Vec2> xi, const Vec2& direction) {
   const Vec2 d = direction.normalized();

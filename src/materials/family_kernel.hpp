@@ -41,7 +41,8 @@ class FamilyKernel {
   /// bond), relative displacements eta_b = u_j - u_i, weighted volume m of the intact
   /// reference family. When want_tangent is false only t and direction are written.
   virtual FamilyResult evaluate(double m, std::span<const Vec2> xi, std::span<const double> weight,
-                                std::span<const Vec2> eta, const FamilyOutputs& out, bool want_tangent) const = 0;
+                                std::span<const Vec2> eta, const FamilyOutputs& out,
+                                bool want_tangent) const = 0;
   /// True when the tangent does not depend on the displacement (linearised kinematics).
   virtual bool constant_tangent() const = 0;
 };

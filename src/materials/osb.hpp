@@ -22,10 +22,14 @@ struct OsbConstants {
 };
 
 /// The shear modulus mu = E / (2 (1 + nu)).
-inline double shear_modulus(const Material& material) { return material.E / (2.0 * (1.0 + material.nu)); }
+inline double shear_modulus(const Material& material) {
+  return material.E / (2.0 * (1.0 + material.nu));
+}
 
 /// The plane-stress bulk modulus kappa = E / (2 (1 - nu)) (docs/theory/failure.md, "Critical stretch").
-inline double bulk_modulus_2d(const Material& material) { return material.E / (2.0 * (1.0 - material.nu)); }
+inline double bulk_modulus_2d(const Material& material) {
+  return material.E / (2.0 * (1.0 - material.nu));
+}
 
 /// Evaluates one family. Inputs: reference bond vectors xi, quadrature weights w (area),
 /// relative displacements eta_b = u_j - u_i, weighted volume m. When want_tangent is false
@@ -46,7 +50,8 @@ class OsbKernel final : public FamilyKernel {
  public:
   explicit OsbKernel(const Material& material) : m_constants(OsbConstants::from(material)) {}
   FamilyResult evaluate(double m, std::span<const Vec2> xi, std::span<const double> weight,
-                        std::span<const Vec2> eta, const FamilyOutputs& out, bool want_tangent) const override {
+                        std::span<const Vec2> eta, const FamilyOutputs& out,
+                        bool want_tangent) const override {
     return osb_family(m_constants, m, xi, weight, eta, out, want_tangent);
   }
   bool constant_tangent() const override { return m_constants.kinematics == Kinematics::small; }

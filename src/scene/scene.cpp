@@ -330,15 +330,17 @@ FailureOptions read_failure(const Field& field) {
   const Map m = checked_map(field, {"criterion", "G_c", "direction", "fraction"});
   FailureOptions o;
   o.enabled = true;
-  o.criterion = schema::choice(m.require("criterion", "criterion: stretch | skew"), {"stretch", "skew"}) == "skew"
-                    ? FailureCriterion::skew
-                    : FailureCriterion::stretch;
+  o.criterion =
+      schema::choice(m.require("criterion", "criterion: stretch | skew"), {"stretch", "skew"}) == "skew"
+          ? FailureCriterion::skew
+          : FailureCriterion::stretch;
   o.G_c = schema::positive(m.require("G_c", "G_c, the critical energy release rate [J/m^2]"));
   if (auto f = m.find("direction")) {
     o.direction = schema::point(*f);
     if (o.direction.norm() == 0.0) schema::out_of_range(*f, "a non-zero direction [x, y]");
   } else if (o.criterion == FailureCriterion::skew) {
-    field.fail("criterion skew needs direction: [x, y], the reference direction of the skew (e.g. the crack's)");
+    field.fail(
+        "criterion skew needs direction: [x, y], the reference direction of the skew (e.g. the crack's)");
   }
   if (auto f = m.find("fraction")) {
     o.fraction = schema::number(*f);
@@ -411,8 +413,9 @@ SolverOptions read_solver(const Field& field) {
   SolverOptions o;
   if (auto f = m.find("type")) o.type = read_kind(*f, {SolverKind::newton, SolverKind::adr});
   if (auto f = m.find("linear"))
-    o.linear.type = read_kind(*f, {LinearSolverKind::cholmod, LinearSolverKind::umfpack, LinearSolverKind::klu,
-                                   LinearSolverKind::ldlt, LinearSolverKind::cg, LinearSolverKind::bicgstab});
+    o.linear.type =
+        read_kind(*f, {LinearSolverKind::cholmod, LinearSolverKind::umfpack, LinearSolverKind::klu,
+                       LinearSolverKind::ldlt, LinearSolverKind::cg, LinearSolverKind::bicgstab});
   if (auto f = m.find("krylov")) read_krylov(*f, o);
   if (auto f = m.find("newton")) o.newton = read_newton(*f);
   if (auto f = m.find("adr")) o.adr = read_adr(*f);

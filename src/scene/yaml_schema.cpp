@@ -122,7 +122,8 @@ Map checked_map(const Field& field, std::initializer_list<std::string_view> allo
   map.m_entries = map_entries(field, [&](const std::string& name, const Field& entry) {
     for (std::string_view a : allowed)
       if (a == name) return;
-    entry.fail("unknown key \"" + name + "\": expected one of " + list_names(std::span(allowed.begin(), allowed.size())));
+    entry.fail("unknown key \"" + name + "\": expected one of " +
+               list_names(std::span(allowed.begin(), allowed.size())));
   });
   return map;
 }

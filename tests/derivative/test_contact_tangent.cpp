@@ -105,7 +105,8 @@ TEST(ContactTangent, AssembledTangentMatchesFiniteDifferences) {
     spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
     spec.cracks = "  - {from: [0.0061, -0.001], to: [0.0061, 0.009]}\n";
     std::string yaml = test::plate_yaml(spec);
-    yaml += std::string("contact:\n  friction: ") + friction + "\n  radius_factor: 1.2\n  normal: " + normal + "\n";
+    yaml += std::string("contact:\n  friction: ") + friction + "\n  radius_factor: 1.2\n  normal: " + normal +
+            "\n";
     const Scene scene = test::scene_from_yaml(yaml);
     const Model model = discretise(scene);
     QuasiStaticProblem problem(model, problem_options(scene));

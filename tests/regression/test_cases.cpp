@@ -164,8 +164,9 @@ TEST(PaperCases, SmokeRunsReportContact) {
 TEST(PaperCases, CrackGrowthCaseGrowsFromTheTip) {
   const std::string name = "paper_4_4_crack_growth";
   const auto dir = test::fresh_directory(name);
-  const auto r = test::run_cli("run " + std::string(PERISTAT_SOURCE_DIR) + "/cases/" + name +
-                               "/scene.yaml --quiet --out " + dir.string() + " --set discretization.spacing=0.05");
+  const auto r =
+      test::run_cli("run " + std::string(PERISTAT_SOURCE_DIR) + "/cases/" + name +
+                    "/scene.yaml --quiet --out " + dir.string() + " --set discretization.spacing=0.05");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string summary = test::read_file(dir / "summary.json");
   for (const char* key : {"bonds_broken", "broken_bonds_total", "resolves", "break_cutbacks"})
@@ -245,8 +246,9 @@ TEST(ExitCodes, NoConvergenceIsThreeAndLeavesAValidFile) {
 TEST(ExitCodes, CrackThatCannotBeFollowedStopsKeepingConvergedSteps) {
   const auto dir = test::fresh_directory("running_crack");
   const auto scene = dir / "notch.yaml";
-  std::ofstream(scene) << test::notch_yaml(6e-5, true, "{linear: cg, newton: {max_iterations: 2, rtol: 1.0e-8}}",
-                                           "contact: {friction: 0.3}\n", "finite", "{steps: 3, max_resolves: 400}");
+  std::ofstream(scene) << test::notch_yaml(
+      6e-5, true, "{linear: cg, newton: {max_iterations: 2, rtol: 1.0e-8}}", "contact: {friction: 0.3}\n",
+      "finite", "{steps: 3, max_resolves: 400}");
   const auto r = test::run_cli("run " + scene.string() + " --out " + dir.string());
   EXPECT_EQ(r.exit_code, 3) << r.err;
   EXPECT_NE(r.err.find("single most critical bond"), std::string::npos) << r.err;

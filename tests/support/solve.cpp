@@ -8,7 +8,9 @@
 
 namespace peristat::test {
 
-std::unique_ptr<Solved> solve_scene(const std::string& yaml) { return solve_parsed(scene_from_yaml(yaml)); }
+std::unique_ptr<Solved> solve_scene(const std::string& yaml) {
+  return solve_parsed(scene_from_yaml(yaml));
+}
 
 std::unique_ptr<Solved> solve_case(const std::string& name, const std::vector<std::string>& overrides) {
   std::vector<Override> o;

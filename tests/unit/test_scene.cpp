@@ -337,8 +337,8 @@ TEST(SceneErrors, UnknownKeyAtTopLevelListsTheAllowedKeys) {
 }
 
 TEST(SceneFailure, ParsesTheSectionAndChecksIt) {
-  const Scene s = parse_scene_text(k_minimal + "failure: {criterion: skew, G_c: 5.0e4, direction: [1, 1], fraction: 0.5}\n",
-                                   "scene.yaml");
+  const Scene s = parse_scene_text(
+      k_minimal + "failure: {criterion: skew, G_c: 5.0e4, direction: [1, 1], fraction: 0.5}\n", "scene.yaml");
   EXPECT_TRUE(s.failure.enabled);
   EXPECT_EQ(s.failure.criterion, FailureCriterion::skew);
   EXPECT_EQ(s.failure.G_c, 5.0e4);
@@ -347,7 +347,8 @@ TEST(SceneFailure, ParsesTheSectionAndChecksIt) {
   EXPECT_FALSE(parse_scene_text(k_minimal, "scene.yaml").failure.enabled);  // absent: no failure checks
   expect_error(k_minimal + "failure: {criterion: skew, G_c: 1.0}\n", "scene.yaml:21: failure",
                "criterion skew needs direction");
-  expect_error(k_minimal + "failure: {criterion: stretch}\n", "scene.yaml:21: failure.G_c", "missing required key");
+  expect_error(k_minimal + "failure: {criterion: stretch}\n", "scene.yaml:21: failure.G_c",
+               "missing required key");
   expect_error(k_minimal + "failure: {criterion: stretch, G_c: 1.0, fraction: 0}\n",
                "scene.yaml:21: failure.fraction", "0 < fraction <= 1");
 }
@@ -443,8 +444,8 @@ TEST(SceneErrors, SolverAndLoadingRanges) {
                "expected atol >= 0");
   expect_error(k_minimal + "solver:\n  adr: {max_iterations: 0}\n",
                "scene.yaml:22: solver.adr.max_iterations", "expected max_iterations >= 1");
-  expect_error(k_minimal + "solver:\n  adr: {density_factor: 0.5}\n", "scene.yaml:22: solver.adr.density_factor",
-               "density_factor >= 1");
+  expect_error(k_minimal + "solver:\n  adr: {density_factor: 0.5}\n",
+               "scene.yaml:22: solver.adr.density_factor", "density_factor >= 1");
   expect_error(k_minimal + "solver:\n  adr: {on_budget: keep}\n", "scene.yaml:22: solver.adr.on_budget",
                "fail, accept");
   expect_error(k_minimal + "output: {every: 0}\n", "scene.yaml:21: output.every", "expected every >= 1");

@@ -85,9 +85,10 @@ TEST(Adr, AgreesWithNewtonOnTheTensionPlate) {
     auto adr = test::solve_scene(test::plate_yaml(spec));
     ASSERT_TRUE(newton->run.completed && adr->run.completed) << adr->run.message;
     const double d = relative_difference(*adr, *newton);
-    std::printf("tension plate, %s kinematics: ADR %ld iterations in %.3f s (Newton %ld in %.3f s); "
-                "relative L2 difference %.3e\n",
-                kin, adr->iterations(), adr->seconds, newton->iterations(), newton->seconds, d);
+    std::printf(
+        "tension plate, %s kinematics: ADR %ld iterations in %.3f s (Newton %ld in %.3f s); "
+        "relative L2 difference %.3e\n",
+        kin, adr->iterations(), adr->seconds, newton->iterations(), newton->seconds, d);
     // Measured 1.12e-8 (small) and 1.09e-8 (finite) on 2026-11-23; bound 3e-7 (27x).
     EXPECT_LT(d, 3e-7);
   }
@@ -111,8 +112,9 @@ void compare_case(const std::string& name, const std::vector<std::string>& commo
   const double d = relative_difference(*adr, *newton);
   std::string label;
   for (const std::string& v : variant) label += " " + v;
-  std::printf("%s%s: ADR %ld iterations in %.2f s, Newton %ld iterations in %.2f s; relative L2 difference %.3e\n",
-              name.c_str(), label.c_str(), adr->iterations(), adr->seconds, newton->iterations(), newton->seconds, d);
+  std::printf(
+      "%s%s: ADR %ld iterations in %.2f s, Newton %ld iterations in %.2f s; relative L2 difference %.3e\n",
+      name.c_str(), label.c_str(), adr->iterations(), adr->seconds, newton->iterations(), newton->seconds, d);
   EXPECT_LT(d, bound);
 }
 

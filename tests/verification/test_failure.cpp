@@ -43,9 +43,10 @@ TEST(Failure, FirstBondsBreakAtTheNotchTip) {
     ++damaged;
     far = std::max(far, (s->model.particles.position[i] - tip).norm());
   }
-  std::printf("notch, pull 2.5e-5 m: %ld bonds broken in %d re-solves; %d damaged particles, farthest %.2f delta "
-              "from the tip\n",
-              static_cast<long>(s->problem->failure()->broken()), s->steps.at(0).resolves, damaged, far / delta);
+  std::printf(
+      "notch, pull 2.5e-5 m: %ld bonds broken in %d re-solves; %d damaged particles, farthest %.2f delta "
+      "from the tip\n",
+      static_cast<long>(s->problem->failure()->broken()), s->steps.at(0).resolves, damaged, far / delta);
   EXPECT_GT(s->problem->failure()->broken(), 0);
   EXPECT_GE(s->steps.at(0).resolves, 1);
   // Every damaged particle is an end of a broken bond: within two horizons of the tip.
@@ -59,11 +60,12 @@ TEST(Failure, NewtonAndAdrBreakTheSameBonds) {
   VectorXd dn, da;
   newton->problem->failure()->damage(dn);
   adr->problem->failure()->damage(da);
-  std::printf("Newton broke %ld bonds in %d re-solves, ADR %ld in %d (%ld ADR iterations); max damage difference "
-              "%.3e\n",
-              static_cast<long>(newton->problem->failure()->broken()), newton->steps.at(0).resolves,
-              static_cast<long>(adr->problem->failure()->broken()), adr->steps.at(0).resolves, adr->iterations(),
-              (dn - da).cwiseAbs().maxCoeff());
+  std::printf(
+      "Newton broke %ld bonds in %d re-solves, ADR %ld in %d (%ld ADR iterations); max damage difference "
+      "%.3e\n",
+      static_cast<long>(newton->problem->failure()->broken()), newton->steps.at(0).resolves,
+      static_cast<long>(adr->problem->failure()->broken()), adr->steps.at(0).resolves, adr->iterations(),
+      (dn - da).cwiseAbs().maxCoeff());
   EXPECT_EQ(newton->problem->failure()->broken(), adr->problem->failure()->broken());
   EXPECT_EQ((dn - da).cwiseAbs().maxCoeff(), 0.0);  // the same bonds, hence the same damage
 }
@@ -92,7 +94,8 @@ TEST(Failure, BrokenBondsBecomeContactCandidates) {
 // counted as broken. A random state with displacements of 5% of dx puts most bonds over
 // s_c = 2.1e-3; 25 of them break.
 TEST(Failure, UndoingARoundRestoresTheProblemExactly) {
-  const Scene scene = test::scene_from_yaml(notch(1e-6, true, "{linear: umfpack}", "contact: {friction: 0.3}\n"));
+  const Scene scene =
+      test::scene_from_yaml(notch(1e-6, true, "{linear: umfpack}", "contact: {friction: 0.3}\n"));
   const Model model = discretise(scene);
   QuasiStaticProblem problem(model, problem_options(scene));
   problem.set_load_factor(1.0);
@@ -124,7 +127,8 @@ TEST(Failure, UndoingARoundRestoresTheProblemExactly) {
 // displacements agree to the solvers' tolerances (relative 1e-5: both converge to 1e-8 or
 // better, the contact and friction states are the same).
 TEST(Failure, NewtonAndAdrGrowTheSameCrackInCase44) {
-  const std::vector<std::string> common{"discretization.spacing=0.05", "loading.steps=4", "boundary.2.uy=-10.0e-3"};
+  const std::vector<std::string> common{"discretization.spacing=0.05", "loading.steps=4",
+                                        "boundary.2.uy=-10.0e-3"};
   std::vector<std::string> adr_set = common;
   adr_set.push_back("solver.type=adr");
   auto newton = test::solve_case("paper_4_4_crack_growth", common);
@@ -137,10 +141,12 @@ TEST(Failure, NewtonAndAdrGrowTheSameCrackInCase44) {
   newton->problem->failure()->damage(dn);
   adr->problem->failure()->damage(da);
   const double du = (newton->u - adr->u).norm() / newton->u.norm();
-  std::printf("case 4.4 (dx 0.05, 10 mm): Newton broke %ld bonds, ADR %ld (%ld ADR iterations); max damage "
-              "difference %.3e; relative displacement difference %.3e\n",
-              static_cast<long>(newton->problem->failure()->broken()), static_cast<long>(adr->problem->failure()->broken()),
-              adr->iterations(), (dn - da).cwiseAbs().maxCoeff(), du);
+  std::printf(
+      "case 4.4 (dx 0.05, 10 mm): Newton broke %ld bonds, ADR %ld (%ld ADR iterations); max damage "
+      "difference %.3e; relative displacement difference %.3e\n",
+      static_cast<long>(newton->problem->failure()->broken()),
+      static_cast<long>(adr->problem->failure()->broken()), adr->iterations(),
+      (dn - da).cwiseAbs().maxCoeff(), du);
   EXPECT_GT(newton->problem->failure()->broken(), 0);
   EXPECT_EQ(newton->problem->failure()->broken(), adr->problem->failure()->broken());
   EXPECT_EQ((dn - da).cwiseAbs().maxCoeff(), 0.0);
@@ -165,7 +171,8 @@ double mode_i_ratio(double dx) {
   const std::string y = R"(name: griffith
 materials:
   m: {E: 1.0e9, nu: 0.3, thickness: 1.0e-3, kinematics: small}
-discretization: {spacing: )" + std::to_string(dx) + R"(, horizon_factor: 3}
+discretization: {spacing: )" +
+                        std::to_string(dx) + R"(, horizon_factor: 3}
 bodies:
   plate: {material: m, rectangle: {min: [0, 0], max: [0.1, 0.1]}}
 cracks:
@@ -197,8 +204,8 @@ solver: {linear: cg, newton: {rtol: 1.0e-12}}
   const double sc = critical_stretch(G_c, kappa, mu, delta);
   const double sigma_pd = std::abs(reaction) / (W * t) * sc / smax;
   const double sigma_griffith = std::sqrt(E * G_c / (M_PI * a)) / std::sqrt(1.0 / std::cos(M_PI * a / W));
-  std::printf("mode I, dx = %.2g mm: s_c = %.4e, start stress %.4e Pa, Griffith %.4e Pa, ratio %.3f\n", dx * 1e3, sc,
-              sigma_pd, sigma_griffith, sigma_pd / sigma_griffith);
+  std::printf("mode I, dx = %.2g mm: s_c = %.4e, start stress %.4e Pa, Griffith %.4e Pa, ratio %.3f\n",
+              dx * 1e3, sc, sigma_pd, sigma_griffith, sigma_pd / sigma_griffith);
   return sigma_pd / sigma_griffith;
 }
 

@@ -1,5 +1,5 @@
-// Every linear solver reaches the same equilibrium (docs/theory/newton.md, "Factor-preconditioned Krylov": the reused-factor
-// Krylov path and a fresh factorisation every iteration "must reach the same answer").
+// Every linear solver reaches the same equilibrium (docs/theory/newton.md, "Factor-preconditioned Krylov":
+// the reused-factor Krylov path and a fresh factorisation every iteration "must reach the same answer").
 #include <gtest/gtest.h>
 
 #include "support/scenes.hpp"
