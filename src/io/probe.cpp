@@ -27,10 +27,11 @@ Key pack(std::int64_t i, std::int64_t j) {
          static_cast<Key>(static_cast<std::uint32_t>(j));
 }
 
-/// Spatial index over the non-fictitious particles, built once per probe.
-class LatticeIndex {
+/// Spatial index over the non-fictitious particles of a results file, built once per probe
+/// (a reader has no Model, hence no discretisation LatticeIndex; positions may be any file's).
+class ParticleLocator {
  public:
-  LatticeIndex(const ParticleTable& particles, double spacing) : m_particles(particles), m_h(spacing) {
+  ParticleLocator(const ParticleTable& particles, double spacing) : m_particles(particles), m_h(spacing) {
     const std::vector<int> real = real_particles();
     if (real.empty()) return;
     build_buckets(real);
@@ -142,7 +143,7 @@ Vec2 particle_value(const VectorXd& u, int p) {
 }
 
 /// Interpolated displacement at x, or NaNs when no particle lies within one spacing.
-Vec2 interpolate(const LatticeIndex& index, const ParticleTable& particles, const VectorXd& u,
+Vec2 interpolate(const ParticleLocator& index, const ParticleTable& particles, const VectorXd& u,
                  const Vec2& x) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const int nearest = index.nearest(x);
@@ -199,7 +200,7 @@ std::vector<ProbeSample> probe_line(const ResultsReader& results, int step, Vec2
     throw InputError("probe: the results file has no valid particle spacing (got " + std::to_string(h) + ")");
   }
   const VectorXd u = results.displacement(step);
-  const LatticeIndex index(particles, h);
+  const ParticleLocator index(particles, h);
 
   const double length = (b - a).norm();
   std::vector<ProbeSample> samples;
