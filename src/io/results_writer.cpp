@@ -2,6 +2,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <numeric>
 #include <set>
 #include <stdexcept>
 
@@ -109,6 +110,11 @@ void write_particles(const h5::File& file, const ParticleTable& p) {
   file.write_doubles(group, "volume", p.volume.data(), {n});
   file.write_ints(group, "body", p.body.data(), {n});
   file.write_ints(group, "fictitious", p.fictitious.data(), {n});
+  // The XDMF's Polyvertex connectivity: one vertex cell per particle, 0 .. N-1 (without it
+  // ParaView shows the points but no cell, and the default Surface view is empty).
+  std::vector<int> vertex(p.size());
+  std::iota(vertex.begin(), vertex.end(), 0);
+  file.write_ints(group, "vertex", vertex.data(), {n});
   file.write_attribute(group, "spacing", p.spacing);
   file.write_attribute(group, "body_names", p.body_names);
 }

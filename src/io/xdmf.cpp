@@ -51,7 +51,9 @@ class GridWriter {
       m_out << "        <Time Value=\"" << shortest_decimal(time) << "\"/>\n";
     }
     m_out << "        <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << m_n
-          << "\" NodesPerElement=\"1\"/>\n"
+          << "\" NodesPerElement=\"1\">\n"
+          << "          " << int_item(m_n, "/particles/vertex") << "\n"
+          << "        </Topology>\n"
           << "        <Geometry GeometryType=\"XY\">\n"
           << "          " << float_item(m_n + " 2", "/particles/position") << "\n"
           << "        </Geometry>\n";

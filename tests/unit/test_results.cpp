@@ -254,6 +254,10 @@ TEST_F(ResultsTest, HdfLayoutFollowsTheContract) {
   EXPECT_EQ(file.dims("/particles/fictitious"), (std::vector<hsize_t>{6}));
   EXPECT_EQ(file.dataset_class("/particles/body"), H5T_INTEGER);
   EXPECT_EQ(file.dataset_class("/particles/fictitious"), H5T_INTEGER);
+  // The XDMF's vertex cells: one per particle, so ParaView has cells to draw.
+  EXPECT_EQ(file.dims("/particles/vertex"), (std::vector<hsize_t>{6}));
+  EXPECT_EQ(file.dataset_class("/particles/vertex"), H5T_INTEGER);
+  EXPECT_EQ(file.doubles("/particles/vertex"), (std::vector<double>{0, 1, 2, 3, 4, 5}));
   EXPECT_EQ(file.attribute("/particles", "spacing"), 0.5);
   EXPECT_EQ(file.attribute_size("/particles", "body_names"), 2);
   EXPECT_EQ(file.doubles("/particles/position")[3], table.position[1].y());
@@ -370,6 +374,8 @@ TEST_F(ResultsTest, XdmfDescribesEveryStep) {
   EXPECT_EQ(count_of(xdmf, "CollectionType=\"Temporal\""), 1u);
   EXPECT_EQ(count_of(xdmf, "TopologyType=\"Polyvertex\" NumberOfElements=\"6\""), 3u);
   EXPECT_EQ(count_of(xdmf, "small.h5:/particles/position"), 3u) << "relative file name";
+  EXPECT_EQ(count_of(xdmf, "small.h5:/particles/vertex</DataItem>\n        </Topology>"), 3u)
+      << "every grid's Polyvertex topology has its connectivity";
   for (int k = 1; k <= 3; ++k) {
     const std::string g = "small.h5:/steps/00000" + std::to_string(k);
     EXPECT_EQ(count_of(xdmf, g + "/displacement"), 1u);
