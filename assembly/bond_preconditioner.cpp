@@ -8,6 +8,7 @@ namespace peristat {
 BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
                                        const ContactSystem* contact)
     : m_model(model),
+      m_contact(contact),
       m_radius(options.bond_radius * model.spacing),
       m_pattern(build_pattern(model, PatternReach::bonds_within, m_radius, contact)) {
   const Bonds& bonds = model.bonds;
@@ -25,7 +26,7 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
 }
 
 void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weight,
-                                  std::span<const Vec2> direction, const ContactSystem* contact) const {
+                                  std::span<const Vec2> direction) const {
   const Bonds& bonds = m_model.bonds;
   const Index n = m_model.particles.size();
   const double r2 = m_radius * m_radius * (1.0 + kBondRadiusMargin);
@@ -43,12 +44,12 @@ void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weigh
         col.add_outer(p, k, M, M);
         col.add_outer(j, -k, M, M);
       }
-      if (contact) {
-        for (auto e = contact->incident_begin(p); e != contact->incident_end(p); ++e) {
+      if (m_contact) {
+        for (auto e = m_contact->incident_begin(p); e != m_contact->incident_end(p); ++e) {
           // Pairs added at run time (broken bonds) longer than the preconditioner's stencil
           // have no block in its pattern; the preconditioner does without them.
           if (!col.has(e->other)) continue;
-          col.add_pair(e->other, contact->preconditioner_block(e->pair));
+          col.add_pair(e->other, m_contact->preconditioner_block(e->pair));
         }
       }
       col.end();

@@ -17,7 +17,8 @@ namespace peristat {
 
 class BondPreconditioner {
  public:
-  /// `contact`: its candidate pairs join the pattern (null without contact).
+  /// `contact`: its candidate pairs join the pattern and their blocks the values (null
+  /// without contact); it must outlive the preconditioner.
   BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
                      const ContactSystem* contact);
 
@@ -29,13 +30,13 @@ class BondPreconditioner {
   /// alpha' = 8 mu / m' with m' the weighted volume of those bonds (so the short stencil
   /// keeps the long-wave stiffness), plus each contact pair's preconditioner block.
   /// `weight`: the intact bond weights; `direction`: M_b of the last evaluation.
-  void assemble(SparseMatrix& P, std::span<const double> weight, std::span<const Vec2> direction,
-                const ContactSystem* contact) const;
+  void assemble(SparseMatrix& P, std::span<const double> weight, std::span<const Vec2> direction) const;
 
   std::size_t memory_bytes() const;
 
  private:
   const Model& m_model;
+  const ContactSystem* m_contact;      ///< null without contact
   double m_radius;                     ///< [m]
   TangentPattern m_pattern;            ///< bonds within m_radius, plus contact candidates
   std::vector<double> m_alpha_volume;  ///< per particle V 8 mu / m'

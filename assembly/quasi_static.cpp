@@ -190,7 +190,7 @@ SparseMatrix QuasiStaticProblem::make_preconditioner() {
 
 void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
   if (!m_preconditioner) make_preconditioner();
-  m_preconditioner->assemble(P, m_weight, m_direction, m_contact.get());
+  m_preconditioner->assemble(P, m_weight, m_direction);
 }
 
 void QuasiStaticProblem::add_stiffness_bound(VectorXd& row_sums) const {
@@ -225,9 +225,8 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
 
 void QuasiStaticProblem::revert_irreversible_state() {
   if (!m_failure) return;
-  const Index round = m_failure->broken();
   m_failure->revert();
-  if (m_contact && m_failure->broken() != round) m_contact->drop_last_round();
+  if (m_contact) m_contact->drop_last_round();
 }
 
 std::size_t QuasiStaticProblem::memory_bytes() const {

@@ -272,6 +272,7 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
 }
 
 void ContactSystem::drop_last_round() {
+  if (m_round_start == size()) return;  // the round added no pair
   const auto n = static_cast<std::size_t>(m_round_start);
   m_pairs.resize(n);
   m_result.resize(n);

@@ -88,7 +88,8 @@ class ContactSystem {
   /// fictitious end are skipped. `u` is the current displacement (2N). The pairs are a trial
   /// round until commit(); drop_last_round() removes them.
   void add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u);
-  /// Removes the pairs of the last add_broken_bonds() (a round whose re-solve failed).
+  /// Removes the pairs of the last add_broken_bonds() (a round whose re-solve failed); does
+  /// nothing when no pair was added since the last commit.
   void drop_last_round();
   /// Velocity-sign law only: the full pseudo-velocity (2N) that the next evaluations use.
   void set_velocity(const VectorXd& v);
