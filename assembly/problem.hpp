@@ -4,10 +4,24 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 
 #include "core/types.hpp"
 
 namespace peristat {
+
+/// Outcome of Problem::update_multipliers().
+struct ConstraintUpdate {
+  enum class Status {
+    satisfied,  ///< the constraints hold to their tolerance: the state may be accepted
+    updated,    ///< multipliers changed: solve again at the same load
+    exhausted   ///< the update budget is spent: the attempt fails (`message` says why)
+  };
+  Status status = Status::satisfied;
+  double violation = 0.0;  ///< largest violation, in the constraint's own relative measure
+  int updates = 0;         ///< updates made so far in this increment
+  std::string message;
+};
 
 class Problem {
  public:
@@ -63,6 +77,16 @@ class Problem {
   virtual Index advance_irreversible_state(const VectorXd& /*x*/, Index /*at_most*/ = 0) { return 0; }
   /// Undoes the last advance_irreversible_state(), whose re-solve did not converge.
   virtual void revert_irreversible_state() {}
+
+  /// Constraints enforced by multipliers (an augmented Lagrangian, e.g. exact contact): at a
+  /// converged state x, says whether they hold or updates the multipliers, after which the
+  /// caller solves again at the same load. The trial multipliers start from the committed
+  /// ones at each set_load_factor().
+  virtual ConstraintUpdate update_multipliers(const VectorXd& /*x*/) { return {}; }
+
+  /// Checks a converged state before it is accepted; returns why it must be rejected (e.g. a
+  /// contact pair whose particles have passed each other), or "" when it may be accepted.
+  virtual std::string check_converged_state(const VectorXd& /*x*/) { return {}; }
 
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;

@@ -1,5 +1,7 @@
 #include "assembly/quasi_static.hpp"
 
+#include <cstdio>
+
 #include <omp.h>
 
 #include "assembly/column_writer.hpp"
@@ -58,9 +60,63 @@ Mat2 QuasiStaticProblem::stress(Index i) const {
   return P;
 }
 
+void QuasiStaticProblem::set_load_factor(double lambda) {
+  m_lambda = lambda;
+  if (m_contact) m_contact->start_trial(m_committed_lambda > 0.0 ? lambda / m_committed_lambda : 1.0);
+}
+
+ConstraintUpdate QuasiStaticProblem::update_multipliers(const VectorXd& x) {
+  if (!m_contact) return {};
+  expand(x, m_u);
+  const MultiplierUpdate m = m_contact->update_multipliers(m_u);
+  ConstraintUpdate out;
+  out.violation = m.violation;
+  out.updates = m.updates;
+  switch (m.status) {
+    case MultiplierUpdate::Status::satisfied:
+      out.status = ConstraintUpdate::Status::satisfied;
+      break;
+    case MultiplierUpdate::Status::updated:
+      out.status = ConstraintUpdate::Status::updated;
+      break;
+    case MultiplierUpdate::Status::exhausted: {
+      out.status = ConstraintUpdate::Status::exhausted;
+      const ContactPair& c = m_contact->pairs()[m.pair];
+      char buf[320];
+      std::snprintf(buf, sizeof buf,
+                    "exact contact: closure %.3g of pair (%ld, %ld) still above contact.closure_tolerance "
+                    "after %d multiplier updates (contact.max_multiplier_updates)",
+                    m.violation, static_cast<long>(c.i), static_cast<long>(c.j), m.updates);
+      out.message = buf;
+      break;
+    }
+  }
+  return out;
+}
+
+std::string QuasiStaticProblem::check_converged_state(const VectorXd& x) {
+  if (!m_contact) return {};
+  expand(x, m_u);
+  const Index k = m_contact->first_crossed(m_u);
+  if (k < 0) return {};
+  const ContactPair& c = m_contact->pairs()[k];
+  const Particles& p = m_model.particles;
+  const Vec2 du(m_u[2 * c.j] - m_u[2 * c.i], m_u[2 * c.j + 1] - m_u[2 * c.i + 1]);
+  const PairGap g = pair_gap(c, p.position[c.j] - p.position[c.i], du);
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "contact pair (%ld, %ld) has crossed: particle %ld (reference (%.6g, %.6g) m) passed particle "
+                "%ld (reference (%.6g, %.6g) m) along the interface normal, n.Y = %.3g dx",
+                static_cast<long>(c.i), static_cast<long>(c.j), static_cast<long>(c.j), p.position[c.j].x(),
+                p.position[c.j].y(), static_cast<long>(c.i), p.position[c.i].x(), p.position[c.i].y(),
+                g.normal / m_model.spacing);
+  return buf;
+}
+
 void QuasiStaticProblem::commit(const VectorXd& x) {
   // Elastic bonds carry no history; a round of breaking becomes permanent, friction slip
-  // is updated.
+  // and contact multipliers are updated.
+  m_committed_lambda = m_lambda;
   if (m_failure) m_failure->commit();
   if (!m_contact) return;
   expand(x, m_u);
@@ -226,7 +282,10 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
 void QuasiStaticProblem::revert_irreversible_state() {
   if (!m_failure) return;
   m_failure->revert();
-  if (m_contact) m_contact->drop_last_round();
+  if (m_contact) {
+    m_contact->drop_last_round();
+    m_contact->start_trial(1.0);  // the failed re-solve's multipliers go too
+  }
 }
 
 std::size_t QuasiStaticProblem::memory_bytes() const {

@@ -33,7 +33,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   QuasiStaticProblem(const Model& model, const ProblemOptions& options);
 
   Index n_unknowns() const override { return m_model.constraints.n_free; }
-  void set_load_factor(double lambda) override { m_lambda = lambda; }
+  /// Also starts a trial of the exact-contact multipliers, predicted from the committed ones.
+  void set_load_factor(double lambda) override;
   double load_factor() const override { return m_lambda; }
   void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override;
   double force_scale() const override { return m_force_scale; }
@@ -54,6 +55,10 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// the contact candidates when the scene models contact. Returns the bonds broken.
   Index advance_irreversible_state(const VectorXd& x, Index at_most = 0) override;
   void revert_irreversible_state() override;
+  /// Exact contact enforcement (ContactSystem::update_multipliers).
+  ConstraintUpdate update_multipliers(const VectorXd& x) override;
+  /// Rejects a state in which a contact pair has crossed (docs/theory/contact.md, section 9).
+  std::string check_converged_state(const VectorXd& x) override;
 
   /// This problem as ADR's pseudo-velocity input when its friction law reads a velocity
   /// (the paper's eq 13), else null.
@@ -108,6 +113,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   bool m_small_kinematics = false;   ///< every body linearised: the bond tangent is constant
   double m_contact_seconds = 0.0;
   double m_lambda = 0.0;
+  double m_committed_lambda = 0.0;  ///< load factor of the last commit()
 
   // State of the last evaluate.
   VectorXd m_u, m_force;

@@ -26,6 +26,37 @@ void accumulate(StepReport& step, const SolveReport& r) {
   step.residuals.insert(step.residuals.end(), r.residuals.begin(), r.residuals.end());
 }
 
+/// One solve at the problem's current load, with what a state needs before it is accepted:
+/// while the multiplier constraints are violated, their update and a re-solve; then the
+/// problem's admissibility check. A state that fails either is reported as not converged,
+/// with the reason. Work is added to `step`.
+SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& trial, const LoadSteppingCallbacks& cb,
+                            StepReport& step) {
+  SolveReport r = solver.solve(trial, cb.on_iteration);
+  accumulate(step, r);
+  while (r.converged) {
+    const ConstraintUpdate m = problem.update_multipliers(trial);
+    if (m.status == ConstraintUpdate::Status::satisfied) break;
+    if (m.status == ConstraintUpdate::Status::exhausted) {
+      r.converged = false;
+      r.reason = m.message;
+      return r;
+    }
+    ++step.multiplier_updates;
+    if (cb.on_multipliers) cb.on_multipliers(m.violation, m.updates);
+    r = solver.solve(trial, cb.on_iteration);
+    accumulate(step, r);
+  }
+  if (r.converged || r.accepted_unconverged) {
+    if (std::string why = problem.check_converged_state(trial); !why.empty()) {
+      r.converged = false;
+      r.accepted_unconverged = false;
+      r.reason = std::move(why);
+    }
+  }
+  return r;
+}
+
 /// A solve that converged (or was accepted unconverged): x takes its state, which is committed.
 void accept(Problem& problem, VectorXd& x, VectorXd& trial, const SolveReport& r, StepReport& step) {
   if (!r.converged) ++step.unconverged;
@@ -63,8 +94,7 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
     solver.invalidate_factorization();
     solver.prepare(x);  // the tangent without the broken bonds
     trial = x;
-    const SolveReport r = solver.solve(trial, cb.on_iteration);
-    accumulate(step, r);
+    const SolveReport r = solve_and_check(problem, solver, trial, cb, step);
     if (r.converged || r.accepted_unconverged) {
       accept(problem, x, trial, r, step);
       step.bonds_broken += broken;
@@ -111,8 +141,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
       problem.set_load_factor(next);
       if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
       trial = x;
-      const SolveReport r = solver.solve(trial, cb.on_iteration);
-      accumulate(step, r);
+      const SolveReport r = solve_and_check(problem, solver, trial, cb, step);
       if (r.converged || r.accepted_unconverged) {
         accept(problem, x, trial, r, step);
         lambda = next;

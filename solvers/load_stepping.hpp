@@ -1,7 +1,10 @@
 // Load stepping: N equal steps to load factor 1; a failing step is halved (up to
 // Loading::max_cutbacks times) and grown back after success; bonds that break at a converged
-// state are followed by re-solves at the same load. Only converged states (and states ADR
-// keeps with `on_budget: accept`, counted as unconverged) are committed and reported.
+// state are followed by re-solves at the same load. A converged state is accepted only when
+// the problem's multiplier constraints hold (else the multipliers are updated and the load
+// solved again) and the problem's admissibility check passes (else the attempt fails and is
+// cut back). Only accepted states (and states ADR keeps with `on_budget: accept`, counted as
+// unconverged) are committed and reported.
 #pragma once
 
 #include <functional>
@@ -27,6 +30,7 @@ struct StepReport {
   Index bonds_broken = 0;         ///< bonds broken after this step's sub-steps converged
   int resolves = 0;               ///< re-solves at the same load after breaking bonds (incl. failed ones)
   int break_cutbacks = 0;         ///< failed re-solves retried with half as many bonds
+  int multiplier_updates = 0;     ///< re-solves after updating constraint multipliers (exact contact)
   std::vector<double> residuals;  ///< relative residuals of all sub-steps, in order
   double final_residual = 0.0;
   double seconds_evaluate = 0.0, seconds_factorize = 0.0, seconds_solve = 0.0;
@@ -51,6 +55,9 @@ struct LoadSteppingCallbacks {
   /// The re-solve after breaking `broken` bonds failed: they are restored and at most
   /// `next` of them (the most critical) break in the retry.
   std::function<void(const std::string& reason, Index broken, Index next)> on_break_cutback;
+  /// A converged state violated its multiplier constraints by `violation`; the multipliers
+  /// were updated (update k of this increment) and the same load is solved again.
+  std::function<void(double violation, int update)> on_multipliers;
   /// An attempt failed and the step is cut back.
   std::function<void(const std::string& reason, double next_increment)> on_cutback;
 };

@@ -5,6 +5,7 @@
 #include <omp.h>
 
 #include "app/interrupt.hpp"
+#include "app/step_recorder.hpp"
 
 namespace peristat {
 
@@ -29,9 +30,16 @@ void ProgressPrinter::header(const Scene& scene, const ModelSize& size, double m
                 scene.solver.adr.rtol, scene.solver.adr.max_iterations,
                 scene.solver.adr.accept_on_budget ? "keep the state" : "stop");
   if (const ContactSystem* contact = m_problem.contact())
-    std::printf("  contact        %d candidate pairs (found in %.3f s), radius %g m, %s law, friction %g\n",
-                contact->size(), m_problem.contact_setup_seconds(), contact->law().radius,
-                scene.contact.normal == NormalLaw::paper ? "paper" : "pair", contact->law().friction);
+    std::printf(
+        "  contact        %d candidate pairs (found in %.3f s), radius %g m, %s law, friction %g, "
+        "%s enforcement\n",
+        contact->size(), m_problem.contact_setup_seconds(), contact->law().radius,
+        scene.contact.normal == NormalLaw::paper ? "paper" : "pair", contact->law().friction,
+        std::string(to_string(scene.contact.enforcement)).c_str());
+  if (const ContactSystem* contact = m_problem.contact(); contact && contact->augmentation_capped())
+    std::printf(
+        "  note: exact enforcement uses at most 10 x the eq 17 contact modulus as its augmentation "
+        "stiffness (contact.stiffness sets the rate, not the answer; docs/theory/contact.md)\n");
 }
 
 LoadSteppingCallbacks ProgressPrinter::callbacks() const {
@@ -73,6 +81,14 @@ LoadSteppingCallbacks ProgressPrinter::callbacks() const {
                 reason.c_str(), static_cast<long>(broken), static_cast<long>(next));
     std::fflush(stdout);
   };
+  cb.on_multipliers = [verbose](double violation, int update) {
+    check_interrupt();
+    if (!verbose) return;
+    std::printf("  exact contact: largest closure %.3e of a pair's normal distance; multiplier update %d, "
+                "solving again\n",
+                violation, update);
+    std::fflush(stdout);
+  };
   cb.on_cutback = [verbose](const std::string& reason, double next) {
     if (verbose) std::printf("  cut-back: %s; next increment %.4g\n", reason.c_str(), next);
   };
@@ -85,10 +101,14 @@ void ProgressPrinter::step_done(const StepReport& s) const {
     const ContactCounts& c = contact->counts();
     std::printf(
         "  contact: %d open, %d stick, %d slip of %d pairs; active set changed in %d iterations; "
-        "closest pair %.3g dx\n",
+        "closest pair %.3g dx, largest closure %.3g dx%s\n",
         c.open, c.stick, c.slip, c.candidates, s.active_set_changes,
-        contact->min_distance() / m_problem.model().spacing);
+        contact->min_distance() / m_problem.model().spacing, contact->max_closure() / m_problem.model().spacing,
+        s.multiplier_updates > 0 ? (", " + std::to_string(s.multiplier_updates) + " multiplier updates").c_str()
+                                 : "");
   }
+  if (const std::string warning = compliance_warning(m_problem, s); !warning.empty())
+    std::printf("  WARNING: %s\n", warning.c_str());
   if (const BondFailure* failure = m_problem.failure())
     std::printf(
         "  failure: %ld bonds broke in this step (%d re-solves, %d halved after a failed re-solve), "

@@ -1,5 +1,7 @@
 #include "app/step_recorder.hpp"
 
+#include <cstdio>
+
 #include <nlohmann/json.hpp>
 
 #include "app/interrupt.hpp"
@@ -26,7 +28,7 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
     solver["line_search"] = n.line_search;
     solver["tangent"] = n.tangent == TangentKind::consistent ? "consistent" : "initial";
   }
-  const nlohmann::ordered_json info = {{"particles", s.particles},
+  nlohmann::ordered_json info = {{"particles", s.particles},
                                        {"fictitious", s.fictitious},
                                        {"bonds", s.bonds},
                                        {"cut_bonds", s.cut_bonds},
@@ -37,6 +39,16 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                        {"horizon_factor", scene.discretization.horizon_factor},
                                        {"load_steps", scene.loading.steps},
                                        {"solver", solver}};
+  if (scene.contact.enabled) {
+    const ContactOptions& c = scene.contact;
+    nlohmann::ordered_json contact = {{"enforcement", to_string(c.enforcement)},
+                                      {"normal", c.normal == NormalLaw::paper ? "paper" : "pair"},
+                                      {"friction", c.friction},
+                                      {"radius_factor", c.radius_factor},
+                                      {"stiffness", c.stiffness}};
+    if (c.enforcement == ContactEnforcement::exact) contact["closure_tolerance"] = c.closure_tolerance;
+    info["contact"] = contact;
+  }
   return info.dump();
 }
 
@@ -54,6 +66,19 @@ ParticleTable particle_table(const Scene& scene, const Model& model) {
 
 }  // namespace
 
+std::string compliance_warning(const QuasiStaticProblem& problem, const StepReport& step) {
+  const ContactSystem* contact = problem.contact();
+  if (!contact) return {};
+  const double closure = contact->max_closure(), radius = contact->law().radius;
+  if (!(closure > 0.5 * radius)) return {};
+  char buf[320];
+  std::snprintf(buf, sizeof buf,
+                "step %d: the largest contact closure, %.3g dx, exceeds half the contact radius (%.3g dx): the "
+                "answer leans on the penalty's compliance (contact.enforcement: exact removes it)",
+                step.step, closure / problem.model().spacing, radius / problem.model().spacing);
+  return buf;
+}
+
 StepRecorder::StepRecorder(const std::string& dir, const Scene& scene, const QuasiStaticProblem& problem,
                            const ModelSize& size, const std::string& linear, int threads)
     : m_scene(scene),
@@ -68,6 +93,7 @@ bool StepRecorder::due(int step) const {
 void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   const double step_contact_seconds = m_problem.contact_seconds() - m_contact_seconds_before;
   m_contact_seconds_before = m_problem.contact_seconds();
+  if (std::string warning = compliance_warning(m_problem, s); !warning.empty()) m_writer.add_warning(warning);
   if (!due(s.step)) return;
   m_problem.expand(x, m_u);
   StepRecord rec;
@@ -105,6 +131,8 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     rec.counts["contact_stick"] = c.stick;
     rec.counts["contact_slip"] = c.slip;
     rec.counts["contact_min_distance"] = contact->min_distance();
+    rec.counts["contact_max_closure"] = contact->max_closure();
+    if (m_scene.contact.enforcement == ContactEnforcement::exact) rec.counts["multiplier_updates"] = s.multiplier_updates;
   }
   rec.timings = {
       {"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};

@@ -12,6 +12,11 @@
 
 namespace peristat {
 
+/// The warning a converged step deserves, or "": the largest closure of a contact pair in
+/// contact exceeds half the contact radius, so the answer leans on the penalty's compliance
+/// (docs/theory/contact.md, section 9).
+std::string compliance_warning(const QuasiStaticProblem& problem, const StepReport& step);
+
 class StepRecorder {
  public:
   /// Creates the files in `dir` with the scene, the particles and the run information
@@ -21,8 +26,8 @@ class StepRecorder {
 
   /// Whether step k is written (every output.every-th and the last).
   bool due(int step) const;
-  /// Writes the converged step s with state x when it is due. The contact counts and forces
-  /// are those of the problem's last evaluation (the commit's, at x).
+  /// Writes the converged step s with state x when it is due, and its warning (every step).
+  /// The contact counts and forces are those of the problem's last evaluation (the commit's, at x).
   void record(const StepReport& s, const VectorXd& x);
   /// The final status ("completed", "no_convergence", "interrupted") and message.
   void finish(const std::string& status, const std::string& message) { m_writer.finish(status, message); }

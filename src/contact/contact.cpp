@@ -15,14 +15,23 @@ constexpr double kLatticeRoundOff = 1e-9;
 /// A pair Jacobian is symmetric when its off-diagonal entries agree to this fraction of its
 /// largest entry (round-off of n n^T and t t^T products).
 constexpr double kSymmetryTolerance = 1e-12;
+/// Exact enforcement: an update that leaves a pair's closure above this fraction of its
+/// previous value makes the pair's augmentation kBoost times stiffer, up to kMaxBoost times
+/// the contact stiffness (the stiffness sets only the rate of the multiplier iteration, not
+/// its answer).
+constexpr double kAugmentationReduction = 0.25;
+constexpr double kBoost = 4.0;
+constexpr double kMaxBoost = 1024.0;
+/// Exact enforcement: the augmentation modulus is at most this multiple of the eq 17
+/// modulus. Measured on the pressed blocks (tests/verification/test_contact.cpp): 73 x
+/// converges, 180 x makes Newton's line search fail on pairs entering the window; the
+/// answer does not depend on it.
+constexpr double kMaxAugmentationModulus = 10.0;
 
-PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip,
-                        const ContactLaw& law, bool want_jacobian, double tangential_velocity) {
+PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, const PairHistory& history,
+                        const ContactLaw& law, bool want_jacobian) {
   PairResult out;
   const Vec2 Y = X + du;
-  const double r = Y.norm();
-  const double rc = law.radius;
-  if (r >= rc) return out;
   const Vec2& n = pair.normal;
   const double a = pair.gap0, C = pair.stiffness;
 
@@ -31,18 +40,55 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
   Vec2 dF = Vec2::Zero();
   Vec2 along = n;  // direction of the normal force on j
   Mat2 Jn = Mat2::Zero();
-  if (law.normal == NormalLaw::paper) {
-    // Eq 16: stretch of the virtual bond along the interface normal, compression positive.
+  if (law.exact) {
+    // Augmented Lagrangian along n (section 8): F = phi(|t.Y|) max(0, lambda + C s), for a
+    // pair whose cells face each other. No distance gate: a pair that has crossed (n.Y < 0,
+    // s > 1) is pushed back harder.
+    if (a > law.window * (1.0 + kLatticeRoundOff)) return out;
+    const Vec2 t = pair.tangent();
+    const double yt = t.dot(Y), offset = std::abs(yt);
+    if (offset >= law.window) return out;
     const double s = 1.0 - n.dot(Y) / a;
+    const double Ca = history.boost * C;  // the pair's augmentation stiffness
+    const double q = history.multiplier + Ca * s;
+    if (q <= 0.0) return out;
+    double phi = 1.0;
+    Vec2 dphi = Vec2::Zero();
+    if (law.gate > 0.0) {
+      const double width = law.gate * law.window, rho = (law.window - offset) / width;
+      if (rho < 1.0) {
+        phi = rho;
+        dphi = -(yt > 0.0 ? 1.0 : -1.0) / width * t;
+      }
+    }
+    F = phi * q;
+    dF = -(phi * Ca / a) * n + q * dphi;
+    if (want_jacobian) Jn = -n * dF.transpose();
+  } else if (law.normal == NormalLaw::paper) {
+    // Eq 16: stretch of the virtual bond along the interface normal, compression positive.
+    // The gate distance is |Y| while the particles have not passed each other (the paper's
+    // rule) and |t.Y| once they have (n.Y < 0), so that a crossed pair is pushed back, not
+    // released (section 2).
+    const double yn = n.dot(Y);
+    const bool has_crossed = yn < 0.0;
+    const double r = has_crossed ? std::abs(pair.tangent().dot(Y)) : Y.norm();
+    const double rc = law.radius;
+    if (r >= rc) return out;
+    const double s = 1.0 - yn / a;
     if (s <= 0.0) return out;
-    // Switch-on ramp h(|Y|): 0 at delta_c, 1 from (1 - gate) delta_c inwards.
+    // Switch-on ramp h(r): 0 at delta_c, 1 from (1 - gate) delta_c inwards.
     double h = 1.0;
     Vec2 dh = Vec2::Zero();
     if (law.gate > 0.0) {
       const double width = law.gate * rc, rho = (rc - r) / width;
       if (rho < 1.0) {
         h = rho;
-        dh = -Y / (r * width);
+        if (has_crossed) {
+          const Vec2 t = pair.tangent();
+          dh = -(t.dot(Y) > 0.0 ? 1.0 : -1.0) / width * t;
+        } else {
+          dh = -Y / (r * width);
+        }
       }
     }
     F = C * s * h;
@@ -50,6 +96,9 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
     if (want_jacobian) Jn = -n * dF.transpose();
   } else {
     // Pair law: along the current pair direction, zero at delta_c.
+    const double r = Y.norm();
+    const double rc = law.radius;
+    if (r >= rc) return out;
     if (r <= std::numeric_limits<double>::min()) return out;
     const Vec2 e = Y / r;
     F = C * (rc - r) / rc;
@@ -67,7 +116,8 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
   if (law.friction > 0.0 && law.velocity_sign) {
     // Eq 13: f_c F_n opposing the relative tangential velocity; none while it is zero.
     const Vec2 t = pair.tangent();
-    const double sign = tangential_velocity > 0.0 ? 1.0 : (tangential_velocity < 0.0 ? -1.0 : 0.0);
+    const double v = history.tangential_velocity;
+    const double sign = v > 0.0 ? 1.0 : (v < 0.0 ? -1.0 : 0.0);
     out.status = sign == 0.0 ? PairStatus::stick : PairStatus::slip;
     out.tangential = sign * law.friction * F;
     if (want_jacobian) out.J += (sign * law.friction) * t * dF.transpose();
@@ -75,7 +125,7 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
   } else if (law.friction > 0.0) {
     const Vec2 t = pair.tangent();
     const double kt = law.tangential_factor * C / a;
-    const double trial = kt * (t.dot(du) - slip);
+    const double trial = kt * (t.dot(du) - history.slip);
     const double limit = law.friction * F;
     if (std::abs(trial) <= limit) {
       out.status = PairStatus::stick;
@@ -135,10 +185,15 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
   m_law.friction = o.friction;
   m_law.tangential_factor = o.tangential_factor;
   m_law.velocity_sign = o.velocity_sign && o.friction > 0.0;
+  m_law.exact = o.enforcement == ContactEnforcement::exact;
+  m_law.window = dx;
+  m_closure_tolerance = o.closure_tolerance;
+  m_max_multiplier_updates = o.max_multiplier_updates;
 
   const Particles& p = model.particles;
   const Index n = p.size();
-  const double band = m_law.radius * (1.0 + kLatticeRoundOff);
+  // Exact enforcement needs the pairs whose cells face each other, one spacing across.
+  const double band = (m_law.exact ? std::max(m_law.radius, dx) : m_law.radius) * (1.0 + kLatticeRoundOff);
   const double min_gap = 0.2 * dx;  // pairs nearly parallel to the interface are skipped
   const double delta3 = std::pow(model.horizon, 3);
   m_modulus_override = o.stiffness;
@@ -233,17 +288,31 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
   m_result.assign(np, PairResult{});
   if (m_law.friction > 0.0 && !m_law.velocity_sign) m_slip.assign(np, 0.0);
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
+  if (m_law.exact) {
+    m_multiplier.assign(np, 0.0);
+    m_multiplier_committed.assign(np, 0.0);
+    m_boost.assign(np, 1.0);
+    m_last_closure.assign(np, 0.0);
+  }
   m_counts.candidates = np;
   m_counts.open = np;
   m_round_start = np;
   build_incidence();
 }
 
-double ContactSystem::pair_stiffness(Index i, Index j) const {
+double ContactSystem::pair_stiffness(Index i, Index j) {
   const Particles& p = m_model.particles;
   const Material &mi = m_model.bodies[p.body[i]].material, &mj = m_model.bodies[p.body[j]].material;
   const double thickness = 0.5 * (mi.thickness + mj.thickness);
-  return 3.0 * contact_modulus(mi, mj, m_modulus_override) * p.volume[i] * p.volume[j] /
+  double modulus = contact_modulus(mi, mj, m_modulus_override);
+  if (m_law.exact) {  // the augmentation modulus sets the rate only; a stiffer one stalls Newton
+    const double cap = kMaxAugmentationModulus * contact_modulus(mi, mj, 0.0);
+    if (modulus > cap) {
+      modulus = cap;
+      m_augmentation_capped = true;
+    }
+  }
+  return 3.0 * modulus * p.volume[i] * p.volume[j] /
          (m_delta3 * thickness);
 }
 
@@ -266,6 +335,12 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
       m_slip.push_back(c.tangent().dot(Vec2(u[2 * j] - u[2 * i], u[2 * j + 1] - u[2 * i + 1])));
     }
     if (m_law.velocity_sign) m_tangential_velocity.push_back(0.0);
+    if (m_law.exact) {  // a new face carries no force yet
+      m_multiplier.push_back(0.0);
+      m_multiplier_committed.push_back(0.0);
+      m_boost.push_back(1.0);
+      m_last_closure.push_back(0.0);
+    }
   }
   m_counts.candidates = size();
   build_incidence();
@@ -278,6 +353,12 @@ void ContactSystem::drop_last_round() {
   m_result.resize(n);
   if (!m_slip.empty()) m_slip.resize(n);
   if (m_law.velocity_sign) m_tangential_velocity.resize(n);
+  if (m_law.exact) {
+    m_multiplier.resize(n);
+    m_multiplier_committed.resize(n);
+    m_boost.resize(n);
+    m_last_closure.resize(n);
+  }
   m_counts.candidates = size();
   build_incidence();
 }
@@ -308,13 +389,16 @@ void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
     const Vec2 du(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
-    m_result[k] = contact_pair(c, p.position[c.j] - p.position[c.i], du, friction ? m_slip[k] : 0.0, m_law,
-                               want_jacobian, m_law.velocity_sign ? m_tangential_velocity[k] : 0.0);
+    const PairHistory history{friction ? m_slip[k] : 0.0, m_law.exact ? m_multiplier[k] : 0.0,
+                              m_law.velocity_sign ? m_tangential_velocity[k] : 0.0,
+                              m_law.exact ? m_boost[k] : 1.0};
+    m_result[k] = contact_pair(c, p.position[c.j] - p.position[c.i], du, history, m_law, want_jacobian);
   }
   ContactCounts counts;
   counts.candidates = np;
   std::uint64_t hash = 1469598103934665603ull;  // FNV-1a over the statuses
   double dmin = std::numeric_limits<double>::infinity();
+  double closure = 0.0;
   bool symmetric = true;
   for (Index k = 0; k < np; ++k) {
     const PairStatus s = m_result[k].status;
@@ -328,11 +412,13 @@ void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
     const Vec2 Y =
         p.position[c.j] - p.position[c.i] + Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
     dmin = std::min(dmin, Y.norm());
+    if (m_result[k].normal_force > 0.0) closure = std::max(closure, c.gap0 - c.normal.dot(Y));
   }
   m_counts = counts;
   m_signature = hash;
   if (want_jacobian) m_symmetric = symmetric;  // describes the last Jacobian computed
   m_min_distance = np > 0 ? dmin : 0.0;
+  m_max_closure = closure;
 }
 
 void ContactSystem::add_internal_force(VectorXd& force) const {
@@ -359,13 +445,20 @@ Mat2 ContactSystem::preconditioner_block(Index k) const {
   const ContactPair& c = m_pairs[k];
   const Vec2 t = c.tangent();
   const double kn = c.stiffness / c.gap0;
-  Mat2 S = kn * c.normal * c.normal.transpose();
+  Mat2 S = (m_law.exact ? m_boost[k] : 1.0) * kn * c.normal * c.normal.transpose();
   if (r.status == PairStatus::stick) S += m_law.tangential_factor * kn * t * t.transpose();
   return S;
 }
 
 double ContactSystem::stiffness_bound(Index k) const {
   const ContactPair& c = m_pairs[k];
+  if (m_law.exact) {  // phi C / a along n, plus the window ramp carrying lambda + C s (s <= 1)
+    const double ca = m_boost[k] * c.stiffness;
+    double b = ca / c.gap0;
+    if (m_law.gate > 0.0) b += (multiplier(k) + ca) / (m_law.gate * m_law.window);
+    if (m_law.friction > 0.0) b += m_law.tangential_factor * c.stiffness / c.gap0;
+    return b;
+  }
   double b = c.stiffness * (1.0 / c.gap0 + 1.0 / m_law.radius);
   if (m_law.friction > 0.0) b += m_law.tangential_factor * c.stiffness / c.gap0;
   if (m_law.normal == NormalLaw::paper && m_law.gate > 0.0) b += c.stiffness / (m_law.gate * m_law.radius);
@@ -382,8 +475,76 @@ void ContactSystem::set_velocity(const VectorXd& v) {
   }
 }
 
+void ContactSystem::start_trial(double ratio) {
+  if (!m_law.exact) return;
+  const Index np = size();
+  for (Index k = 0; k < np; ++k) m_multiplier[k] = ratio * m_multiplier_committed[k];
+  std::fill(m_last_closure.begin(), m_last_closure.end(), 0.0);
+  m_multiplier_updates = 0;
+}
+
+MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
+  MultiplierUpdate m;
+  if (!m_law.exact) return m;
+  evaluate(u, false);
+  const Particles& p = m_model.particles;
+  const Index np = size();
+  // Facing pairs (the kernel's exact branch): within one spacing across and along.
+  std::vector<double> closure(np, 0.0);
+  std::vector<char> facing(np, 0);
+  for (Index k = 0; k < np; ++k) {
+    const ContactPair& c = m_pairs[k];
+    const Vec2 du(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
+    const PairGap g = pair_gap(c, p.position[c.j] - p.position[c.i], du);
+    if (c.gap0 > m_law.window * (1.0 + kLatticeRoundOff) || std::abs(g.tangential) >= m_law.window) continue;
+    facing[k] = 1;
+    closure[k] = 1.0 - g.normal / c.gap0;
+    if (closure[k] > m.violation) {
+      m.violation = closure[k];
+      m.pair = k;
+    }
+  }
+  m.updates = m_multiplier_updates;
+  if (m.violation <= m_closure_tolerance) return m;
+  if (m_multiplier_updates >= m_max_multiplier_updates) {
+    m.status = MultiplierUpdate::Status::exhausted;
+    return m;
+  }
+  // Uzawa: lambda <- max(0, lambda + C_k s). A pair whose closure above the tolerance fell by
+  // less than kAugmentationReduction since the last update gets a stiffer augmentation
+  // (method of multipliers, Bertsekas 1982, sec. 2.2): C_k = boost_k C, boost_k *= kBoost.
+  for (Index k = 0; k < np; ++k) {
+    if (!facing[k]) {
+      m_multiplier[k] = 0.0;
+      continue;
+    }
+    const double ck = m_boost[k] * m_pairs[k].stiffness;
+    m_multiplier[k] = std::max(0.0, m_multiplier[k] + ck * closure[k]);
+    if (closure[k] > m_closure_tolerance && m_last_closure[k] > 0.0 &&
+        closure[k] > kAugmentationReduction * m_last_closure[k])
+      m_boost[k] = std::min(kMaxBoost, kBoost * m_boost[k]);
+    m_last_closure[k] = closure[k];
+  }
+  m.updates = ++m_multiplier_updates;
+  m.status = MultiplierUpdate::Status::updated;
+  return m;
+}
+
+Index ContactSystem::first_crossed(const VectorXd& u) const {
+  const Particles& p = m_model.particles;
+  const Index np = size();
+  for (Index k = 0; k < np; ++k) {
+    const ContactPair& c = m_pairs[k];
+    const Vec2 du(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
+    if (crossed(pair_gap(c, p.position[c.j] - p.position[c.i], du), m_model.spacing)) return k;
+  }
+  return -1;
+}
+
 void ContactSystem::commit(const VectorXd& u) {
   m_round_start = size();
+  m_multiplier_committed = m_multiplier;
+  m_multiplier_updates = 0;
   evaluate(u, false);
   if (m_slip.empty()) return;
   const Index np = size();
@@ -401,7 +562,8 @@ void ContactSystem::commit(const VectorXd& u) {
 
 std::size_t ContactSystem::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  return bytes(m_pairs) + bytes(m_slip) + bytes(m_tangential_velocity) + bytes(m_result) +
+  return bytes(m_pairs) + bytes(m_slip) + bytes(m_tangential_velocity) + bytes(m_multiplier) +
+         bytes(m_multiplier_committed) + bytes(m_boost) + bytes(m_last_closure) + bytes(m_result) +
          bytes(m_incident_start) + bytes(m_incident);
 }
 

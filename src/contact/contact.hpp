@@ -7,6 +7,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -41,6 +42,20 @@ struct ContactLaw {
   /// The paper's eq 13: friction f_c F_n against the sign of the relative tangential
   /// pseudo-velocity (ADR only) instead of the return map.
   bool velocity_sign = false;
+  /// Exact enforcement (augmented Lagrangian, docs/theory/contact.md section 8): the normal
+  /// force is phi(|t.Y|) max(0, lambda + b C s) (b = PairHistory::boost) for pairs whose reference normal distance is
+  /// at most `window`, where phi is 1 while the tangential offset |t.Y| is below
+  /// (1 - gate) window and falls linearly to 0 at `window` (the two cells stop overlapping).
+  bool exact = false;
+  double window = 0.0;  ///< one lattice spacing [m]
+};
+
+/// What a pair remembers between evaluations.
+struct PairHistory {
+  double slip = 0.0;                 ///< committed plastic slip w_p (return-map friction)
+  double multiplier = 0.0;           ///< lambda [N], exact enforcement only
+  double tangential_velocity = 0.0;  ///< t . (v_j - v_i), velocity-sign friction only
+  double boost = 1.0;                ///< augmentation stiffness / C, exact enforcement only
 };
 
 /// Output of the pair kernel. g is the pair's internal force dPi/d(u_j - u_i): the force on
@@ -53,10 +68,34 @@ struct PairResult {
   Mat2 J = Mat2::Zero();
 };
 
-/// The pair kernel. `du` = u_j - u_i, `slip` = committed plastic slip w_p of the pair;
-/// `tangential_velocity` = t . (v_j - v_i), read only by the velocity-sign law.
-PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, double slip,
-                        const ContactLaw& law, bool want_jacobian, double tangential_velocity = 0.0);
+/// The pair kernel, a pure function. `X` = X_j - X_i, `du` = u_j - u_i.
+PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, const PairHistory& history,
+                        const ContactLaw& law, bool want_jacobian);
+
+/// The signed normal distance n.Y of a pair and its tangential offset t.Y, Y = X + du.
+struct PairGap {
+  double normal = 0.0, tangential = 0.0;
+};
+inline PairGap pair_gap(const ContactPair& pair, const Vec2& X, const Vec2& du) {
+  const Vec2 Y = X + du;
+  return {pair.normal.dot(Y), pair.tangent().dot(Y)};
+}
+/// A pair has crossed when its particles have passed each other along the normal while
+/// facing each other: n.Y < 0 with |t.Y| below one spacing (their cells overlap).
+inline bool crossed(const PairGap& g, double spacing) {
+  return g.normal < 0.0 && std::abs(g.tangential) < spacing;
+}
+
+/// Outcome of ContactSystem::update_multipliers().
+struct MultiplierUpdate {
+  enum class Status { satisfied, updated, exhausted };
+  Status status = Status::satisfied;
+  /// Largest constraint violation over the facing pairs: the closure (a - n.Y) / a of any
+  /// pair, or the opening -(a - n.Y) / a of a pair that still carries a force.
+  double violation = 0.0;
+  Index pair = -1;  ///< the pair with that violation (-1: none)
+  int updates = 0;  ///< updates made in this increment so far
+};
 
 /// Counts of the last evaluation.
 struct ContactCounts {
@@ -91,6 +130,26 @@ class ContactSystem {
   /// Removes the pairs of the last add_broken_bonds() (a round whose re-solve failed); does
   /// nothing when no pair was added since the last commit.
   void drop_last_round();
+  /// Exact enforcement: starts a trial of the load increment from the committed multipliers
+  /// scaled by `ratio` (the new load factor over the committed one: proportional loading
+  /// predicts proportional contact forces) and resets the update count. No-op for penalty.
+  void start_trial(double ratio);
+  /// Exact enforcement, at the converged state u of the current multipliers: satisfied when
+  /// every facing pair's violation is within contact.closure_tolerance; otherwise each
+  /// facing pair's multiplier becomes max(0, lambda + C s) (Uzawa) and the caller solves
+  /// again, up to contact.max_multiplier_updates times (then `exhausted`). Penalty: satisfied.
+  MultiplierUpdate update_multipliers(const VectorXd& u);
+  /// The first candidate that has crossed at u (n.Y < 0 while facing, `crossed()`), or -1.
+  Index first_crossed(const VectorXd& u) const;
+  /// Largest normal closure a - n.Y [m] over the pairs that carried a force in the last
+  /// evaluation (0 when none did).
+  double max_closure() const { return m_max_closure; }
+  /// Exact enforcement: true when contact.stiffness exceeded the augmentation cap (10 x the
+  /// eq 17 modulus) and the cap was used instead.
+  bool augmentation_capped() const { return m_augmentation_capped; }
+  /// The multiplier of pair k [N] (exact enforcement; 0 under penalty).
+  double multiplier(Index k) const { return m_multiplier.empty() ? 0.0 : m_multiplier[k]; }
+  const PairResult& result(Index k) const { return m_result[k]; }
   /// Velocity-sign law only: the full pseudo-velocity (2N) that the next evaluations use.
   void set_velocity(const VectorXd& v);
   bool wants_velocity() const { return m_law.velocity_sign; }
@@ -125,17 +184,25 @@ class ContactSystem {
   std::size_t memory_bytes() const;
 
  private:
-  double pair_stiffness(Index i, Index j) const;  ///< C of the pair (eq 17 modulus)
+  double pair_stiffness(Index i, Index j);  ///< C of the pair (eq 17 modulus, or capped augmentation)
   void build_incidence();
 
   const Model& m_model;
   ContactLaw m_law;
+  double m_closure_tolerance = 0.0;
+  int m_max_multiplier_updates = 0;
+  int m_multiplier_updates = 0;     ///< in the current trial
   double m_modulus_override = 0.0;  ///< contact.stiffness (0: eq 17)
+  bool m_augmentation_capped = false;
   double m_delta3 = 0.0;
   std::vector<ContactPair> m_pairs;
   Index m_round_start = 0;                    ///< first pair of the last add_broken_bonds() round
   std::vector<double> m_slip;                 ///< committed w_p per pair (empty without friction)
   std::vector<double> m_tangential_velocity;  ///< per pair, velocity-sign law only
+  std::vector<double> m_multiplier;            ///< per pair, trial lambda (exact enforcement only)
+  std::vector<double> m_multiplier_committed;  ///< per pair, lambda of the last converged state
+  std::vector<double> m_boost;                 ///< per pair, augmentation stiffness / C (exact)
+  std::vector<double> m_last_closure;          ///< per pair, closure at the previous update (exact)
   std::vector<PairResult> m_result;
   std::vector<Index> m_incident_start;
   std::vector<Incidence> m_incident;
@@ -143,6 +210,7 @@ class ContactSystem {
   std::uint64_t m_signature = 0;
   bool m_symmetric = true;
   double m_min_distance = 0.0;
+  double m_max_closure = 0.0;
 };
 
 }  // namespace peristat

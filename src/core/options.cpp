@@ -26,4 +26,8 @@ std::string_view to_string(PreconditionerKind kind) {
   return name_of(kind, std::array<std::string_view, 6>{"auto", "bond", "cholmod", "ic", "diagonal", "ilut"});
 }
 
+std::string_view to_string(ContactEnforcement kind) {
+  return name_of(kind, std::array<std::string_view, 2>{"penalty", "exact"});
+}
+
 }  // namespace peristat

@@ -99,6 +99,13 @@ struct FailureOptions {
 ///    F = C (delta_c - |Y|) / delta_c, zero at |Y| = delta_c (smooth switch-on).
 enum class NormalLaw { paper, pair };
 
+/// How non-penetration is enforced (docs/theory/contact.md, sections 2 and 8).
+///  - penalty: the normal law alone; the closure of a pair depends on the contact stiffness.
+///  - exact: an augmented Lagrangian. Each facing pair carries a multiplier; the load step is
+///    solved again with updated multipliers until every active pair's closure is below
+///    closure_tolerance, whatever the stiffness (which then only sets the convergence rate).
+enum class ContactEnforcement { penalty, exact };
+
 /// Two bodies declared in contact. They must share a boundary segment (the interface).
 struct ContactInterface {
   std::string body_a, body_b;
@@ -125,8 +132,16 @@ struct ContactOptions {
   /// friction_law: return_map (default; Newton and ADR) or velocity_sign (the paper's eq 13:
   /// f_c F_n against the sign of the pseudo-velocity; ADR only).
   bool velocity_sign = false;
+  ContactEnforcement enforcement = ContactEnforcement::penalty;
+  /// exact: largest accepted closure (a - n.Y) / a of a pair in contact, in (0, 1).
+  double closure_tolerance = 1e-3;
+  /// exact: multiplier updates allowed per load increment before the attempt counts as failed.
+  int max_multiplier_updates = 30;
   SourceLocation friction_law_where;
+  SourceLocation enforcement_where;
   SourceLocation where;
 };
+
+std::string_view to_string(ContactEnforcement kind);
 
 }  // namespace peristat

@@ -69,6 +69,10 @@ class ResultsWriter {
   /// summary.json.
   void finish(const std::string& status, const std::string& message);
 
+  /// Adds a warning to the "warnings" list of summary.json (written with the next step or
+  /// finish()): a result the run accepted but the user should question.
+  void add_warning(const std::string& text);
+
   std::string h5_path() const;
 
  private:

@@ -185,6 +185,7 @@ struct ResultsWriter::Impl {
   std::vector<StepSummary> steps;
   std::string status = "running";
   std::string message;
+  std::vector<std::string> warnings;
 
   fs::path h5() const { return dir / (name + ".h5"); }
   fs::path xdmf() const { return dir / (name + ".xdmf"); }
@@ -238,7 +239,7 @@ struct ResultsWriter::Impl {
   /// written as U+FFFD rather than failing the write.
   void write_summary() const {
     nlohmann::ordered_json doc = {
-        {"scene", name}, {"status", status}, {"message", message}, {"run", run_info}};
+        {"scene", name}, {"status", status}, {"message", message}, {"warnings", warnings}, {"run", run_info}};
     nlohmann::ordered_json& list = doc["steps"] = nlohmann::ordered_json::array();
     for (const StepSummary& s : steps) list.push_back(step_json(s));
     integral_floats_as_integers(doc);
@@ -293,6 +294,10 @@ void ResultsWriter::finish(const std::string& status, const std::string& message
   m_impl->status = status;
   m_impl->message = message;
   m_impl->write_summary();
+}
+
+void ResultsWriter::add_warning(const std::string& text) {
+  m_impl->warnings.push_back(text);
 }
 
 std::string ResultsWriter::h5_path() const {

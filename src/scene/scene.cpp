@@ -291,7 +291,8 @@ ContactInterface read_interface(const Field& field, const std::vector<ParsedBody
 /// The section is present, so contact is on unless it says `enabled: false`.
 ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& bodies) {
   const Map m = checked_map(field, {"enabled", "friction", "radius_factor", "normal", "stiffness",
-                                    "tangential_factor", "gate", "cracks", "interfaces", "friction_law"});
+                                    "tangential_factor", "gate", "cracks", "interfaces", "friction_law",
+                                    "enforcement", "closure_tolerance", "max_multiplier_updates"});
   ContactOptions c;
   c.enabled = true;
   if (auto f = m.find("enabled")) c.enabled = schema::boolean(*f);
@@ -309,6 +310,21 @@ ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& b
     c.velocity_sign = schema::choice(*f, {"return_map", "velocity_sign"}) == "velocity_sign";
     c.friction_law_where = f->where();
   }
+  if (auto f = m.find("enforcement")) {
+    c.enforcement = schema::choice(*f, {"penalty", "exact"}) == "exact" ? ContactEnforcement::exact
+                                                                        : ContactEnforcement::penalty;
+    c.enforcement_where = f->where();
+  }
+  if (auto f = m.find("closure_tolerance")) {
+    c.closure_tolerance = schema::number(*f);
+    if (!(c.closure_tolerance > 0.0 && c.closure_tolerance < 1.0))
+      schema::out_of_range(*f, "0 < closure_tolerance < 1 (a fraction of the pair's reference normal distance)");
+  }
+  if (auto f = m.find("max_multiplier_updates")) c.max_multiplier_updates = schema::int_at_least(*f, 1);
+  if (c.enforcement == ContactEnforcement::exact && c.normal == NormalLaw::pair)
+    throw InputError(c.enforcement_where,
+                     "enforcement: exact needs normal: paper (it enforces the gap along the interface normal; "
+                     "the pair law has none, docs/theory/contact.md)");
   if (auto f = m.find("interfaces"))
     for (const Field& item : schema::list(*f)) c.interfaces.push_back(read_interface(item, bodies));
   c.where = field.where();

@@ -60,7 +60,7 @@ TEST(ContactKernel, JacobianMatchesFiniteDifferencesInEveryState) {
     law.friction = c.friction;
     law.tangential_factor = 1.0;
     const Vec2 du = dx * (c.du.x() * t + c.du.y() * n);
-    const PairResult r = contact_pair(pair, X, du, slip, law, true);
+    const PairResult r = contact_pair(pair, X, du, PairHistory{slip}, law, true);
     ASSERT_EQ(r.status, c.status) << c.name;
     const double dist = (X + du).norm();
     const bool ramp = c.gate > 0.0 && dist > (1.0 - c.gate) * law.radius && dist < law.radius;
@@ -79,7 +79,7 @@ TEST(ContactKernel, JacobianMatchesFiniteDifferencesInEveryState) {
     // g(du + d) for d = +-h e_k, remembering whether a perturbed state left the pair's state.
     bool crosses_kink = false;
     const auto g = [&](const VectorXd& d, VectorXd& out) {
-      const PairResult q = contact_pair(pair, X, du + Vec2(d), slip, law, false);
+      const PairResult q = contact_pair(pair, X, du + Vec2(d), PairHistory{slip}, law, false);
       crosses_kink = crosses_kink || q.status != r.status;
       out = q.g;
     };
@@ -91,12 +91,103 @@ TEST(ContactKernel, JacobianMatchesFiniteDifferencesInEveryState) {
   }
 }
 
+// The same central differences (same tolerance and argument) for the exact-enforcement
+// branch (docs/theory/contact.md, section 8): F = phi(|t.Y|) max(0, lambda + b C s) with a
+// multiplier lambda and a boost b, in the full window and on its ramp, sticking and slipping,
+// and for a pair that has crossed (n.Y < 0); and for the penalty law's crossed branch, whose
+// gate reads |t.Y| instead of |Y| (section 2).
+TEST(ContactKernel, ExactAndCrossedBranchesMatchFiniteDifferences) {
+  const double angle = -0.61;
+  const Vec2 n(std::cos(angle), std::sin(angle)), t(-n.y(), n.x());
+  ContactPair pair;
+  pair.normal = n;
+  pair.gap0 = dx;
+  pair.stiffness = 2.5e4;
+  const Vec2 X = dx * n + 0.1 * dx * t;
+  struct ExactCase {
+    const char* name;
+    bool exact;
+    double friction, multiplier;
+    Vec2 du;      ///< (t, n) components in units of dx
+    double slip;  ///< committed slip w_p in units of dx
+    PairStatus status;
+  };
+  const std::vector<ExactCase> cases = {
+      {"exact, window, stick", true, 0.5, 40.0, {0.0105, -0.001}, 0.01, PairStatus::stick},
+      {"exact, window, slip", true, 0.2, 40.0, {0.3, -0.002}, 0.01, PairStatus::slip},
+      {"exact, opened beyond what lambda carries", true, 0.2, 40.0, {0.3, 0.01}, 0.01, PairStatus::open},
+      {"exact, window ramp, stick", true, 0.5, 40.0, {0.83, -0.001}, 0.8295, PairStatus::stick},
+      {"exact, window ramp, slip", true, 0.1, 40.0, {0.84, -0.003}, 0.01, PairStatus::slip},
+      {"exact, beyond the window", true, 0.5, 40.0, {1.2, -0.1}, 0.01, PairStatus::open},
+      {"exact, crossed", true, 0.0, 40.0, {0.2, -1.4}, 0.0, PairStatus::slip},
+      {"penalty, crossed, full", false, 0.0, 0.0, {0.3, -1.3}, 0.0, PairStatus::slip},
+      {"penalty, crossed, ramp", false, 0.3, 0.0, {0.85, -1.5}, 0.01, PairStatus::slip},
+  };
+  for (const ExactCase& c : cases) {
+    ContactLaw law;
+    law.radius = 1.05 * dx;
+    law.gate = 0.1;
+    law.friction = c.friction;
+    law.exact = c.exact;
+    law.window = dx;
+    const PairHistory history{c.slip * dx, c.multiplier, 0.0, 2.0};
+    const Vec2 du = dx * (c.du.x() * t + c.du.y() * n);
+    const PairResult r = contact_pair(pair, X, du, history, law, true);
+    ASSERT_EQ(r.status, c.status) << c.name;
+    if (r.status == PairStatus::open) {
+      EXPECT_EQ(r.g.norm(), 0.0) << c.name;
+      continue;
+    }
+    bool crosses_kink = false;
+    const auto g = [&](const VectorXd& d, VectorXd& out) {
+      const PairResult q = contact_pair(pair, X, du + Vec2(d), history, law, false);
+      crosses_kink = crosses_kink || q.status != r.status;
+      out = q.g;
+    };
+    const test::FiniteDifferenceCheck fd = test::check_jacobian(g, VectorXd::Zero(2), 1e-7 * dx, r.J);
+    ASSERT_FALSE(crosses_kink) << c.name << ": the difference crosses a kink";
+    EXPECT_LT(fd.worst, 1e-6) << c.name << fd;
+    // Whatever the state, the normal force on j points along +n: away from i's side, so a
+    // crossed pair is pushed back to where it came from.
+    EXPECT_LT(r.g.dot(n), 0.0) << c.name;
+  }
+}
+
+// A pair that Newton throws past its partner must not become force-free (the defect of the
+// distance gate: |Y| >= delta_c after crossing by a whole spacing released the pair, and the
+// crossed state was an equilibrium). Penalty law: pushed back with C s, s = 1 - n.Y / a > 1.
+TEST(ContactKernel, ACrossedPairIsPushedBackHarderNotReleased) {
+  ContactPair pair;
+  pair.normal = Vec2(1.0, 0.0);
+  pair.gap0 = dx;
+  pair.stiffness = 2.5e4;
+  const Vec2 X(dx, 0.0);
+  ContactLaw law;
+  law.radius = dx;
+  law.gate = 0.1;
+  double previous = 0.0;
+  for (const double yn : {0.5, 0.0, -0.5, -1.0, -2.0}) {  // n.Y in units of dx, head-on
+    const Vec2 du = Vec2(yn * dx, 0.0) - X;
+    const PairResult r = contact_pair(pair, X, du, PairHistory{}, law, false);
+    const double expected = pair.stiffness * (1.0 - yn);  // full gate: |t.Y| = 0
+    EXPECT_NEAR(r.normal_force, expected, 1e-12 * expected) << "n.Y = " << yn << " dx";
+    EXPECT_GT(r.normal_force, previous) << "n.Y = " << yn << " dx";
+    previous = r.normal_force;
+  }
+}
+
 // The assembled tangent of a plate with a vertical crack closed by a compression of the
 // faces and sheared by random tangential motion: contact and friction blocks included.
 // Same tolerance argument as derivative.Tangent (1e-6 of max |K|).
 TEST(ContactTangent, AssembledTangentMatchesFiniteDifferences) {
   // Friction coefficients chosen so that both stick and slip occur for this seed.
-  for (const auto& [normal, friction] : {std::pair{"paper", "0.2"}, std::pair{"pair", "0.05"}}) {
+  // The exact variant takes one multiplier update at x first, so that lambda > 0 enters.
+  struct Variant {
+    const char *normal, *friction;
+    bool exact;
+  };
+  for (const auto& [normal, friction, exact] :
+       {Variant{"paper", "0.2", false}, Variant{"pair", "0.05", false}, Variant{"paper", "0.2", true}}) {
     test::PlateSpec spec;
     spec.nx = 12;
     spec.ny = 8;
@@ -107,6 +198,7 @@ TEST(ContactTangent, AssembledTangentMatchesFiniteDifferences) {
     std::string yaml = test::plate_yaml(spec);
     yaml += std::string("contact:\n  friction: ") + friction + "\n  radius_factor: 1.2\n  normal: " + normal +
             "\n";
+    if (exact) yaml += "  enforcement: exact\n";
     const Scene scene = test::scene_from_yaml(yaml);
     const Model model = discretise(scene);
     QuasiStaticProblem problem(model, problem_options(scene));
@@ -123,6 +215,13 @@ TEST(ContactTangent, AssembledTangentMatchesFiniteDifferences) {
         if (const Index k = model.constraints.free_index[2 * p + c]; k >= 0)
           x[k] = (c == 0 ? -0.08 * model.particles.position[p].x() : 0.0) + 0.02 * dx * d(gen);
 
+    if (exact) {
+      ASSERT_EQ(problem.update_multipliers(x).status, ConstraintUpdate::Status::updated);
+      double lambda_max = 0.0;
+      for (Index k = 0; k < problem.contact()->size(); ++k)
+        lambda_max = std::max(lambda_max, problem.contact()->multiplier(k));
+      ASSERT_GT(lambda_max, 0.0);
+    }
     SparseMatrix K = problem.make_tangent();
     VectorXd r;
     problem.evaluate(x, r, &K);

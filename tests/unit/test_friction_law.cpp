@@ -24,7 +24,7 @@ TEST(VelocitySignFriction, OpposesTheRelativeVelocityWithFcFn) {
   law.velocity_sign = true;
   const Vec2 du = -0.2 * dx * n + 0.3 * dx * t;  // closed by 0.2 dx: in full contact
   for (double v : {1e-6, -1e-6, 0.0}) {
-    const PairResult r = contact_pair(pair, X, du, 0.0, law, false, v);
+    const PairResult r = contact_pair(pair, X, du, PairHistory{0.0, 0.0, v}, law, false);
     ASSERT_GT(r.normal_force, 0.0);
     // tau > 0 puts -tau t on j: against j's velocity t . (v_j - v_i) = v. Exact: one product.
     const double expected = v > 0 ? law.friction * r.normal_force : (v < 0 ? -law.friction * r.normal_force : 0.0);
@@ -33,8 +33,8 @@ TEST(VelocitySignFriction, OpposesTheRelativeVelocityWithFcFn) {
   }
   // Unlike the return map, the tangential displacement does not enter: the same velocity
   // sign gives the same force after a further tangential offset.
-  const PairResult a = contact_pair(pair, X, du, 0.0, law, false, 1.0);
-  const PairResult b = contact_pair(pair, X, du + 0.1 * dx * t, 0.0, law, false, 1.0);
+  const PairResult a = contact_pair(pair, X, du, PairHistory{0.0, 0.0, 1.0}, law, false);
+  const PairResult b = contact_pair(pair, X, du + 0.1 * dx * t, PairHistory{0.0, 0.0, 1.0}, law, false);
   EXPECT_EQ(a.tangential, b.tangential);
 }
 

@@ -27,6 +27,7 @@ struct BlocksSpec {
   bool contact = true;
   double friction = 0.0;
   int steps = 1;
+  std::string enforcement = "penalty";
 };
 
 std::string blocks_yaml(const BlocksSpec& s) {
@@ -52,7 +53,8 @@ std::string blocks_yaml(const BlocksSpec& s) {
       << "  - {body: upper, region: {min: [" << mid - s.dx << ", " << 2 * H - s.dx << "], max: ["
       << mid + s.dx << ", " << 2 * H << "]}, ux: 0}\n";
   }
-  y << "contact:\n  enabled: " << (s.contact ? "true" : "false") << "\n  friction: " << s.friction
+  y << "contact:\n  enabled: " << (s.contact ? "true" : "false") << "\n  enforcement: " << s.enforcement
+    << "\n  friction: " << s.friction
     << "\n  interfaces:\n    - {bodies: [lower, upper]}\n"
     << "loading: {steps: " << s.steps << "}\n"
     << "solver:\n  linear: umfpack\n  newton: {rtol: 1.0e-12}\n";
@@ -207,6 +209,47 @@ TEST(PressedBlocks, WithoutContactTheBlocksOverlap) {
   EXPECT_NEAR(g.min_normal_distance / spec.dx, -0.2, 1e-9);
 }
 
+// The pressed blocks with exact enforcement at three contact stiffnesses spanning 1e4: the
+// interface closes to within contact.closure_tolerance (1e-3 of the pair distance) whatever
+// the stiffness, so the two blocks carry the strain of one block of height 2H, and the three
+// answers agree to the tolerance's effect on the field.
+TEST(PressedBlocks, ExactEnforcementClosesTheInterfaceAtAnyStiffness) {
+  std::vector<VectorXd> answers;
+  for (const double stiffness : {4e7, 4e9, 4e11}) {  // 0.04, 4 and 400 x the eq 17 modulus (0.55 GPa)
+    BlocksSpec spec;
+    spec.nx = 40;
+    spec.press = 1.2 * spec.dx;
+    spec.enforcement = "exact";
+    std::string yaml = blocks_yaml(spec);
+    yaml.replace(yaml.find("  friction:"), 0, "  stiffness: " + std::to_string(stiffness) + "\n");
+    auto s = test::solve_scene(yaml);
+    ASSERT_TRUE(s->run.completed) << s->run.message;
+    const ContactSystem& c = *s->problem->contact();
+    const double dx = spec.dx, W = spec.nx * dx, H = spec.ny * dx;
+    // Largest closure over the pairs straight across (computed here from u, independently of
+    // the program's own check), and the interior strain of each block.
+    const PairGeometry g = pair_geometry(c, s->model, s->u);
+    const double xm = 6 * dx, ym = 3 * dx;
+    const double eps_low = test::fit_affine(*s, 1, Vec2(xm, ym), Vec2(W - xm, H - ym))[2];
+    const double eps_up = test::fit_affine(*s, 1, Vec2(xm, H + ym), Vec2(W - xm, 2 * H - ym))[2];
+    int updates = 0;
+    for (const StepReport& r : s->steps) updates += r.multiplier_updates;
+    std::printf(
+        "exact pressed blocks, E_c = %.0e Pa: largest closure %.3e (tolerance 1e-3), eps %.6e / %.6e, "
+        "%d multiplier updates, %ld Newton iterations\n",
+        stiffness, g.max_closure, eps_low, eps_up, updates, s->iterations());
+    // Closure within the tolerance (plus the round-off of the update's own measurement).
+    EXPECT_LT(g.max_closure, 1e-3 * (1 + 1e-9)) << stiffness;
+    EXPECT_GT(g.min_normal_distance / dx, 0.99) << stiffness;
+    EXPECT_NEAR(eps_low / eps_up, 1.0, 1e-3) << stiffness;
+    answers.push_back(s->u);
+  }
+  // A closure of at most 1e-3 dx at each of the 20 + 20 rows' interface changes the blocks'
+  // 1.2 dx shortening by at most 1e-3 / 1.2 ~ 1e-3 relative: the answers agree to 2e-3.
+  for (std::size_t k = 1; k < answers.size(); ++k)
+    EXPECT_LT(relative_difference(answers[k], answers[0]), 2e-3) << k;
+}
+
 // The Coulomb block: the lower block's bottom is clamped, the upper block's top is pressed
 // down by d_n and moved sideways by d_t. Below the friction limit the interface sticks;
 // past it every active pair slips and the interface carries exactly f_c N.
@@ -216,8 +259,10 @@ struct CoulombOutcome {
   int newton_iterations;
 };
 
-CoulombOutcome coulomb(double shear_over_dx, double friction, int steps) {
+CoulombOutcome coulomb(double shear_over_dx, double friction, int steps,
+                       const std::string& enforcement = "penalty") {
   BlocksSpec spec;
+  spec.enforcement = enforcement;
   spec.clamp_x = true;
   spec.press = 0.5 * spec.dx;
   spec.shear = shear_over_dx * spec.dx;
@@ -230,16 +275,16 @@ CoulombOutcome coulomb(double shear_over_dx, double friction, int steps) {
   for (const StepReport& r : s->steps) its += r.newton_iterations;
   CoulombOutcome o{F.y(), -F.x(), s->problem->contact()->counts(), its};
   std::printf(
-      "coulomb block d_t = %.3g dx, f_c = %.2f, %d steps: N = %.6e N, T = %.6e N, T / (f_c N) = %.9f, "
+      "coulomb block (%s) d_t = %.3g dx, f_c = %.2f, %d steps: N = %.6e N, T = %.6e N, T / (f_c N) = %.9f, "
       "open %ld stick %ld slip %ld, %d Newton iterations\n",
-      shear_over_dx, friction, steps, o.N, o.T, o.T / (friction * o.N), long(o.counts.open),
+      enforcement.c_str(), shear_over_dx, friction, steps, o.N, o.T, o.T / (friction * o.N), long(o.counts.open),
       long(o.counts.stick), long(o.counts.slip), its);
   return o;
 }
 
-TEST(CoulombBlock, SticksBelowTheLimitAndSlipsAtFcN) {
+void coulomb_block_laws(const std::string& enforcement) {
   const double fc = 0.1;
-  const CoulombOutcome stick = coulomb(0.002, fc, 1);
+  const CoulombOutcome stick = coulomb(0.002, fc, 1, enforcement);
   EXPECT_GT(stick.N, 0.0);
   EXPECT_GT(stick.T, 0.0);  // friction resists the upper block's motion (+x)
   EXPECT_LT(stick.T, fc * stick.N);
@@ -247,17 +292,23 @@ TEST(CoulombBlock, SticksBelowTheLimitAndSlipsAtFcN) {
   EXPECT_GT(stick.counts.stick, 0);
   // Sticking is elastic: twice the shear displacement gives twice the shear force (1e-6:
   // the normal force, which sets the contact state, does not change with d_t to first order).
-  const CoulombOutcome stick2 = coulomb(0.004, fc, 1);
+  const CoulombOutcome stick2 = coulomb(0.004, fc, 1, enforcement);
   EXPECT_EQ(stick2.counts.slip, 0);
   EXPECT_NEAR(stick2.T / stick.T, 2.0, 1e-6);
 
-  const CoulombOutcome slip = coulomb(0.3, fc, 1);
+  const CoulombOutcome slip = coulomb(0.3, fc, 1, enforcement);
   EXPECT_EQ(slip.counts.stick, 0);
   EXPECT_GT(slip.counts.slip, 0);
   // In slip every pair carries f_c times its normal force, so the totals do too; 1e-9
   // relative is the Newton tolerance (1e-12) with margin.
   EXPECT_NEAR(slip.T / (fc * slip.N), 1.0, 1e-9);
 }
+
+TEST(CoulombBlock, SticksBelowTheLimitAndSlipsAtFcN) { coulomb_block_laws("penalty"); }
+
+// The same laws with exact enforcement: the normal force now comes from the multipliers,
+// and stick and slip still come out of the return map (docs/theory/contact.md, section 8).
+TEST(CoulombBlock, ExactEnforcementSticksBelowTheLimitAndSlipsAtFcN) { coulomb_block_laws("exact"); }
 
 // Frictionless contact is elastic, hence independent of the load-step count; so is a
 // frictional run that sticks throughout, and one that slips uniformly under proportional
