@@ -16,12 +16,12 @@ constexpr double kLatticeRoundOff = 1e-9;
 /// largest entry (round-off of n n^T and t t^T products).
 constexpr double kSymmetryTolerance = 1e-12;
 /// Exact enforcement: an update that leaves a pair's closure above this fraction of its
-/// previous value makes the pair's augmentation kBoost times stiffer, up to kMaxBoost times
-/// the contact stiffness (the stiffness sets only the rate of the multiplier iteration, not
-/// its answer).
+/// previous value makes the pair's augmentation kBoost times stiffer, up to
+/// kMaxAugmentationModulus times the eq 17 modulus (the stiffness sets only the rate of the
+/// multiplier iteration, not its answer).
 constexpr double kAugmentationReduction = 0.25;
 constexpr double kBoost = 4.0;
-constexpr double kMaxBoost = 1024.0;
+
 /// Exact enforcement: the augmentation modulus is at most this multiple of the eq 17
 /// modulus. Measured on the pressed blocks (tests/verification/test_contact.cpp): 73 x
 /// converges, 180 x makes Newton's line search fail on pairs entering the window; the
@@ -292,7 +292,9 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
     m_multiplier.assign(np, 0.0);
     m_multiplier_committed.assign(np, 0.0);
     m_boost.assign(np, 1.0);
-    m_last_closure.assign(np, 0.0);
+    m_last_violation.assign(np, 0.0);
+    m_boost_limit.resize(np);
+    for (Index k = 0; k < np; ++k) m_boost_limit[k] = boost_limit(m_pairs[k]);
   }
   m_counts.candidates = np;
   m_counts.open = np;
@@ -300,20 +302,25 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
   build_incidence();
 }
 
-double ContactSystem::pair_stiffness(Index i, Index j) {
+double ContactSystem::pair_stiffness(Index i, Index j, double modulus_override) const {
   const Particles& p = m_model.particles;
   const Material &mi = m_model.bodies[p.body[i]].material, &mj = m_model.bodies[p.body[j]].material;
   const double thickness = 0.5 * (mi.thickness + mj.thickness);
-  double modulus = contact_modulus(mi, mj, m_modulus_override);
-  if (m_law.exact) {  // the augmentation modulus sets the rate only; a stiffer one stalls Newton
-    const double cap = kMaxAugmentationModulus * contact_modulus(mi, mj, 0.0);
-    if (modulus > cap) {
-      modulus = cap;
-      m_augmentation_capped = true;
-    }
-  }
-  return 3.0 * modulus * p.volume[i] * p.volume[j] /
-         (m_delta3 * thickness);
+  return 3.0 * contact_modulus(mi, mj, modulus_override) * p.volume[i] * p.volume[j] / (m_delta3 * thickness);
+}
+
+double ContactSystem::pair_stiffness(Index i, Index j) {
+  if (!m_law.exact) return pair_stiffness(i, j, m_modulus_override);
+  // The augmentation modulus sets the rate only: by default the cap, which converges in the
+  // fewest updates; a stiffer one stalls Newton.
+  const double cap = kMaxAugmentationModulus * pair_stiffness(i, j, 0.0);
+  const double C = m_modulus_override > 0.0 ? pair_stiffness(i, j, m_modulus_override) : cap;
+  if (C > cap) m_augmentation_capped = true;
+  return std::min(C, cap);
+}
+
+double ContactSystem::boost_limit(const ContactPair& c) const {
+  return std::max(1.0, kMaxAugmentationModulus * pair_stiffness(c.i, c.j, 0.0) / c.stiffness);
 }
 
 void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u) {
@@ -339,7 +346,8 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
       m_multiplier.push_back(0.0);
       m_multiplier_committed.push_back(0.0);
       m_boost.push_back(1.0);
-      m_last_closure.push_back(0.0);
+      m_last_violation.push_back(0.0);
+      m_boost_limit.push_back(boost_limit(c));
     }
   }
   m_counts.candidates = size();
@@ -357,7 +365,8 @@ void ContactSystem::drop_last_round() {
     m_multiplier.resize(n);
     m_multiplier_committed.resize(n);
     m_boost.resize(n);
-    m_last_closure.resize(n);
+    m_last_violation.resize(n);
+    m_boost_limit.resize(n);
   }
   m_counts.candidates = size();
   build_incidence();
@@ -479,7 +488,7 @@ void ContactSystem::start_trial(double ratio) {
   if (!m_law.exact) return;
   const Index np = size();
   for (Index k = 0; k < np; ++k) m_multiplier[k] = ratio * m_multiplier_committed[k];
-  std::fill(m_last_closure.begin(), m_last_closure.end(), 0.0);
+  std::fill(m_last_violation.begin(), m_last_violation.end(), 0.0);
   m_multiplier_updates = 0;
 }
 
@@ -490,7 +499,7 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
   const Particles& p = m_model.particles;
   const Index np = size();
   // Facing pairs (the kernel's exact branch): within one spacing across and along.
-  std::vector<double> closure(np, 0.0);
+  std::vector<double> closure(np, 0.0), violation(np, 0.0);
   std::vector<char> facing(np, 0);
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
@@ -499,8 +508,10 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
     if (c.gap0 > m_law.window * (1.0 + kLatticeRoundOff) || std::abs(g.tangential) >= m_law.window) continue;
     facing[k] = 1;
     closure[k] = 1.0 - g.normal / c.gap0;
-    if (closure[k] > m.violation) {
-      m.violation = closure[k];
+    violation[k] = m_result[k].normal_force > 0.0 ? std::abs(closure[k]) : std::max(0.0, closure[k]);
+    if (m_result[k].normal_force > 0.0) m.opening = std::max(m.opening, -closure[k]);
+    if (violation[k] > m.violation) {
+      m.violation = violation[k];
       m.pair = k;
     }
   }
@@ -510,8 +521,8 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
     m.status = MultiplierUpdate::Status::exhausted;
     return m;
   }
-  // Uzawa: lambda <- max(0, lambda + C_k s). A pair whose closure above the tolerance fell by
-  // less than kAugmentationReduction since the last update gets a stiffer augmentation
+  // Uzawa: lambda <- max(0, lambda + C_k s). A pair whose violation above the tolerance fell
+  // by less than kAugmentationReduction since the last update gets a stiffer augmentation
   // (method of multipliers, Bertsekas 1982, sec. 2.2): C_k = boost_k C, boost_k *= kBoost.
   for (Index k = 0; k < np; ++k) {
     if (!facing[k]) {
@@ -519,11 +530,13 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
       continue;
     }
     const double ck = m_boost[k] * m_pairs[k].stiffness;
-    m_multiplier[k] = std::max(0.0, m_multiplier[k] + ck * closure[k]);
-    if (closure[k] > m_closure_tolerance && m_last_closure[k] > 0.0 &&
-        closure[k] > kAugmentationReduction * m_last_closure[k])
-      m_boost[k] = std::min(kMaxBoost, kBoost * m_boost[k]);
-    m_last_closure[k] = closure[k];
+      // A pair open beyond the tolerance lets go of its force at once (the multiplier of an
+    // inactive constraint is zero); the others take the Uzawa step.
+    m_multiplier[k] = closure[k] < -m_closure_tolerance ? 0.0 : std::max(0.0, m_multiplier[k] + ck * closure[k]);
+    if (violation[k] > m_closure_tolerance && m_last_violation[k] > 0.0 &&
+        violation[k] > kAugmentationReduction * m_last_violation[k])
+      m_boost[k] = std::min(m_boost_limit[k], kBoost * m_boost[k]);
+    m_last_violation[k] = violation[k];
   }
   m.updates = ++m_multiplier_updates;
   m.status = MultiplierUpdate::Status::updated;
@@ -563,7 +576,7 @@ void ContactSystem::commit(const VectorXd& u) {
 std::size_t ContactSystem::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   return bytes(m_pairs) + bytes(m_slip) + bytes(m_tangential_velocity) + bytes(m_multiplier) +
-         bytes(m_multiplier_committed) + bytes(m_boost) + bytes(m_last_closure) + bytes(m_result) +
+         bytes(m_multiplier_committed) + bytes(m_boost) + bytes(m_last_violation) + bytes(m_result) +
          bytes(m_incident_start) + bytes(m_incident);
 }
 

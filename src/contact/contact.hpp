@@ -7,6 +7,7 @@
 #pragma once
 
 #include <array>
+#include <cstdlib>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -93,6 +94,9 @@ struct MultiplierUpdate {
   /// Largest constraint violation over the facing pairs: the closure (a - n.Y) / a of any
   /// pair, or the opening -(a - n.Y) / a of a pair that still carries a force.
   double violation = 0.0;
+  /// Largest opening -(a - n.Y) / a of a facing pair that carries a force (a force across a
+  /// gap: the multipliers' complementarity error).
+  double opening = 0.0;
   Index pair = -1;  ///< the pair with that violation (-1: none)
   int updates = 0;  ///< updates made in this increment so far
 };
@@ -135,7 +139,8 @@ class ContactSystem {
   /// predicts proportional contact forces) and resets the update count. No-op for penalty.
   void start_trial(double ratio);
   /// Exact enforcement, at the converged state u of the current multipliers: satisfied when
-  /// every facing pair's violation is within contact.closure_tolerance; otherwise each
+  /// every facing pair's violation is within contact.closure_tolerance (its closure s, or
+  /// |s| while it carries a force: no penetration, and no force across a gap); otherwise each
   /// facing pair's multiplier becomes max(0, lambda + C s) (Uzawa) and the caller solves
   /// again, up to contact.max_multiplier_updates times (then `exhausted`). Penalty: satisfied.
   MultiplierUpdate update_multipliers(const VectorXd& u);
@@ -184,7 +189,11 @@ class ContactSystem {
   std::size_t memory_bytes() const;
 
  private:
-  double pair_stiffness(Index i, Index j);  ///< C of the pair (eq 17 modulus, or capped augmentation)
+  /// C of the pair from contact.stiffness (eq 17 modulus when 0); exact enforcement caps it.
+  double pair_stiffness(Index i, Index j);
+  double pair_stiffness(Index i, Index j, double modulus_override) const;
+  /// Exact enforcement: the largest boost of a pair, kMaxAugmentationModulus x its eq 17 C / C.
+  double boost_limit(const ContactPair& c) const;
   void build_incidence();
 
   const Model& m_model;
@@ -202,7 +211,8 @@ class ContactSystem {
   std::vector<double> m_multiplier;            ///< per pair, trial lambda (exact enforcement only)
   std::vector<double> m_multiplier_committed;  ///< per pair, lambda of the last converged state
   std::vector<double> m_boost;                 ///< per pair, augmentation stiffness / C (exact)
-  std::vector<double> m_last_closure;          ///< per pair, closure at the previous update (exact)
+  std::vector<double> m_last_violation;        ///< per pair, violation at the previous update (exact)
+  std::vector<double> m_boost_limit;           ///< per pair, largest boost (exact)
   std::vector<PairResult> m_result;
   std::vector<Index> m_incident_start;
   std::vector<Incidence> m_incident;
