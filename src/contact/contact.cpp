@@ -291,10 +291,13 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
   if (m_law.exact) {
     m_multiplier.assign(np, 0.0);
     m_multiplier_committed.assign(np, 0.0);
-    m_boost.assign(np, 1.0);
+    m_boost.resize(np);
     m_last_violation.assign(np, 0.0);
     m_boost_limit.resize(np);
-    for (Index k = 0; k < np; ++k) m_boost_limit[k] = boost_limit(m_pairs[k]);
+    for (Index k = 0; k < np; ++k) {
+      m_boost_limit[k] = boost_limit(m_pairs[k]);
+      m_boost[k] = initial_boost(m_pairs[k]);
+    }
   }
   m_counts.candidates = np;
   m_counts.open = np;
@@ -310,17 +313,20 @@ double ContactSystem::pair_stiffness(Index i, Index j, double modulus_override) 
 }
 
 double ContactSystem::pair_stiffness(Index i, Index j) {
-  if (!m_law.exact) return pair_stiffness(i, j, m_modulus_override);
-  // The augmentation modulus sets the rate only: by default the cap, which converges in the
-  // fewest updates; a stiffer one stalls Newton.
-  const double cap = kMaxAugmentationModulus * pair_stiffness(i, j, 0.0);
-  const double C = m_modulus_override > 0.0 ? pair_stiffness(i, j, m_modulus_override) : cap;
-  if (C > cap) m_augmentation_capped = true;
-  return std::min(C, cap);
+  return pair_stiffness(i, j, m_modulus_override);
 }
 
 double ContactSystem::boost_limit(const ContactPair& c) const {
-  return std::max(1.0, kMaxAugmentationModulus * pair_stiffness(c.i, c.j, 0.0) / c.stiffness);
+  return kMaxAugmentationModulus * pair_stiffness(c.i, c.j, 0.0) / c.stiffness;
+}
+
+double ContactSystem::initial_boost(const ContactPair& c) {
+  // The augmentation modulus sets the rate only: by default the cap, which converges in the
+  // fewest updates; contact.stiffness when the scene gives one, but never above the cap (a
+  // stiffer augmentation stalls Newton).
+  const double limit = boost_limit(c);
+  if (m_modulus_override > 0.0 && limit < 1.0) m_augmentation_capped = true;
+  return m_modulus_override > 0.0 ? std::min(1.0, limit) : limit;
 }
 
 void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u) {
@@ -345,7 +351,7 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
     if (m_law.exact) {  // a new face carries no force yet
       m_multiplier.push_back(0.0);
       m_multiplier_committed.push_back(0.0);
-      m_boost.push_back(1.0);
+      m_boost.push_back(initial_boost(c));
       m_last_violation.push_back(0.0);
       m_boost_limit.push_back(boost_limit(c));
     }

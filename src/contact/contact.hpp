@@ -189,11 +189,13 @@ class ContactSystem {
   std::size_t memory_bytes() const;
 
  private:
-  /// C of the pair from contact.stiffness (eq 17 modulus when 0); exact enforcement caps it.
+  /// C of the pair from contact.stiffness (eq 17 modulus when 0).
   double pair_stiffness(Index i, Index j);
   double pair_stiffness(Index i, Index j, double modulus_override) const;
   /// Exact enforcement: the largest boost of a pair, kMaxAugmentationModulus x its eq 17 C / C.
   double boost_limit(const ContactPair& c) const;
+  /// Exact enforcement: the boost a new pair starts with (the cap by default).
+  double initial_boost(const ContactPair& c);
   void build_incidence();
 
   const Model& m_model;

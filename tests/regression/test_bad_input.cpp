@@ -127,6 +127,25 @@ TEST_F(BadInput, ContactInterfaceWithoutCommonEdge) {
   expect_rejected(run_text(text), at(27, "contact.interfaces.0"), "share no boundary segment");
 }
 
+// Exact enforcement acts on the gap along the interface normal, which the pair law lacks;
+// the closure tolerance is a fraction in (0, 1).
+TEST_F(BadInput, ExactContactNeedsThePaperNormalLaw) {
+  expect_rejected(run_text(k_minimal + "contact:\n  normal: pair\n  enforcement: exact\n"),
+                  at(23, "contact.enforcement"), "needs normal: paper");
+}
+
+TEST_F(BadInput, ClosureToleranceOutOfRange) {
+  expect_rejected(run_text(k_minimal + "contact:\n  enforcement: exact\n  closure_tolerance: 0\n"),
+                  at(23, "contact.closure_tolerance"), "0 < closure_tolerance < 1");
+  expect_rejected(run_text(k_minimal + "contact:\n  enforcement: exact\n  closure_tolerance: 1.5\n"),
+                  at(23, "contact.closure_tolerance"), "0 < closure_tolerance < 1");
+}
+
+TEST_F(BadInput, UnknownEnforcement) {
+  expect_rejected(run_text(k_minimal + "contact:\n  enforcement: lagrange\n"), at(22, "contact.enforcement"),
+                  "penalty");
+}
+
 TEST_F(BadInput, WrongType) {
   expect_rejected(run_text(replace(k_minimal, "E: 1.0e9", "E: stiff")), at(4, "materials.plate.E"),
                   "expected a number");

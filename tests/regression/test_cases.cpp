@@ -260,6 +260,66 @@ TEST(ExitCodes, CrackThatCannotBeFollowedStopsKeepingConvergedSteps) {
   std::filesystem::remove_all(dir);
 }
 
+// The compliance warning (docs/theory/contact.md, section 9): the paper law at 1e-2 x E on
+// case 4.1 (dx = 1 mm) closes the interface by 0.72 dx at the end, more than half the contact
+// radius (dx) from step 3 on: the run completes, prints a WARNING and lists it in summary.json. With exact
+// enforcement (its default augmentation) the pairs close to 1e-3 and no warning; summary.json
+// records the enforcement and each step's multiplier updates.
+TEST(ContactCompliance, SoftPenaltyWarnsAndExactDoesNot) {
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_1_sliding_plates/scene.yaml";
+  const std::string common = " --set contact.friction=0 --set discretization.spacing=1e-3";
+  const auto soft = test::fresh_directory("soft_contact");
+  const auto r = test::run_cli("run " + scene + " --out " + soft.string() + common + " --set contact.stiffness=6e8");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("WARNING: step 4: the largest contact closure"), std::string::npos) << r.out;
+  const nlohmann::json summary = test::read_json(soft / "summary.json");
+  ASSERT_TRUE(summary.contains("warnings")) << summary;
+  EXPECT_EQ(summary["warnings"].size(), 2u) << summary["warnings"];  // steps 3 and 4
+  EXPECT_GT(summary["steps"][3]["counts"].value("contact_max_closure", 0.0), 0.5e-3) << summary;
+
+  const auto exact = test::fresh_directory("exact_contact");
+  const auto e = test::run_cli("run " + scene + " --out " + exact.string() + common +
+                               " --set contact.enforcement=exact");
+  ASSERT_EQ(e.exit_code, 0) << e.err;
+  const nlohmann::json exact_summary = test::read_json(exact / "summary.json");
+  EXPECT_TRUE(exact_summary["warnings"].empty()) << exact_summary["warnings"];
+  EXPECT_EQ(exact_summary["run"]["contact"].value("enforcement", ""), "exact") << exact_summary["run"];
+  EXPECT_GE(exact_summary["steps"][0]["counts"].value("multiplier_updates", -1), 1) << exact_summary;
+  EXPECT_LT(exact_summary["steps"][3]["counts"].value("contact_max_closure", 1.0), 1e-3 * 1e-3 * 1.000001);
+  std::filesystem::remove_all(soft);
+  std::filesystem::remove_all(exact);
+}
+
+// Two blocks pressed into each other by two spacings with the pair law, whose force is
+// bounded by C: at a tiny contact stiffness the upper block passes through. The state with
+// crossed pairs is rejected at every cut-back, so the run stops with exit code 3 naming a
+// crossed pair and the step, and keeps no crossed state.
+TEST(ContactCompliance, ACrossedStateIsNeverAccepted) {
+  const auto dir = test::fresh_directory("crossed");
+  const auto scene = dir / "blocks.yaml";
+  std::ofstream(scene) << "name: blocks\n"
+                          "materials:\n  mat: {E: 1.0e9, nu: 0.3, thickness: 1.0e-3, kinematics: small}\n"
+                          "discretization: {spacing: 1.0e-3}\n"
+                          "bodies:\n"
+                          "  lower: {material: mat, rectangle: {min: [0, 0], max: [0.01, 0.005]}}\n"
+                          "  upper: {material: mat, rectangle: {min: [0, 0.005], max: [0.01, 0.01]}}\n"
+                          "boundary:\n"
+                          "  - {body: lower, edge: bottom, ux: 0, uy: 0}\n"
+                          "  - {body: upper, edge: top, ux: 0, uy: -2.0e-3}\n"
+                          "contact:\n  normal: pair\n  stiffness: 1.0e3\n  interfaces:\n    - {bodies: [lower, upper]}\n"
+                          "loading: {steps: 1, max_cutbacks: 3}\n"
+                          "solver: {linear: umfpack, newton: {rtol: 1.0e-8}}\n";
+  const auto r = test::run_cli("run " + scene.string() + " --out " + dir.string());
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("load step 1/1"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("has crossed"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("contact pair ("), std::string::npos) << r.err;
+  const nlohmann::json summary = test::read_json(dir / "summary.json");
+  EXPECT_EQ(summary.value("status", ""), "no_convergence") << summary;
+  EXPECT_TRUE(summary["steps"].empty()) << summary;
+  std::filesystem::remove_all(dir);
+}
+
 TEST(ExitCodes, QuietRunPrintsNothing) {
   const auto dir = test::fresh_directory("quiet");
   const auto r = test::run_cli("run " + kTension + " --quiet --out " + dir.string() +
