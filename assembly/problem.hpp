@@ -45,6 +45,10 @@ class Problem {
 
   /// A matrix with the tangent's sparsity pattern and zero values. Each call makes a new one.
   virtual SparseMatrix make_tangent() const = 0;
+  /// Changes whenever the tangent's pattern does (e.g. contact partners found after a large
+  /// slide): matrices from make_tangent() and make_preconditioner(), and any symbolic
+  /// factorisation of them, must then be made again.
+  virtual std::uint64_t structure_version() const { return 0; }
 
   /// True when the tangent assembled by the last evaluate() that assembled one is symmetric
   /// (a Cholesky factorisation or CG applies).

@@ -97,13 +97,20 @@ ConstraintUpdate QuasiStaticProblem::update_multipliers(const VectorXd& x) {
 std::string QuasiStaticProblem::check_converged_state(const VectorXd& x) {
   if (!m_contact) return {};
   expand(x, m_u);
+  char buf[400];
+  if (const double slide = m_contact->slide_since_search(m_u); slide > m_contact->max_slide_between_searches()) {
+    std::snprintf(buf, sizeof buf,
+                  "the contact faces slid %.3g dx since the last partner search, more than a search covers "
+                  "(%.3g dx): a partner may have been missed",
+                  slide / m_model.spacing, m_contact->max_slide_between_searches() / m_model.spacing);
+    return buf;
+  }
   const Index k = m_contact->first_crossed(m_u);
   if (k < 0) return {};
   const ContactPair& c = m_contact->pairs()[k];
   const Particles& p = m_model.particles;
   const Vec2 du(m_u[2 * c.j] - m_u[2 * c.i], m_u[2 * c.j + 1] - m_u[2 * c.i + 1]);
   const PairGap g = pair_gap(c, p.position[c.j] - p.position[c.i], du);
-  char buf[400];
   std::snprintf(buf, sizeof buf,
                 "contact pair (%ld, %ld) has crossed: particle %ld (reference (%.6g, %.6g) m) passed particle "
                 "%ld (reference (%.6g, %.6g) m) along the interface normal, n.Y = %.3g dx",
@@ -120,7 +127,12 @@ void QuasiStaticProblem::commit(const VectorXd& x) {
   if (m_failure) m_failure->commit();
   if (!m_contact) return;
   expand(x, m_u);
+  const std::uint64_t version = m_contact->version();
   m_contact->commit(m_u);
+  if (m_contact->version() != version) {  // new partners: the pattern grows
+    m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get());
+    m_preconditioner.reset();
+  }
 }
 
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {

@@ -39,6 +39,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override;
   double force_scale() const override { return m_force_scale; }
   SparseMatrix make_tangent() const override { return m_pattern.make_matrix(m_model.constraints); }
+  /// The contact candidates' version: a partner search that adds pairs grows the pattern.
+  std::uint64_t structure_version() const override { return m_contact ? m_contact->version() : 0; }
   /// False while a pair slips with friction (the Jacobian of eq 14 is not symmetric).
   bool tangent_symmetric() const override { return !m_contact || m_contact->symmetric(); }
   bool tangent_constant() const override { return m_small_kinematics && !m_contact && !m_failure; }
@@ -57,7 +59,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void revert_irreversible_state() override;
   /// Exact contact enforcement (ContactSystem::update_multipliers).
   ConstraintUpdate update_multipliers(const VectorXd& x) override;
-  /// Rejects a state in which a contact pair has crossed (docs/theory/contact.md, section 9).
+  /// Rejects a state in which a contact pair has crossed (docs/theory/contact.md, section 9),
+  /// or whose faces slid further than a partner search covers (section 10).
   std::string check_converged_state(const VectorXd& x) override;
 
   /// This problem as ADR's pseudo-velocity input when its friction law reads a velocity

@@ -29,10 +29,13 @@ AdrSolver::AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocity
     : m_problem(problem), m_velocity(velocity), m_options(options) {}
 
 void AdrSolver::prepare(const VectorXd& x) {
-  if (m_have_density && m_problem.tangent_constant()) return;
+  if (m_have_density && m_problem.tangent_constant() && m_structure == m_problem.structure_version()) return;
   // Gershgorin: with Lambda_ii >= 1/4 sum_j |K_ij| every eigenvalue of Lambda^-1 K is at most
   // 4, the stability limit of the central difference with unit time step (Kilic and Madenci).
-  if (m_K.size() == 0) m_K = m_problem.make_tangent();
+  if (m_K.size() == 0 || m_structure != m_problem.structure_version()) {
+    m_K = m_problem.make_tangent();
+    m_structure = m_problem.structure_version();
+  }
   m_problem.evaluate(x, m_r, &m_K);
   const Index n = m_problem.n_unknowns();
   VectorXd rows = VectorXd::Zero(n);

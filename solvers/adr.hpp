@@ -21,7 +21,7 @@ class AdrSolver final : public StepSolver {
   /// Computes the fictitious density at the converged state x when the tangent may have
   /// changed (first call, or any call for a problem whose tangent is not constant).
   void prepare(const VectorXd& x) override;
-  bool prepared() const override { return m_have_density; }
+  bool prepared() const override { return m_have_density && m_structure == m_problem.structure_version(); }
   bool cutback_helps() const override { return false; }
 
   /// The fictitious density of the last prepare() (per unknown).
@@ -34,6 +34,7 @@ class AdrSolver final : public StepSolver {
   VectorXd m_density;
   SparseMatrix m_K;  ///< tangent for the row sums (pattern kept across load steps)
   bool m_have_density = false;
+  std::uint64_t m_structure = 0;  ///< the problem's structure_version() of m_K
   VectorXd m_r, m_r_old, m_v;  ///< reused across solves: no allocation per iteration
 };
 

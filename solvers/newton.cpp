@@ -18,7 +18,21 @@ constexpr double kBacktrack = 0.5;
 }  // namespace
 
 NewtonSolver::NewtonSolver(Problem& problem, LinearSolver& linear, const NewtonOptions& options)
-    : m_problem(problem), m_linear(linear), m_options(options), m_K(problem.make_tangent()) {}
+    : m_problem(problem),
+      m_linear(linear),
+      m_options(options),
+      m_K(problem.make_tangent()),
+      m_structure(problem.structure_version()) {}
+
+void NewtonSolver::follow_structure() {
+  if (m_problem.structure_version() == m_structure) return;
+  m_structure = m_problem.structure_version();
+  m_K = m_problem.make_tangent();
+  m_P = SparseMatrix();
+  m_analyzed = m_unsymmetric_analyzed = false;
+  m_have_factor = false;
+  m_factored = nullptr;
+}
 
 bool NewtonSolver::reuse_factor() const {
   return m_have_factor && (m_problem.tangent_constant() || m_options.tangent == TangentKind::initial);
@@ -59,6 +73,7 @@ long NewtonSolver::factorizations() const {
 }
 
 void NewtonSolver::prepare(const VectorXd& x) {
+  follow_structure();
   const long f0 = factorizations();
   const double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, &m_K);
@@ -69,6 +84,7 @@ void NewtonSolver::prepare(const VectorXd& x) {
 }
 
 SolveReport NewtonSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
+  follow_structure();
   SolveReport report = m_pending;
   m_pending = SolveReport{};
   const long f0 = factorizations();

@@ -32,7 +32,7 @@ class NewtonSolver final : public StepSolver {
   /// prescribed components have just jumped (docs/theory/newton.md, "Predictor").
   void prepare(const VectorXd& x) override;
   /// True when a factor usable for the first iteration of the next solve exists.
-  bool prepared() const override { return m_have_factor; }
+  bool prepared() const override { return m_have_factor && m_structure == m_problem.structure_version(); }
   /// Forget the factorisation (after a failed solve, or when the pattern changed).
   void invalidate_factorization() override { m_have_factor = false; }
 
@@ -45,6 +45,8 @@ class NewtonSolver final : public StepSolver {
   /// The linear solver for the current tangent: m_linear, or UMFPACK (m_unsymmetric, made on
   /// first need) while the tangent is unsymmetric and m_linear needs a symmetric matrix.
   LinearSolver& select_solver();
+  /// Makes the matrices and the symbolic analyses again when the problem's pattern changed.
+  void follow_structure();
 
   Problem& m_problem;
   LinearSolver& m_linear;
@@ -57,6 +59,7 @@ class NewtonSolver final : public StepSolver {
   SparseMatrix m_P;  ///< preconditioner matrix, when the linear solver uses one
   bool m_analyzed = false;
   bool m_have_factor = false;
+  std::uint64_t m_structure = 0;  ///< the problem's structure_version() of m_K
   SolveReport m_pending;  ///< work of prepare(), added to the next report
   VectorXd m_r, m_dx, m_trial, m_trial_r;
 };

@@ -40,7 +40,10 @@ class FactorPreconditionedKrylov final : public LinearSolver {
                              const LinearOptions& o)
       : m_factor(std::move(factor)), m_source(source), m_rtol(o.rtol), m_max_iterations(o.max_iterations) {}
 
-  void analyzePattern(const SparseMatrix& A) override { m_A = &A; }
+  void analyzePattern(const SparseMatrix& A) override {
+    m_A = &A;
+    m_analyzed = false;  // a new pattern (of A, or of the preconditioner matrix)
+  }
 
   void factorize(const SparseMatrix& A) override {
     m_A = &A;

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <unordered_map>
+#include <unordered_set>
 
 #include "core/error.hpp"
 #include "scene/geometry.hpp"
@@ -27,6 +29,12 @@ constexpr double kBoost = 4.0;
 /// converges, 180 x makes Newton's line search fail on pairs entering the window; the
 /// answer does not depend on it.
 constexpr double kMaxAugmentationModulus = 10.0;
+/// Large sliding: the faces are searched again for partners once a pair has slid by this
+/// many spacings since the last search (section 10).
+constexpr double kSearchSlide = 0.5;
+/// Pairs nearly parallel to their interface (|X.n| below this many spacings) are skipped:
+/// the paper law divides by X.n.
+constexpr double kMinGap = 0.2;
 
 PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, const PairHistory& history,
                         const ContactLaw& law, bool want_jacobian) {
@@ -143,10 +151,7 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
 
 namespace {
 
-/// A straight piece of interface with the unit normal pointing from body A into body B.
-struct Segment {
-  Vec2 a, b, normal;
-};
+using Segment = ContactSystem::Segment;
 
 /// The boundary segments shared by polygons A and B (collinear, overlapping edges).
 std::vector<Segment> shared_segments(const Polygon& A, const Polygon& B, double tol) {
@@ -194,7 +199,7 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
   const Index n = p.size();
   // Exact enforcement needs the pairs whose cells face each other, one spacing across.
   const double band = (m_law.exact ? std::max(m_law.radius, dx) : m_law.radius) * (1.0 + kLatticeRoundOff);
-  const double min_gap = 0.2 * dx;  // pairs nearly parallel to the interface are skipped
+  const double min_gap = kMinGap * dx;  // pairs nearly parallel to the interface are skipped
   const double delta3 = std::pow(model.horizon, 3);
   m_modulus_override = o.stiffness;
   m_delta3 = delta3;
@@ -219,6 +224,18 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
 
   // Crack faces: the bonds cut by a pre-crack, both ends within delta_c of that crack.
   if (o.cracks) {
+    for (const Crack& crack : model.cracks) {  // the two faces, for later searches
+      const Vec2 d = (crack.b - crack.a).normalized();
+      const Vec2 normal(-d.y(), d.x());
+      Surface surface;
+      surface.crack = true;
+      surface.segments.push_back({crack.a, crack.b, normal});
+      for (Index i = 0; i < n; ++i) {
+        if (p.fictitious[i] || geometry::distance_to_segment(p.position[i], crack.a, crack.b) > band) continue;
+        (normal.dot(p.position[i] - crack.a) < 0.0 ? surface.side_a : surface.side_b).push_back(i);
+      }
+      m_surfaces.push_back(std::move(surface));
+    }
     for (Index i = 0; i < n; ++i) {
       if (p.fictitious[i]) continue;
       for (const Crack& crack : model.cracks) {
@@ -262,11 +279,14 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
       }
       return segments[best];
     };
+    Surface surface;
+    surface.segments = segments;
     for (Index i = 0; i < n; ++i) {
       if (p.fictitious[i] || (p.body[i] != a && p.body[i] != b)) continue;
       double di = 0.0;
       nearest(p.position[i], di);
       if (di > band) continue;
+      (p.body[i] == a ? surface.side_a : surface.side_b).push_back(i);
       for_partners(i, [&](Index j) {
         if (p.body[j] == p.body[i] || (p.body[j] != a && p.body[j] != b)) return;
         double dj = 0.0;
@@ -276,6 +296,7 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
         add_pair(i, j, nearest(0.5 * (p.position[i] + p.position[j]), dm).normal);
       });
     }
+    m_surfaces.push_back(std::move(surface));
   }
 
   std::sort(m_pairs.begin(), m_pairs.end(),
@@ -302,6 +323,9 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
   m_counts.candidates = np;
   m_counts.open = np;
   m_round_start = np;
+  m_search_radius = model.horizon + dx;
+  m_search_slide = kSearchSlide * dx;
+  if (!m_surfaces.empty()) m_u_search = VectorXd::Zero(2 * n);
   build_incidence();
 }
 
@@ -342,19 +366,8 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
     c.normal = X.normalized();  // a broken bond's faces meet along the bond
     c.gap0 = X.norm();
     c.stiffness = pair_stiffness(i, j);
+    append_state(c, u);  // no stored tangential force: like a pair that was open
     m_pairs.push_back(c);
-    m_result.push_back(PairResult{});
-    if (!m_slip.empty()) {  // no stored tangential force: like a pair that was open
-      m_slip.push_back(c.tangent().dot(Vec2(u[2 * j] - u[2 * i], u[2 * j + 1] - u[2 * i + 1])));
-    }
-    if (m_law.velocity_sign) m_tangential_velocity.push_back(0.0);
-    if (m_law.exact) {  // a new face carries no force yet
-      m_multiplier.push_back(0.0);
-      m_multiplier_committed.push_back(0.0);
-      m_boost.push_back(initial_boost(c));
-      m_last_violation.push_back(0.0);
-      m_boost_limit.push_back(boost_limit(c));
-    }
   }
   m_counts.candidates = size();
   build_incidence();
@@ -565,6 +578,13 @@ void ContactSystem::commit(const VectorXd& u) {
   m_multiplier_committed = m_multiplier;
   m_multiplier_updates = 0;
   evaluate(u, false);
+  update_slip(u);
+  // Large sliding: partners are searched again in the current configuration once the faces
+  // have slid by kSearchSlide since the last search (section 10).
+  if (!m_surfaces.empty() && slide_since_search(u) > m_search_slide && search(u)) evaluate(u, false);
+}
+
+void ContactSystem::update_slip(const VectorXd& u) {
   if (m_slip.empty()) return;
   const Index np = size();
   for (Index k = 0; k < np; ++k) {
@@ -576,6 +596,112 @@ void ContactSystem::commit(const VectorXd& u) {
       m_slip[k] = w;  // an open pair stores no tangential force
     else if (r.status == PairStatus::slip)
       m_slip[k] = w - r.tangential / kt;
+  }
+}
+
+double ContactSystem::slide_since_search(const VectorXd& u) const {
+  if (m_surfaces.empty()) return 0.0;
+  double slide = 0.0;
+  for (const ContactPair& c : m_pairs) {
+    const Vec2 d(u[2 * c.j] - m_u_search[2 * c.j] - u[2 * c.i] + m_u_search[2 * c.i],
+                 u[2 * c.j + 1] - m_u_search[2 * c.j + 1] - u[2 * c.i + 1] + m_u_search[2 * c.i + 1]);
+    slide = std::max(slide, std::abs(c.tangent().dot(d)));
+  }
+  return slide;
+}
+
+bool ContactSystem::search(const VectorXd& u) {
+  const Particles& p = m_model.particles;
+  const Index n = p.size();
+  const double R = m_search_radius;
+  std::unordered_set<std::uint64_t> known;
+  known.reserve(2 * m_pairs.size());
+  const auto key = [n](Index i, Index j) { return static_cast<std::uint64_t>(i) * n + j; };
+  for (const ContactPair& c : m_pairs) known.insert(key(c.i, c.j));
+  const auto current = [&](Index q) { return Vec2(p.position[q].x() + u[2 * q], p.position[q].y() + u[2 * q + 1]); };
+  const Index before = size();
+  for (const Surface& surface : m_surfaces) {
+    // Side b in a grid of cells R wide over its current positions.
+    std::unordered_map<std::uint64_t, std::vector<Index>> grid;
+    const auto cell = [R](const Vec2& x) {
+      return std::pair<std::int64_t, std::int64_t>(static_cast<std::int64_t>(std::floor(x.x() / R)),
+                                                   static_cast<std::int64_t>(std::floor(x.y() / R)));
+    };
+    const auto cell_key = [](std::int64_t cx, std::int64_t cy) {
+      return (static_cast<std::uint64_t>(cx) << 32) ^ (static_cast<std::uint64_t>(cy) & 0xffffffffull);
+    };
+    for (Index j : surface.side_b) {
+      const auto [cx, cy] = cell(current(j));
+      grid[cell_key(cx, cy)].push_back(j);
+    }
+    for (Index i : surface.side_a) {
+      const Vec2 xi = current(i);
+      const auto [cx, cy] = cell(xi);
+      for (std::int64_t dx = -1; dx <= 1; ++dx)
+        for (std::int64_t dy = -1; dy <= 1; ++dy) {
+          const auto it = grid.find(cell_key(cx + dx, cy + dy));
+          if (it == grid.end()) continue;
+          for (Index j : it->second) {
+            if ((current(j) - xi).norm() >= R) continue;
+            const Index lo = std::min(i, j), hi = std::max(i, j);
+            if (known.count(key(lo, hi))) continue;
+            const Vec2 &Xi = p.position[lo], &Xj = p.position[hi];
+            if (surface.crack) {
+              // Faces of one body: a pair within a horizon is bonded unless the crack cuts it.
+              if (p.body[lo] != p.body[hi]) continue;
+              if ((Xj - Xi).norm() <= m_model.horizon * (1.0 + kLatticeRoundOff) &&
+                  !bond_crosses_crack(Xi, Xj, surface.segments[0].a, surface.segments[0].b))
+                continue;
+            }
+            double best = std::numeric_limits<double>::max();
+            Vec2 normal = surface.segments[0].normal;
+            for (const Segment& seg : surface.segments)
+              if (const double d = geometry::distance_to_segment(0.5 * (Xi + Xj), seg.a, seg.b); d < best) {
+                best = d;
+                normal = seg.normal;
+              }
+            if (add_candidate(lo, hi, normal, u)) known.insert(key(lo, hi));
+          }
+        }
+    }
+  }
+  m_u_search = u;
+  ++m_searches;
+  if (size() == before) return false;
+  m_counts.candidates = size();
+  m_round_start = size();
+  build_incidence();
+  ++m_version;
+  return true;
+}
+
+bool ContactSystem::add_candidate(Index i, Index j, const Vec2& normal, const VectorXd& u) {
+  const Particles& p = m_model.particles;
+  const Vec2 X = p.position[j] - p.position[i];
+  const double proj = normal.dot(X);
+  if (std::abs(proj) < kMinGap * m_model.spacing) return false;
+  ContactPair c;
+  c.i = i;
+  c.j = j;
+  c.normal = proj > 0.0 ? normal : Vec2(-normal);
+  c.gap0 = std::abs(proj);
+  c.stiffness = pair_stiffness(i, j);
+  append_state(c, u);
+  m_pairs.push_back(c);
+  return true;
+}
+
+void ContactSystem::append_state(const ContactPair& c, const VectorXd& u) {
+  // A new pair starts as an open pair does: no stored tangential force, no multiplier.
+  m_result.push_back(PairResult{});
+  if (!m_slip.empty()) m_slip.push_back(c.tangent().dot(Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1])));
+  if (m_law.velocity_sign) m_tangential_velocity.push_back(0.0);
+  if (m_law.exact) {
+    m_multiplier.push_back(0.0);
+    m_multiplier_committed.push_back(0.0);
+    m_boost.push_back(initial_boost(c));
+    m_last_violation.push_back(0.0);
+    m_boost_limit.push_back(boost_limit(c));
   }
 }
 

@@ -188,7 +188,43 @@ class ContactSystem {
   /// Bytes held by the pairs, their history and results, and the incidence lists.
   std::size_t memory_bytes() const;
 
+  /// Large sliding (docs/theory/contact.md, section 10). The largest relative tangential
+  /// motion t.(du_j - du_i) of a pair since the last partner search [m].
+  double slide_since_search(const VectorXd& u) const;
+  /// Searches the faces of the pre-cracks and interfaces for partners in the current
+  /// configuration u: every pair of particles of the two sides within one horizon plus one
+  /// spacing of each other becomes a candidate (crack faces: unless bonded). Known pairs
+  /// keep their history; new ones start open. Returns true when pairs were added (the
+  /// tangent's pattern must then grow: version() changes). commit() calls it once the
+  /// faces have slid half a spacing since the last search.
+  bool search(const VectorXd& u);
+  /// Changes whenever the candidate set grows by a search.
+  std::uint64_t version() const { return m_version; }
+  /// Searches done so far.
+  int searches() const { return m_searches; }
+  /// The slide after which a search misses a partner that could already face a particle:
+  /// the search radius less the window's reach (sqrt 2 dx) and the trigger (section 10).
+  double max_slide_between_searches() const { return m_search_radius - std::sqrt(2.0) * m_model.spacing - m_search_slide; }
+
+  /// A straight piece of interface with the unit normal pointing from body A into body B.
+  struct Segment {
+    Vec2 a, b, normal;
+  };
+
  private:
+  /// The two faces of a pre-crack or a declared interface, for partner searches.
+  struct Surface {
+    std::vector<Index> side_a, side_b;  ///< real particles within the band, one list per side
+    bool crack = false;                 ///< faces of one body: pairs within a horizon are bonded
+    std::vector<Segment> segments;      ///< the crack, or the interface's shared segments
+  };
+  /// Appends pair (i, j) with the given interface normal (oriented here) and the state of an
+  /// open pair at u; false when it is nearly parallel to the interface (skipped).
+  bool add_candidate(Index i, Index j, const Vec2& normal, const VectorXd& u);
+  /// The per-pair state vectors of a new pair c: open, no stored tangential force.
+  void append_state(const ContactPair& c, const VectorXd& u);
+  /// Slip history of every pair at the committed state u (return-map friction).
+  void update_slip(const VectorXd& u);
   /// C of the pair from contact.stiffness (eq 17 modulus when 0).
   double pair_stiffness(Index i, Index j);
   double pair_stiffness(Index i, Index j, double modulus_override) const;
@@ -223,6 +259,11 @@ class ContactSystem {
   bool m_symmetric = true;
   double m_min_distance = 0.0;
   double m_max_closure = 0.0;
+  std::vector<Surface> m_surfaces;
+  VectorXd m_u_search;  ///< displacement (2N) at the last partner search
+  double m_search_radius = 0.0, m_search_slide = 0.0;
+  std::uint64_t m_version = 0;
+  int m_searches = 0;
 };
 
 }  // namespace peristat
