@@ -337,7 +337,10 @@ double ContactSystem::pair_stiffness(Index i, Index j, double modulus_override) 
 }
 
 double ContactSystem::pair_stiffness(Index i, Index j) {
-  return pair_stiffness(i, j, m_modulus_override);
+  // Exact enforcement: C is the eq 17 pair stiffness, which sets the stick penalty k_t;
+  // contact.stiffness only sets where the augmentation starts (initial_boost), so that it
+  // changes the rate of the multiplier iteration and not the answer.
+  return pair_stiffness(i, j, m_law.exact ? 0.0 : m_modulus_override);
 }
 
 double ContactSystem::boost_limit(const ContactPair& c) const {
@@ -349,8 +352,10 @@ double ContactSystem::initial_boost(const ContactPair& c) {
   // fewest updates; contact.stiffness when the scene gives one, but never above the cap (a
   // stiffer augmentation stalls Newton).
   const double limit = boost_limit(c);
-  if (m_modulus_override > 0.0 && limit < 1.0) m_augmentation_capped = true;
-  return m_modulus_override > 0.0 ? std::min(1.0, limit) : limit;
+  if (m_modulus_override <= 0.0) return limit;
+  const double requested = pair_stiffness(c.i, c.j, m_modulus_override) / c.stiffness;
+  if (requested > limit) m_augmentation_capped = true;
+  return std::min(requested, limit);
 }
 
 void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u) {

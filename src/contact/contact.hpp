@@ -225,7 +225,8 @@ class ContactSystem {
   void append_state(const ContactPair& c, const VectorXd& u);
   /// Slip history of every pair at the committed state u (return-map friction).
   void update_slip(const VectorXd& u);
-  /// C of the pair from contact.stiffness (eq 17 modulus when 0).
+  /// C of the pair: from contact.stiffness (eq 17 modulus when 0) under penalty, from eq 17
+  /// under exact enforcement (where contact.stiffness sets the augmentation's start).
   double pair_stiffness(Index i, Index j);
   double pair_stiffness(Index i, Index j, double modulus_override) const;
   /// Exact enforcement: the largest boost of a pair, kMaxAugmentationModulus x its eq 17 C / C.

@@ -125,6 +125,7 @@ TEST(ExactContact, SlidingPlatesMatchTheContinuumAtPaperResolution) {
   // After its 1.6 dx slide, every particle of the left face that still faces the right
   // plate (current height one spacing inside the right plate's ends) has a partner.
   const auto [column, without] = partnerless(*s, 0.032, dx, 0.06 - dx);
+  std::printf("facing particles of the left face: %d, without a partner: %d\n", column, without);
   EXPECT_GT(column, 140);
   EXPECT_EQ(without, 0) << "of " << column;
 }
