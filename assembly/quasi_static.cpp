@@ -1,5 +1,6 @@
 #include "assembly/quasi_static.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 #include <omp.h>
@@ -26,7 +27,7 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
       m_contact(make_contact(model, options.contact, m_contact_setup_seconds)),
       m_failure(options.failure.enabled ? std::make_unique<BondFailure>(model, options.failure) : nullptr),
       m_pattern(build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get())),
-      m_weight(m_failure ? m_failure->weights() : std::span<const double>(model.bonds.weight)) {
+      m_correction(model, options.surface_correction) {
   m_small_kinematics = true;
   for (const BodyInfo& body : model.bodies) {
     m_kernels.push_back(make_family_kernel(body.material));
@@ -34,12 +35,6 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   }
   const Index n = model.particles.size();
   const Bonds& bonds = model.bonds;
-  m_weighted_volume.resize(n);
-  for (Index i = 0; i < n; ++i) {
-    const Index b0 = bonds.start[i], nb = bonds.family_size(i);
-    m_weighted_volume[i] =
-        weighted_volume(std::span(bonds.xi).subspan(b0, nb), std::span(bonds.weight).subspan(b0, nb));
-  }
   const std::size_t nbonds = bonds.neighbour.size();
   m_eta.assign(nbonds, Vec2::Zero());
   m_direction.assign(nbonds, Vec2::Zero());
@@ -171,7 +166,8 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
     const FamilyOutputs out{std::span(m_t).subspan(b0, nb), std::span(m_direction).subspan(b0, nb),
                             std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
     const FamilyResult res = m_kernels[p.body[i]]->evaluate(
-        m_weighted_volume[i], std::span(bonds.xi).subspan(b0, nb), m_weight.subspan(b0, nb),
+        m_correction.weighted_volume()[i], std::span(bonds.xi).subspan(b0, nb),
+        m_correction.weights().subspan(b0, nb),
         std::span(m_eta).subspan(b0, nb), out, want_tangent);
     energy += p.volume[i] * res.energy_density;
     if (want_tangent) {
@@ -258,7 +254,7 @@ SparseMatrix QuasiStaticProblem::make_preconditioner() {
 
 void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
   if (!m_preconditioner) make_preconditioner();
-  m_preconditioner->assemble(P, m_weight, m_direction);
+  m_preconditioner->assemble(P, m_correction.weights(), m_direction);
 }
 
 void QuasiStaticProblem::add_stiffness_bound(VectorXd& row_sums) const {
@@ -286,6 +282,7 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
 #pragma omp parallel for schedule(static)
   for (Index i = 0; i < n; ++i) family_displacements(i);
   const std::vector<std::pair<Index, Index>>& broken = m_failure->break_over_criterion(m_eta, at_most);
+  update_corrected_families(broken);
   // The new faces are contact candidates at once (when the scene models contact).
   if (m_contact && !broken.empty()) m_contact->add_broken_bonds(broken, m_u);
   return static_cast<Index>(broken.size());
@@ -293,17 +290,33 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
 
 void QuasiStaticProblem::revert_irreversible_state() {
   if (!m_failure) return;
+  const std::vector<std::pair<Index, Index>> round = m_failure->last_round();
   m_failure->revert();
+  update_corrected_families(round);
   if (m_contact) {
     m_contact->drop_last_round();
     m_contact->start_trial(1.0);  // the failed re-solve's multipliers go too
   }
 }
 
+void QuasiStaticProblem::update_corrected_families(const std::vector<std::pair<Index, Index>>& pairs) {
+  // Every family that holds a bond of the round: its two particles.
+  if (pairs.empty()) return;
+  m_changed_families.clear();
+  for (const auto& [i, j] : pairs) {
+    m_changed_families.push_back(i);
+    m_changed_families.push_back(j);
+  }
+  std::sort(m_changed_families.begin(), m_changed_families.end());
+  m_changed_families.erase(std::unique(m_changed_families.begin(), m_changed_families.end()),
+                           m_changed_families.end());
+  m_correction.update(m_failure->weights(), m_changed_families);
+}
+
 std::size_t QuasiStaticProblem::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   std::size_t total =
-      bytes(m_weighted_volume) + bytes(m_eta) + bytes(m_direction) + bytes(m_s) + bytes(m_t) +
+      m_correction.memory_bytes() + bytes(m_changed_families) + bytes(m_eta) + bytes(m_direction) + bytes(m_s) + bytes(m_t) +
       bytes(m_kbond) + bytes(m_s_self) + bytes(m_beta_volume) +
       static_cast<std::size_t>(m_u.size() + m_force.size() + m_velocity.size()) * sizeof(double) +
       m_pattern.memory_bytes();

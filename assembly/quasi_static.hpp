@@ -18,6 +18,7 @@
 #include "discretisation/model.hpp"
 #include "materials/bond_failure.hpp"
 #include "materials/family_kernel.hpp"
+#include "materials/surface_correction.hpp"
 
 namespace peristat {
 
@@ -26,6 +27,7 @@ struct ProblemOptions {
   ContactOptions contact;                         ///< contact.enabled = false: no candidates, no cost
   FailureOptions failure;                         ///< failure.enabled = false: no failure checks
   BondPreconditionerOptions bond_preconditioner;  ///< used when a solver asks for a preconditioner
+  SurfaceCorrectionMethod surface_correction = SurfaceCorrectionMethod::moments;  ///< discretization.surface_correction
 };
 
 class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
@@ -87,6 +89,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   const ContactSystem* contact() const { return m_contact.get(); }
   /// The bonds' failure state, or null when the scene models no failure.
   const BondFailure* failure() const { return m_failure.get(); }
+  /// The families' influence factors (docs/theory/osb.md, section 8).
+  const SurfaceCorrection& surface_correction() const { return m_correction; }
   /// Wall time spent building the contact candidates, and evaluating the pairs (summed over
   /// every evaluate so far) [s].
   double contact_setup_seconds() const { return m_contact_setup_seconds; }
@@ -102,6 +106,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void compute_families(bool want_tangent);
   void gather_forces();
   void gather_tangent(SparseMatrix& K) const;
+  /// The surface correction of the families holding a bond of `pairs` (broken or restored).
+  void update_corrected_families(const std::vector<std::pair<Index, Index>>& pairs);
 
   const Model& m_model;
   ProblemOptions m_options;
@@ -111,8 +117,11 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   TangentPattern m_pattern;
   std::unique_ptr<BondPreconditioner> m_preconditioner;  ///< built on first request
   std::vector<std::unique_ptr<FamilyKernel>> m_kernels;  ///< per body: its material's kernel
-  std::vector<double> m_weighted_volume;                 ///< m_i (eq 4), intact bonds at the start
-  std::span<const double> m_weight;  ///< bond quadrature weights, 0 once broken (the kernel's input)
+  /// The kernel's bond weights (omega_b w_b, 0 once broken) and weighted volumes; declared
+  /// after m_failure, whose weights it starts from.
+  SurfaceCorrection m_correction;
+  /// Particles whose families changed in the last round of breaking (scratch).
+  std::vector<Index> m_changed_families;
   bool m_small_kinematics = false;   ///< every body linearised: the bond tangent is constant
   double m_contact_seconds = 0.0;
   double m_lambda = 0.0;

@@ -14,6 +14,8 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
   s.unknowns = model.constraints.n_free;
   s.prescribed = 2 * p.size() - s.unknowns;
   s.nonzeros = problem.pattern().nonzeros;
+  s.correction = problem.surface_correction().method();
+  s.correction_stats = problem.surface_correction().stats();
   s.memory_bytes =
       static_cast<double>(model.memory_bytes() + problem.memory_bytes() + problem.pattern().matrix_bytes());
   return s;
@@ -24,6 +26,15 @@ void print_size(const ModelSize& s) {
   std::printf("  bonds          %d (%d cut by pre-cracks)\n", s.bonds, s.cut_bonds);
   std::printf("  unknowns       %d (%d prescribed components)\n", s.unknowns, s.prescribed);
   std::printf("  tangent        %lld nonzeros\n", s.nonzeros);
+  if (s.correction == SurfaceCorrectionMethod::moments) {
+    const SurfaceCorrectionStats& c = s.correction_stats;
+    std::printf("  surface        moments correction: %ld cut families, influence factors %.3g .. %.3g, %ld at a "
+                "bound, %ld not matched; %.3f s\n",
+                static_cast<long>(c.corrected), c.min_influence, c.max_influence, static_cast<long>(c.clipped),
+                static_cast<long>(c.unmatched), c.seconds);
+  } else {
+    std::printf("  surface        no correction (discretization.surface_correction: none)\n");
+  }
   std::printf("  memory         %.1f MB for model, problem state and tangent (factorisation not included)\n",
               s.memory_bytes / 1e6);
 }

@@ -10,6 +10,8 @@ struct ModelSize {
   Index particles = 0, fictitious = 0, bonds = 0, cut_bonds = 0, unknowns = 0, prescribed = 0;
   long long nonzeros = 0;
   double memory_bytes = 0.0;  ///< model + problem state + one tangent (factorisation excluded)
+  SurfaceCorrectionMethod correction = SurfaceCorrectionMethod::none;
+  SurfaceCorrectionStats correction_stats;  ///< of the factors computed when the problem was built
 };
 
 ModelSize measure(const Model& model, const QuasiStaticProblem& problem);

@@ -6,7 +6,7 @@
 namespace peristat {
 
 ProblemOptions problem_options(const Scene& scene) {
-  return {scene.contact, scene.failure, scene.solver.bond_preconditioner};
+  return {scene.contact, scene.failure, scene.solver.bond_preconditioner, scene.discretization.surface_correction};
 }
 
 std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProblem& problem,

@@ -39,6 +39,20 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                        {"horizon_factor", scene.discretization.horizon_factor},
                                        {"load_steps", scene.loading.steps},
                                        {"solver", solver}};
+  {
+    const SurfaceCorrectionStats& c = s.correction_stats;
+    nlohmann::ordered_json sc = {
+        {"method", s.correction == SurfaceCorrectionMethod::moments ? "moments" : "none"}};
+    if (s.correction == SurfaceCorrectionMethod::moments) {
+      sc["corrected_families"] = c.corrected;
+      sc["at_bound"] = c.clipped;
+      sc["unmatched"] = c.unmatched;
+      sc["min_influence"] = c.min_influence;
+      sc["max_influence"] = c.max_influence;
+      sc["seconds"] = c.seconds;
+    }
+    info["surface_correction"] = sc;
+  }
   if (scene.contact.enabled) {
     const ContactOptions& c = scene.contact;
     nlohmann::ordered_json contact = {{"enforcement", to_string(c.enforcement)},

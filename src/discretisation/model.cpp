@@ -189,6 +189,24 @@ class Builder {
           if (in_box(x)) chosen.push_back(fictitious_at(bc, body, i, j));
         }
       }
+    } else if (bc.layers == 0) {
+      // The body's own outermost particles: inside, within one spacing of the edge line
+      // (edge) or of the boundary (surround).
+      const Particles& p = m_model.particles;
+      const std::size_t n = shape.vertices.size();
+      for (Index q = 0; q < p.size(); ++q) {
+        if (p.body[q] != body || p.fictitious[q]) continue;
+        const Vec2& x = p.position[q];
+        if (bc.selector == BoundaryCondition::Selector::edge) {
+          const Vec2 a = shape.vertices[bc.edge], b = shape.vertices[(bc.edge + 1) % n];
+          const Vec2 tangent = (b - a).normalized();
+          const Vec2 outward(tangent.y(), -tangent.x());
+          const double d = -outward.dot(x - a), t = tangent.dot(x - a);
+          if (d > -eps && d <= m_dx + eps && t >= -eps && t <= (b - a).norm() + eps) chosen.push_back(q);
+        } else if (distance_to_boundary(shape, x) <= m_dx + eps) {
+          chosen.push_back(q);
+        }
+      }
     } else {
       const double depth = bc.layers * m_dx;
       Box box = polygon_box(shape);

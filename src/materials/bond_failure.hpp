@@ -24,6 +24,8 @@ class BondFailure {
   /// `fraction` of those (at least one), at most `at_most` when at_most > 0. Pairs between
   /// two fictitious particles never break. Returns the pairs broken (i, j), each once.
   const std::vector<std::pair<Index, Index>>& break_over_criterion(std::span<const Vec2> eta, Index at_most);
+  /// The pairs of the last round (broken, or restored by revert()).
+  const std::vector<std::pair<Index, Index>>& last_round() const { return m_round; }
   /// The last round is kept for good.
   void commit();
   /// Restores the bonds of the last round (only the last round can be undone).

@@ -67,14 +67,21 @@ Quadrature read_quadrature(const Field& field) {
   return Quadrature::isotropic;
 }
 
+SurfaceCorrectionMethod read_surface_correction(const Field& field) {
+  const std::string q = schema::choice(field, {"none", "moments"});
+  if (q == "moments") return SurfaceCorrectionMethod::moments;
+  return SurfaceCorrectionMethod::none;
+}
+
 Discretization read_discretization(const Field& field) {
-  const Map m =
-      checked_map(field, {"spacing", "horizon_factor", "fictitious_layers", "quadrature", "origin"});
+  const Map m = checked_map(
+      field, {"spacing", "horizon_factor", "fictitious_layers", "quadrature", "surface_correction", "origin"});
   Discretization d;
   d.spacing = schema::positive(m.require("spacing", "spacing, the lattice spacing dx [m], a number > 0"));
   if (auto f = m.find("horizon_factor")) d.horizon_factor = schema::at_least(*f, 1.0);
-  if (auto f = m.find("fictitious_layers")) d.fictitious_layers = schema::int_at_least(*f, 1);
+  if (auto f = m.find("fictitious_layers")) d.fictitious_layers = schema::int_at_least(*f, 0);
   if (auto f = m.find("quadrature")) d.quadrature = read_quadrature(*f);
+  if (auto f = m.find("surface_correction")) d.surface_correction = read_surface_correction(*f);
   if (auto f = m.find("origin")) d.origin = schema::point(*f);
   d.where = field.where();
   return d;
@@ -231,7 +238,7 @@ void read_selector(const Map& m, const ParsedBody& body, int default_layers, Bou
   if (count != 1)
     m.self().fail("expected exactly one of edge, surround, region, block, found " + std::to_string(count));
   const auto layers = m.find("layers");
-  bc.layers = layers ? schema::int_at_least(*layers, 1) : default_layers;
+  bc.layers = layers ? schema::int_at_least(*layers, 0) : default_layers;
   if (edge) {
     bc.selector = BoundaryCondition::Selector::edge;
     bc.edge = read_edge(*edge, body);

@@ -62,6 +62,9 @@ struct AffineValue {
 ///    line, projecting inside the edge) and the given components are prescribed on them.
 ///  - selector surround: fictitious particles everywhere outside the body within
 ///    layers*dx of its boundary (corners included); used by patch tests.
+///  - layers 0 (edge or surround): no fictitious particles; the body's own particles within
+///    one spacing inside the edge line (or the boundary) are prescribed (docs/theory/osb.md,
+///    section 7: a grip on the body's surface).
 ///  - selector region: real particles of the body inside the box [lo, hi]; no layers.
 ///  - selector block: fictitious particles of the body at the lattice points inside the box
 ///    [lo, hi] that no body holds (e.g. the paper's fixed 3 x 3 corner block); no layers.
@@ -83,12 +86,15 @@ struct BoundaryCondition {
 ///    integrates the fourth moments of the bond direction exactly (docs/theory/osb.md).
 ///  - partial: partial areas only.  - full: whole cell if its centre is inside the horizon.
 enum class Quadrature { isotropic, partial, full };
+/// discretization.surface_correction (docs/theory/osb.md, section 8).
+enum class SurfaceCorrectionMethod { none, moments };
 
 struct Discretization {
   double spacing = 0.0;         ///< dx [m], > 0, required
   double horizon_factor = 3.0;  ///< m: delta = m * dx, >= 1
   int fictitious_layers = 3;    ///< default layer count of edge conditions, >= 1
   Quadrature quadrature = Quadrature::isotropic;
+  SurfaceCorrectionMethod surface_correction = SurfaceCorrectionMethod::moments;
   Vec2 origin = Vec2::Zero();  ///< lattice points sit at origin + (i + 1/2, j + 1/2) dx
   SourceLocation where;
 };

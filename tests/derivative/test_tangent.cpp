@@ -19,8 +19,10 @@ struct Fixture {
   std::unique_ptr<QuasiStaticProblem> problem;
 };
 
-std::unique_ptr<Fixture> cracked_plate(const std::string& kinematics, const std::string& extra = "") {
+std::unique_ptr<Fixture> cracked_plate(const std::string& kinematics, const std::string& extra = "",
+                                       const std::string& correction = "") {
   test::PlateSpec spec;
+  spec.surface_correction = correction;
   spec.nx = 14;
   spec.ny = 10;
   spec.kinematics = kinematics;
@@ -105,6 +107,49 @@ TEST(Tangent, ResidualIsTheEnergyGradient) {
     const test::FiniteDifferenceCheck fd =
         test::check_jacobian(energy_along_v, VectorXd::Zero(1), 1e-6 * dx, slope);
     EXPECT_LT(fd.worst, 1e-7) << kin << fd;
+  }
+}
+
+}  // namespace
+}  // namespace peristat
+
+namespace peristat {
+namespace {
+
+// The surface correction (issue 13) changes the bond weights of the families near edges and
+// crack faces, not the form of the energy: the same finite-difference checks hold with it,
+// in both kinematics, before and after bonds break (the factors of the families that lost
+// bonds are computed again).
+TEST(Tangent, SurfaceCorrectedMatchesFiniteDifferences) {
+  for (const char* kin : {"finite", "small"}) {
+    auto f = cracked_plate(kin, "", "moments");
+    ASSERT_GT(f->problem->surface_correction().stats().corrected, 50) << kin;
+    const double dx = f->scene.discretization.spacing;
+    const VectorXd x = random_vector(f->problem->n_unknowns(), 0.05 * dx, 21u);
+    check_tangent(*f->problem, x, 1e-7 * dx);
+  }
+}
+
+TEST(Tangent, SurfaceCorrectedConsistentAfterBondsBreak) {
+  for (const char* kin : {"finite", "small"}) {
+    auto f = cracked_plate(kin, "failure: {criterion: stretch, G_c: 1.0e-3}\n", "moments");
+    const double dx = f->scene.discretization.spacing;
+    const std::vector<double> before(f->problem->surface_correction().weights().begin(),
+                                     f->problem->surface_correction().weights().end());
+    const VectorXd x0 = random_vector(f->problem->n_unknowns(), 0.05 * dx, 11u);
+    const Index broken = f->problem->advance_irreversible_state(x0, 300);
+    ASSERT_GT(broken, 50) << kin;
+    // Not vacuous: intact bonds of the families that lost bonds changed their weight.
+    const std::span<const double> after = f->problem->surface_correction().weights();
+    Index changed = 0;
+    for (std::size_t b = 0; b < before.size(); ++b) changed += after[b] != 0.0 && after[b] != before[b];
+    EXPECT_GT(changed, 100) << kin;
+    const VectorXd x = random_vector(f->problem->n_unknowns(), 0.05 * dx, 12u);
+    check_tangent(*f->problem, x, 1e-7 * dx);
+    // Undoing the round restores the factors exactly.
+    f->problem->revert_irreversible_state();
+    const std::span<const double> restored = f->problem->surface_correction().weights();
+    EXPECT_TRUE(std::equal(before.begin(), before.end(), restored.begin())) << kin;
   }
 }
 

@@ -11,7 +11,9 @@ std::string plate_yaml(const PlateSpec& s) {
     << "materials:\n  mat:\n    E: " << s.E << "\n    nu: " << s.nu << "\n    thickness: " << s.thickness
     << "\n    kinematics: " << s.kinematics << "\n"
     << "discretization:\n  spacing: " << s.dx << "\n  horizon_factor: " << s.m
-    << "\n  quadrature: " << s.quadrature << "\n"
+    << "\n  quadrature: " << s.quadrature << "\n";
+  if (!s.surface_correction.empty()) y << "  surface_correction: " << s.surface_correction << "\n";
+  y
     << "bodies:\n  plate:\n    material: mat\n    rectangle: {min: [0, 0], max: [" << s.nx * s.dx << ", "
     << s.ny * s.dx << "]}\n"
     << "loading:\n  steps: " << s.steps << "\n";
@@ -33,6 +35,17 @@ std::string tension_boundary(double strain, const PlateSpec& s) {
     << "  - {body: plate, edge: right, ux: " << strain * L
     << "}\n"
     // uy = 0 on the two real particles nearest mid-height at the left end: no rigid motion
+    << "  - {body: plate, region: {min: [0, " << 0.5 * H - s.dx << "], max: [" << s.dx << ", "
+    << 0.5 * H + s.dx << "]}, uy: 0}\n";
+  return y.str();
+}
+
+std::string surface_tension_boundary(double strain, const PlateSpec& s) {
+  std::ostringstream y;
+  y.precision(17);
+  const double L = s.nx * s.dx, H = s.ny * s.dx;
+  y << "  - {body: plate, edge: left, layers: 0, ux: 0}\n"
+    << "  - {body: plate, edge: right, layers: 0, ux: " << strain * L << "}\n"
     << "  - {body: plate, region: {min: [0, " << 0.5 * H - s.dx << "], max: [" << s.dx << ", "
     << 0.5 * H + s.dx << "]}, uy: 0}\n";
   return y.str();

@@ -14,6 +14,7 @@ struct PlateSpec {
   double m = 3.0;
   std::string kinematics = "finite";
   std::string quadrature = "isotropic";
+  std::string surface_correction;  ///< discretization.surface_correction; empty: the default
   int steps = 1;
   std::string boundary;  ///< YAML list items under `boundary:` (indented 2)
   std::string cracks;    ///< YAML list items under `cracks:` (indented 2)
@@ -29,6 +30,9 @@ Scene scene_from_yaml(const std::string& text);
 /// A uniaxial tension plate: left edge ux = 0, right edge ux = strain * length, uy = 0 on
 /// the mid-height particles of the left layers' region.
 std::string tension_boundary(double strain, const PlateSpec& spec);
+/// The same with grips on the body's own surface (`layers: 0`): ux = 0 on the leftmost
+/// column of particles, ux = strain * length on the rightmost.
+std::string surface_tension_boundary(double strain, const PlateSpec& spec);
 
 /// A 40 x 20 plate (dx = 1 mm, E = 1 GPa, m = 3) with an edge notch from the left edge to
 /// x = 15 mm at mid-height, pulled apart by `pull` [m] at the top edge (bottom uy = 0, one

@@ -430,8 +430,10 @@ TEST(SceneErrors, DiscretizationRanges) {
                "scene.yaml:8: discretization.spacing", "out of range");
   expect_error(replace(k_minimal, "  spacing: 1.0e-3", "  spacing: 1.0e-3\n  horizon_factor: 0.5"),
                "scene.yaml:9: discretization.horizon_factor", "expected horizon_factor >= 1");
-  expect_error(replace(k_minimal, "  spacing: 1.0e-3", "  spacing: 1.0e-3\n  fictitious_layers: 0"),
-               "scene.yaml:9: discretization.fictitious_layers", "expected fictitious_layers >= 1");
+  expect_error(replace(k_minimal, "  spacing: 1.0e-3", "  spacing: 1.0e-3\n  fictitious_layers: -1"),
+               "scene.yaml:9: discretization.fictitious_layers", "expected fictitious_layers >= 0");
+  expect_error(replace(k_minimal, "  spacing: 1.0e-3", "  spacing: 1.0e-3\n  surface_correction: volume"),
+               "scene.yaml:9: discretization.surface_correction", "none");
 }
 
 TEST(SceneErrors, SolverAndLoadingRanges) {
@@ -515,8 +517,8 @@ TEST(SceneErrors, BoundaryConditionShape) {
       "scene.yaml:20: boundary.1.layers", "not allowed with block");
   expect_error(replace(k_minimal, "    edge: right\n", "    block: {min: [0, 1], max: [1, 0]}\n"),
                "scene.yaml:19: boundary.1.block", "degenerate block");
-  expect_error(replace(k_minimal, "    edge: left\n", "    edge: left\n    layers: 0\n"),
-               "scene.yaml:16: boundary.0.layers", "expected layers >= 1");
+  expect_error(replace(k_minimal, "    edge: left\n", "    edge: left\n    layers: -1\n"),
+               "scene.yaml:16: boundary.0.layers", "expected layers >= 0");
 }
 
 TEST(SceneErrors, CrackOutsideEveryBody) {

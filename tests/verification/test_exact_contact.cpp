@@ -89,11 +89,15 @@ double mean_u(const test::Solved& s, int b, int component, const Vec2& lo, const
 // and the interface rotating by ~5e-4). Both effects vanish at mid-height for the stress
 // (point symmetry about the plates' common centre), not for the slide.
 //   sigma_x at mid-height (strain fitted over the interior, 10 dx from every edge, between
-//   y = 27 and 33 mm): within 1% of -750 MPa (measured -745.3 MPa, 0.6%).
-//   slide over the middle 80% of the interface: within 2.5% of 0.65 mm in every band, and
-//   the mean within 1% of 0.6427 mm, the continuum's value extrapolated from exact runs at
-//   dx = 0.8, 0.4 and 0.2 mm (means 0.6383, 0.6411, 0.6421 mm; Richardson with the observed
-//   order 1.5): the bending above lowers the slide by 1.1% (docs/cases.md).
+//   y = 27 and 33 mm): within 1% of -750 MPa (measured -750.6 MPa with the surface
+//   correction; -745.3 MPa without).
+//   slide over the middle 80% of the interface: within 3% of 0.65 mm in every band (the
+//   bending above; measured 2.7%, 2.2% without the correction), and the mean within 1% of
+//   0.643 mm, the continuum's value extrapolated from exact runs at dx = 0.8, 0.4 and 0.2 mm:
+//   with the surface correction means 0.6349, 0.6387, 0.6408 mm (Richardson, observed order
+//   0.9: 0.6433 mm); without it 0.6383, 0.6411, 0.6421 mm (order 1.5: 0.6427 mm). The two
+//   models agree on the limit to 0.1%; the bending above lowers the slide by 1.1%
+//   (docs/cases.md). Measured 0.6387 mm (-0.7%).
 //   closure of every facing pair within the tolerance (1e-3), no crossed pair.
 TEST(ExactContact, SlidingPlatesMatchTheContinuumAtPaperResolution) {
   auto s = test::solve_case("paper_4_1_sliding_plates", {"contact.friction=0", "contact.enforcement=exact"});
@@ -118,8 +122,8 @@ TEST(ExactContact, SlidingPlatesMatchTheContinuumAtPaperResolution) {
       s->seconds);
   EXPECT_NEAR(E * eps_left / -750e6, 1.0, 0.01);
   EXPECT_NEAR(E * eps_right / -750e6, 1.0, 0.01);
-  EXPECT_LT(worst, 0.025);
-  EXPECT_NEAR(mean / 0.6427e-3, 1.0, 0.01);
+  EXPECT_LT(worst, 0.03);
+  EXPECT_NEAR(mean / 0.643e-3, 1.0, 0.01);
   EXPECT_LT(f.max_closure, 1e-3 * (1 + 1e-9));
   EXPECT_EQ(f.crossed, 0);
   // After its 1.6 dx slide, every particle of the left face that still faces the right

@@ -37,20 +37,31 @@ TEST(Failure, FirstBondsBreakAtTheNotchTip) {
   const Vec2 tip(0.015, 0.01);
   const double delta = 3e-3;
   int damaged = 0;
-  double far = 0.0;
+  double far = 0.0, off_line = 0.0, behind = 0.0, ahead = 0.0;
   for (Index i = 0; i < d.size(); ++i) {
     if (d[i] <= 0.0) continue;
     ++damaged;
     far = std::max(far, (s->model.particles.position[i] - tip).norm());
+    const Vec2& X = s->model.particles.position[i];
+    off_line = std::max(off_line, std::abs(X.y() - tip.y()));
+    behind = std::max(behind, tip.x() - X.x());
+    ahead = std::max(ahead, X.x() - tip.x());
   }
   std::printf(
       "notch, pull 2.5e-5 m: %ld bonds broken in %d re-solves; %d damaged particles, farthest %.2f delta "
-      "from the tip\n",
-      static_cast<long>(s->problem->failure()->broken()), s->steps.at(0).resolves, damaged, far / delta);
+      "from the tip, %.2f delta off the notch line, %.2f delta behind and %.2f delta ahead of the tip\n",
+      static_cast<long>(s->problem->failure()->broken()), s->steps.at(0).resolves, damaged, far / delta,
+      off_line / delta, behind / delta, ahead / delta);
   EXPECT_GT(s->problem->failure()->broken(), 0);
   EXPECT_GE(s->steps.at(0).resolves, 1);
-  // Every damaged particle is an end of a broken bond: within two horizons of the tip.
-  EXPECT_LT(far, 2.0 * delta);
+  // The crack starts at the tip and runs along the notch line: every damaged particle (an
+  // end of a broken bond) lies within one horizon of the line and no more than one horizon
+  // behind the tip. How far it runs at this load depends on the model (uncorrected: 1.2
+  // delta; with the surface correction, whose crack faces are as stiff as the bulk, 2.5
+  // delta ahead): asserted below 4 delta, well inside the 40 mm plate.
+  EXPECT_LE(off_line, delta);
+  EXPECT_LE(behind, delta);
+  EXPECT_LT(ahead, 4.0 * delta);
 }
 
 TEST(Failure, NewtonAndAdrBreakTheSameBonds) {

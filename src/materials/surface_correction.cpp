@@ -1,0 +1,173 @@
+#include "materials/surface_correction.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Dense>
+
+#include "core/clock.hpp"
+#include "materials/family_kernel.hpp"
+
+namespace peristat {
+
+namespace {
+using Vec5 = Eigen::Matrix<double, 5, 1>;
+using Mat5 = Eigen::Matrix<double, 5, 5>;
+
+Vec5 as_vec(const std::array<double, 5>& a) { return Vec5(a.data()); }
+
+/// Relative mismatch of the family's fourth moment that still counts as matched.
+constexpr double kMomentTolerance = 1e-6;
+/// Passes of the bounded least-change solve (each fixes at least one more factor).
+constexpr int kMaxBoundPasses = 30;
+}  // namespace
+
+std::array<double, 5> quartic_monomials(const Vec2& n) {
+  const double c = n.x(), s = n.y();
+  return {c * c * c * c, c * c * c * s, c * c * s * s, c * s * s * s, s * s * s * s};
+}
+
+SurfaceCorrection::SurfaceCorrection(const Model& model, SurfaceCorrectionMethod method)
+    : m_model(model), m_method(method) {
+  const Stencil& st = model.stencil;
+  Vec5 q0 = Vec5::Zero();
+  for (std::size_t k = 0; k < st.offset.size(); ++k) {
+    const Vec2 xi(st.offset[k][0] * model.spacing, st.offset[k][1] * model.spacing);
+    const double a = st.weight[k] * xi.squaredNorm();
+    m_m0 += a;
+    q0 += a * as_vec(quartic_monomials(xi.normalized()));
+  }
+  for (int c = 0; c < 5; ++c) m_q0[c] = q0[c];
+  m_weight = model.bonds.weight;
+  const Index n = model.particles.size();
+  m_volume.assign(n, 0.0);
+  // The weighted volume each family was built with: `none` keeps it when bonds break.
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < n; ++i) {
+    const Index b0 = model.bonds.start[i], nb = model.bonds.family_size(i);
+    m_volume[i] = peristat::weighted_volume(std::span(model.bonds.xi).subspan(b0, nb),
+                                  std::span(model.bonds.weight).subspan(b0, nb));
+  }
+  if (method != SurfaceCorrectionMethod::none) update_all(model.bonds.weight);
+}
+
+void SurfaceCorrection::update_all(std::span<const double> intact) {
+  const Index n = m_model.particles.size();
+  std::vector<Index> all(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) all[i] = i;
+  update(intact, all);
+}
+
+void SurfaceCorrection::update(std::span<const double> intact, std::span<const Index> particles) {
+  const double t0 = wall_seconds();
+  SurfaceCorrectionStats total;
+  const Index count = static_cast<Index>(particles.size());
+#pragma omp parallel
+  {
+    SurfaceCorrectionStats local;
+#pragma omp for schedule(dynamic, 64)
+    for (Index k = 0; k < count; ++k) compute_family(particles[k], intact, local);
+#pragma omp critical
+    {
+      total.families += local.families;
+      total.corrected += local.corrected;
+      total.clipped += local.clipped;
+      total.unmatched += local.unmatched;
+      total.min_influence = std::min(total.min_influence, local.min_influence);
+      total.max_influence = std::max(total.max_influence, local.max_influence);
+    }
+  }
+  total.seconds = wall_seconds() - t0;
+  m_stats = total;
+}
+
+void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, SurfaceCorrectionStats& stats) {
+  const Bonds& bonds = m_model.bonds;
+  const Index b0 = bonds.start[i], b1 = bonds.start[i + 1];
+  ++stats.families;
+  if (m_method == SurfaceCorrectionMethod::none) {
+    for (Index b = b0; b < b1; ++b) m_weight[b] = intact[b];
+    return;
+  }
+  // An interior family with every bond intact keeps omega = 1 exactly.
+  bool complete = static_cast<std::size_t>(b1 - b0) == m_model.stencil.offset.size();
+  double m = 0.0;
+  for (Index b = b0; b < b1; ++b) {
+    complete = complete && intact[b] == bonds.weight[b];
+    m += intact[b] * bonds.xi[b].squaredNorm();
+  }
+  if (complete || m <= 0.0) {
+    for (Index b = b0; b < b1; ++b) m_weight[b] = intact[b];
+    m_volume[i] = m;
+    return;
+  }
+  ++stats.corrected;
+  auto record = [&](double omega) {
+    stats.min_influence = std::min(stats.min_influence, omega);
+    stats.max_influence = std::max(stats.max_influence, omega);
+  };
+
+  // moments: least change of omega (in sum a (omega - 1)^2, a = w x^2) subject to
+  // sum a omega q = q0, with the factors that leave [kMinInfluence, kMaxInfluence] fixed at
+  // the bound and the rest solved again.
+  const Vec5 q0 = as_vec(m_q0);
+  constexpr double kFree = -1.0;
+  // fixed[b - b0]: the bound a factor is held at, or kFree. Families hold a few dozen bonds.
+  thread_local std::vector<double> fixed;
+  fixed.assign(static_cast<std::size_t>(b1 - b0), kFree);
+  bool clipped = false;
+  Vec5 lambda = Vec5::Zero();
+  for (int pass = 0; pass < kMaxBoundPasses; ++pass) {
+    Mat5 G = Mat5::Zero();
+    Vec5 r = q0;
+    for (Index b = b0; b < b1; ++b) {
+      const double a = intact[b] * bonds.xi[b].squaredNorm();
+      if (a == 0.0) continue;
+      const Vec5 q = as_vec(quartic_monomials(bonds.xi[b].normalized()));
+      const double f = fixed[b - b0];
+      if (f != kFree) {
+        r -= a * f * q;
+      } else {
+        r -= a * q;
+        G.noalias() += a * q * q.transpose();
+      }
+    }
+    // Minimum-norm solution: a family with fewer than five bond directions has a singular G.
+    lambda = G.completeOrthogonalDecomposition().solve(r);
+    bool changed = false;
+    for (Index b = b0; b < b1; ++b) {
+      if (fixed[b - b0] != kFree || intact[b] == 0.0) continue;
+      const double omega = 1.0 + as_vec(quartic_monomials(bonds.xi[b].normalized())).dot(lambda);
+      if (omega < kMinInfluence || omega > kMaxInfluence) {
+        fixed[b - b0] = omega < kMinInfluence ? kMinInfluence : kMaxInfluence;
+        changed = clipped = true;
+      }
+    }
+    if (!changed) break;
+  }
+  stats.clipped += clipped;
+  Vec5 moment = Vec5::Zero();
+  double volume = 0.0;
+  for (Index b = b0; b < b1; ++b) {
+    if (intact[b] == 0.0) {
+      m_weight[b] = 0.0;
+      continue;
+    }
+    const Vec5 q = as_vec(quartic_monomials(bonds.xi[b].normalized()));
+    const double f = fixed[b - b0];
+    const double omega = std::clamp(f != kFree ? f : 1.0 + q.dot(lambda), kMinInfluence, kMaxInfluence);
+    record(omega);
+    m_weight[b] = omega * intact[b];
+    const double a = m_weight[b] * bonds.xi[b].squaredNorm();
+    volume += a;
+    moment += a * q;
+  }
+  if ((moment - q0).norm() > kMomentTolerance * q0.norm()) ++stats.unmatched;
+  m_volume[i] = volume;
+}
+
+std::size_t SurfaceCorrection::memory_bytes() const {
+  return (m_weight.capacity() + m_volume.capacity()) * sizeof(double);
+}
+
+}  // namespace peristat
