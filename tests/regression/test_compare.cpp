@@ -137,7 +137,7 @@ TEST_F(CompareCli, DifferentSpacingIsBadInput) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_TRUE(r.out.empty()) << r.out;
   EXPECT_TRUE(contains(r.err, plain() + " and " + coarser() + " do not hold the same particles")) << r.err;
-  EXPECT_TRUE(contains(r.err, plain() + " has 520 particles, " + coarser() + " has 775")) << r.err;
+  EXPECT_TRUE(contains(r.err, plain() + " has 400 particles, " + coarser() + " has 625")) << r.err;
 }
 
 TEST_F(CompareCli, MissingOrForeignFileIsBadInput) {
