@@ -6,7 +6,7 @@
 namespace peristat {
 
 BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
-                                       const ContactSystem* contact)
+                                       const ContactSystem* contact, std::span<const double> weight)
     : m_model(model),
       m_contact(contact),
       m_radius(options.bond_radius * model.spacing),
@@ -19,7 +19,7 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
   for (Index i = 0; i < n; ++i) {
     double m = 0.0;
     for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
-      if (bonds.xi[b].squaredNorm() <= r2) m += bonds.weight[b] * bonds.xi[b].squaredNorm();
+      if (bonds.xi[b].squaredNorm() <= r2) m += weight[b] * bonds.xi[b].squaredNorm();
     m_alpha_volume[i] =
         m > 0.0 ? 8.0 * shear_modulus(model.bodies[part.body[i]].material) / m * part.volume[i] : 0.0;
   }

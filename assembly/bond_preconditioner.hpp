@@ -18,9 +18,11 @@ namespace peristat {
 class BondPreconditioner {
  public:
   /// `contact`: its candidate pairs join the pattern and their blocks the values (null
-  /// without contact); it must outlive the preconditioner.
-  BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
-                     const ContactSystem* contact);
+  /// without contact); it must outlive the preconditioner. `weight`: the bond weights its
+  /// alpha' is measured with (the kernel's, so surface-corrected families are not counted
+  /// twice: a family's missing bonds raise its factors, not also its alpha').
+  BondPreconditioner(const Model& model, const BondPreconditionerOptions& options, const ContactSystem* contact,
+                     std::span<const double> weight);
 
   /// A matrix with the preconditioner's pattern and zero values.
   SparseMatrix make_matrix() const { return m_pattern.make_matrix(m_model.constraints); }

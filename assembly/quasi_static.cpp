@@ -248,7 +248,10 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
 SparseMatrix QuasiStaticProblem::make_preconditioner() {
   if (!m_preconditioner)
     m_preconditioner =
-        std::make_unique<BondPreconditioner>(m_model, m_options.bond_preconditioner, m_contact.get());
+        std::make_unique<BondPreconditioner>(
+            m_model, m_options.bond_preconditioner, m_contact.get(),
+            m_correction.method() == SurfaceCorrectionMethod::none ? std::span<const double>(m_model.bonds.weight)
+                                                                   : m_correction.weights());
   return m_preconditioner->make_matrix();
 }
 
