@@ -81,7 +81,9 @@ TEST(SurfaceCorrection, InteriorFamiliesAreUntouched) {
     const bool complete = static_cast<std::size_t>(bonds.family_size(i)) == model.stencil.offset.size();
     for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
       const double omega = sc.weights()[b] / bonds.weight[b];
-      if (complete) EXPECT_EQ(omega, 1.0);
+      if (complete) {
+        EXPECT_EQ(omega, 1.0);
+      }
       EXPECT_GE(omega, kMinInfluence - 1e-12);
       EXPECT_LE(omega, kMaxInfluence + 1e-12);
     }
