@@ -51,7 +51,7 @@ TEST(SurfaceCorrection, CutFamiliesHaveTheInteriorEnergy) {
     return Index{-1};
   }();
   ASSERT_GE(interior, 0);
-  for (const Mat2 eps : {Mat2{{1e-3, 0.0}, {0.0, -3e-4}}, Mat2{{0.0, 5e-4}, {5e-4, 0.0}},
+  for (const Mat2& eps : {Mat2{{1e-3, 0.0}, {0.0, -3e-4}}, Mat2{{0.0, 5e-4}, {5e-4, 0.0}},
                          Mat2{{2e-4, 1e-4}, {1e-4, 7e-4}}}) {
     const double w0 = family_energy(model, sc, interior, eps);
     double worst = 0.0, worst_none = 0.0;
