@@ -285,7 +285,8 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
 #pragma omp parallel for schedule(static)
   for (Index i = 0; i < n; ++i) family_displacements(i);
   const std::vector<std::pair<Index, Index>>& broken = m_failure->break_over_criterion(m_eta, at_most);
-  update_corrected_families(broken);
+  collect_changed_families(broken);
+  if (!m_changed_families.empty()) m_correction.update(m_failure->weights(), m_changed_families);
   // The new faces are contact candidates at once (when the scene models contact).
   if (m_contact && !broken.empty()) m_contact->add_broken_bonds(broken, m_u);
   return static_cast<Index>(broken.size());
@@ -293,18 +294,16 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
 
 void QuasiStaticProblem::revert_irreversible_state() {
   if (!m_failure) return;
-  const std::vector<std::pair<Index, Index>> round = m_failure->last_round();
+  collect_changed_families(m_failure->last_round());
   m_failure->revert();
-  update_corrected_families(round);
+  if (!m_changed_families.empty()) m_correction.update(m_failure->weights(), m_changed_families);
   if (m_contact) {
     m_contact->drop_last_round();
     m_contact->start_trial(1.0);  // the failed re-solve's multipliers go too
   }
 }
 
-void QuasiStaticProblem::update_corrected_families(const std::vector<std::pair<Index, Index>>& pairs) {
-  // Every family that holds a bond of the round: its two particles.
-  if (pairs.empty()) return;
+void QuasiStaticProblem::collect_changed_families(const std::vector<std::pair<Index, Index>>& pairs) {
   m_changed_families.clear();
   for (const auto& [i, j] : pairs) {
     m_changed_families.push_back(i);
@@ -313,7 +312,6 @@ void QuasiStaticProblem::update_corrected_families(const std::vector<std::pair<I
   std::sort(m_changed_families.begin(), m_changed_families.end());
   m_changed_families.erase(std::unique(m_changed_families.begin(), m_changed_families.end()),
                            m_changed_families.end());
-  m_correction.update(m_failure->weights(), m_changed_families);
 }
 
 std::size_t QuasiStaticProblem::memory_bytes() const {

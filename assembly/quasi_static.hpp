@@ -106,8 +106,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void compute_families(bool want_tangent);
   void gather_forces();
   void gather_tangent(SparseMatrix& K) const;
-  /// The surface correction of the families holding a bond of `pairs` (broken or restored).
-  void update_corrected_families(const std::vector<std::pair<Index, Index>>& pairs);
+  /// The particles holding a bond of `pairs` (their families change), into m_changed_families.
+  void collect_changed_families(const std::vector<std::pair<Index, Index>>& pairs);
 
   const Model& m_model;
   ProblemOptions m_options;
@@ -117,8 +117,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   TangentPattern m_pattern;
   std::unique_ptr<BondPreconditioner> m_preconditioner;  ///< built on first request
   std::vector<std::unique_ptr<FamilyKernel>> m_kernels;  ///< per body: its material's kernel
-  /// The kernel's bond weights (omega_b w_b, 0 once broken) and weighted volumes; declared
-  /// after m_failure, whose weights it starts from.
+  /// The kernel's bond weights (omega_b w_b, 0 once broken) and weighted volumes.
   SurfaceCorrection m_correction;
   /// Particles whose families changed in the last round of breaking (scratch).
   std::vector<Index> m_changed_families;

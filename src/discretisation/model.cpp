@@ -189,27 +189,8 @@ class Builder {
           if (in_box(x)) chosen.push_back(fictitious_at(bc, body, i, j));
         }
       }
-    } else if (bc.layers == 0) {
-      // The body's own outermost particles: inside, within one spacing of the edge line
-      // (edge) or of the boundary (surround).
-      const Particles& p = m_model.particles;
-      const std::size_t n = shape.vertices.size();
-      for (Index q = 0; q < p.size(); ++q) {
-        if (p.body[q] != body || p.fictitious[q]) continue;
-        const Vec2& x = p.position[q];
-        if (bc.selector == BoundaryCondition::Selector::edge) {
-          const Vec2 a = shape.vertices[bc.edge], b = shape.vertices[(bc.edge + 1) % n];
-          const Vec2 tangent = (b - a).normalized();
-          const Vec2 outward(tangent.y(), -tangent.x());
-          const double d = -outward.dot(x - a), t = tangent.dot(x - a);
-          if (d > -eps && d <= m_dx + eps && t >= -eps && t <= (b - a).norm() + eps) chosen.push_back(q);
-        } else if (distance_to_boundary(shape, x) <= m_dx + eps) {
-          chosen.push_back(q);
-        }
-      }
     } else {
-      const double depth = bc.layers * m_dx;
-      Box box = polygon_box(shape);
+      // edge and surround: the edge's frame (counter-clockwise polygon, outward normal).
       const std::size_t n = shape.vertices.size();
       Vec2 a = Vec2::Zero(), b = Vec2::Zero();
       if (bc.selector == BoundaryCondition::Selector::edge) {
@@ -217,23 +198,46 @@ class Builder {
         b = shape.vertices[(bc.edge + 1) % n];
       }
       const Vec2 tangent = (b - a).normalized();
-      const Vec2 outward(tangent.y(), -tangent.x());  // counter-clockwise polygon
+      const Vec2 outward(tangent.y(), -tangent.x());
       const double length = (b - a).norm();
-      for (int i = lattice_floor(box.lo.x() - depth, 0) - 1; i <= lattice_floor(box.hi.x() + depth, 0) + 1;
-           ++i) {
-        for (int j = lattice_floor(box.lo.y() - depth, 1) - 1; j <= lattice_floor(box.hi.y() + depth, 1) + 1;
-             ++j) {
-          const Vec2 x = lattice_point(i, j);
-          if (inside_polygon(shape, x)) continue;
+      const auto along_edge = [&](const Vec2& x) {
+        const double t = tangent.dot(x - a);
+        return t >= -eps && t <= length + eps;
+      };
+      if (bc.layers == 0) {
+        // The body's own outermost particles: inside, within one spacing of the edge line
+        // (edge) or of the boundary (surround).
+        const Particles& p = m_model.particles;
+        for (Index q = 0; q < p.size(); ++q) {
+          if (p.body[q] != body || p.fictitious[q]) continue;
+          const Vec2& x = p.position[q];
           bool take = false;
           if (bc.selector == BoundaryCondition::Selector::edge) {
-            const double d = outward.dot(x - a);
-            const double t = tangent.dot(x - a);
-            take = d > 0.0 && d <= depth + eps && t >= -eps && t <= length + eps;
+            const double d = -outward.dot(x - a);
+            take = d > -eps && d <= m_dx + eps && along_edge(x);
           } else {
-            take = distance_to_boundary(shape, x) <= depth + eps;
+            take = distance_to_boundary(shape, x) <= m_dx + eps;
           }
-          if (take) chosen.push_back(fictitious_at(bc, body, i, j));
+          if (take) chosen.push_back(q);
+        }
+      } else {
+        const double depth = bc.layers * m_dx;
+        const Box box = polygon_box(shape);
+        for (int i = lattice_floor(box.lo.x() - depth, 0) - 1; i <= lattice_floor(box.hi.x() + depth, 0) + 1;
+             ++i) {
+          for (int j = lattice_floor(box.lo.y() - depth, 1) - 1;
+               j <= lattice_floor(box.hi.y() + depth, 1) + 1; ++j) {
+            const Vec2 x = lattice_point(i, j);
+            if (inside_polygon(shape, x)) continue;
+            bool take = false;
+            if (bc.selector == BoundaryCondition::Selector::edge) {
+              const double d = outward.dot(x - a);
+              take = d > 0.0 && d <= depth + eps && along_edge(x);
+            } else {
+              take = distance_to_boundary(shape, x) <= depth + eps;
+            }
+            if (take) chosen.push_back(fictitious_at(bc, body, i, j));
+          }
         }
       }
     }

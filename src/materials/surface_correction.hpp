@@ -26,10 +26,11 @@ namespace peristat {
 inline constexpr double kMinInfluence = 0.2;
 inline constexpr double kMaxInfluence = 5.0;
 
-/// What one computation of the factors found (for the run summary and the tests).
+/// What one computation of the factors found (for the run summary and the tests): the
+/// construction's, or the last update's after bonds broke.
 struct SurfaceCorrectionStats {
   Index families = 0;          ///< families computed
-  Index corrected = 0;         ///< families whose factors are not all 1
+  Index corrected = 0;         ///< families cut (not every stencil bond intact): factors computed
   Index clipped = 0;           ///< families with a factor at a bound
   Index unmatched = 0;         ///< families whose fourth moment could not be matched to 1e-6
   double min_influence = 1.0;  ///< smallest and largest factor over the families computed
@@ -53,7 +54,7 @@ class SurfaceCorrection {
   /// The kernel's inputs: per bond omega_b w_b (0 when broken), per particle m.
   std::span<const double> weights() const { return m_weight; }
   std::span<const double> weighted_volume() const { return m_volume; }
-  /// The interior weighted volume m0 and its fourth moment (xxxx, xxxy, xxyy, xyyy, yyyy).
+  /// The interior weighted volume m0.
   double interior_volume() const { return m_m0; }
   const SurfaceCorrectionStats& stats() const { return m_stats; }
   std::size_t memory_bytes() const;
@@ -64,7 +65,7 @@ class SurfaceCorrection {
   const Model& m_model;
   SurfaceCorrectionMethod m_method;
   double m_m0 = 0.0;
-  std::array<double, 5> m_q0{};  ///< interior sum w x^2 q(n)
+  std::array<double, 5> m_q0{};  ///< interior fourth moment sum w x^2 q(n) (xxxx, xxxy, xxyy, xyyy, yyyy)
   std::vector<double> m_weight;  ///< per bond
   std::vector<double> m_volume;  ///< per particle
   SurfaceCorrectionStats m_stats;
