@@ -9,6 +9,8 @@
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "support/scenes.hpp"
 #include "support/solve.hpp"
@@ -109,9 +111,17 @@ TEST(SurfaceUncorrected, LayerGripsDistortTheField) {
 }
 
 // Which part is the grips' and which the edges': every combination at nu = 0.3, dx = 1 mm.
-TEST(SurfaceCorrectionExplore, GripsAgainstEdges) {
-  for (const std::string c : {"none", "moments"})
-    for (const std::string g : {"layers", "surface"}) measure_plate(0.3, 1e-3, c, g);
+// Measured nu errors: layers/none -3.74%, layers/moments -3.30%, surface/none -0.61%,
+// surface/moments -0.26%. Asserted: that order, each step at least 0.2 points better, so the
+// grips carry most of the distortion and the correction helps with either grip.
+TEST(SurfaceGrips, CauseMostOfTheDistortion) {
+  std::vector<double> error;
+  for (const auto& [c, g] : {std::pair{"none", "layers"}, std::pair{"moments", "layers"}, std::pair{"none", "surface"},
+                             std::pair{"moments", "surface"}})
+    error.push_back(std::abs(measure_plate(0.3, 1e-3, c, g).nu_two / 0.3 - 1.0));
+  for (std::size_t k = 1; k < error.size(); ++k) EXPECT_LT(error[k], error[k - 1] - 2e-3) << k;
+  // The grips' share is larger than the correction's.
+  EXPECT_GT(error[0] - error[2], 5.0 * (error[0] - error[1]));
 }
 
 }  // namespace
