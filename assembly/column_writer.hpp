@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstdlib>
 #include <vector>
 
@@ -31,6 +32,7 @@ class ColumnWriter {
   /// False when p has no free component (nothing to write).
   bool begin(Index p) {
     m_p = p;
+    m_sign[0] = m_sign[1] = 1.0;
     m_col[0] = m_cons.free_index[2 * p];
     m_col[1] = m_cons.free_index[2 * p + 1];
     if (m_col[0] < 0 && m_col[1] < 0) return false;
@@ -42,16 +44,24 @@ class ColumnWriter {
   void end() {
     for (Index k = m_pat.col_start[m_p]; k < m_pat.col_start[m_p + 1]; ++k) slot(m_pat.row_particle[k]) = -1;
   }
-  /// Adds the block a (row component, column component) at (q, p).
+  /// From here to end(), blocks are the derivatives with respect to a mirror ghost of p
+  /// (u_c(ghost) = sign[c] u_c(p) + const): column component c is scaled by sign[c].
+  void fold_image(const std::array<double, 2>& sign) {
+    m_sign[0] = sign[0];
+    m_sign[1] = sign[1];
+  }
+  /// Adds the block a (row component, column component) at (q, p). Rows without a free
+  /// component are dropped.
   void add(Index q, double a00, double a01, double a10, double a11) {
-    const Index base = m_pat.row_offset[slot(q)];
     const bool xr = m_cons.free_index[2 * q] >= 0, yr = m_cons.free_index[2 * q + 1] >= 0;
+    if (!xr && !yr) return;
+    const Index base = m_pat.row_offset[slot(q)];
     const double a[2][2] = {{a00, a01}, {a10, a11}};
     for (int cp = 0; cp < 2; ++cp) {
       if (m_col[cp] < 0) continue;
       double* v = m_values + m_outer[m_col[cp]] + base;
-      if (xr) v[0] += a[0][cp];
-      if (yr) v[xr ? 1 : 0] += a[1][cp];
+      if (xr) v[0] += m_sign[cp] * a[0][cp];
+      if (yr) v[xr ? 1 : 0] += m_sign[cp] * a[1][cp];
     }
   }
   /// Whether the pattern holds the block (q, p) of the current column p.
@@ -91,6 +101,7 @@ class ColumnWriter {
   std::vector<Index> m_slot;
   Index m_p = 0;
   Index m_col[2] = {-1, -1};
+  double m_sign[2] = {1.0, 1.0};
 };
 
 }  // namespace peristat

@@ -29,16 +29,30 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
           r.push_back(q);
         }
       };
+      // The particles reached from c: its bonds (within the radius) and, for two horizons,
+      // their families; `take` filters them.
+      const auto reach_from = [&](Index c, auto take) {
+        for (Index b = bonds.start[c]; b < bonds.start[c + 1]; ++b) {
+          const Index i = bonds.neighbour[b];
+          if (reach_kind == PatternReach::bonds_within && bonds.xi[b].squaredNorm() > radius2) continue;
+          take(i);
+          if (reach_kind != PatternReach::two_horizons) continue;
+          for (Index k = bonds.start[i]; k < bonds.start[i + 1]; ++k) take(bonds.neighbour[k]);
+        }
+      };
       add(p);
-      for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
-        const Index i = bonds.neighbour[b];
-        if (reach_kind == PatternReach::bonds_within && bonds.xi[b].squaredNorm() > radius2) continue;
-        add(i);
-        if (reach_kind != PatternReach::two_horizons) continue;
-        for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c) add(bonds.neighbour[c]);
-      }
+      reach_from(p, add);
       if (contact)
         for (auto e = contact->incident_begin(p); e != contact->incident_end(p); ++e) add(e->other);
+      // Mirror ghosts of p: their columns are folded into p's (docs/theory/osb.md, section 7),
+      // so p's rows also hold the free rows of each ghost's column.
+      if (cons.has_images()) {
+        const auto add_free = [&](Index q) {
+          if (cons.free_index[2 * q] >= 0 || cons.free_index[2 * q + 1] >= 0) add(q);
+        };
+        for (Index k = cons.image_start[p]; k < cons.image_start[p + 1]; ++k)
+          reach_from(cons.images[k].ghost, add_free);
+      }
       std::sort(r.begin(), r.end());
       for (Index q : r) seen[q] = 0;
     }

@@ -208,13 +208,13 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
   //                        (j,p) += bV_i s_c s_r^T for every bond c = i -> j.
   const Bonds& bonds = m_model.bonds;
   const Particles& part = m_model.particles;
+  const Constraints& cons = m_model.constraints;
   const Index n = part.size();
 #pragma omp parallel
   {
     ColumnWriter col(m_model, m_pattern, K);
-#pragma omp for schedule(static)
-    for (Index p = 0; p < n; ++p) {
-      if (!col.begin(p)) continue;
+    // The blocks (q, p) of column particle p, written into the current column.
+    const auto column = [&](Index p) {
       // Family of p.
       const double Vp = part.volume[p], bVp = m_beta_volume[p];
       const Vec2& sp = m_s_self[p];
@@ -236,6 +236,18 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
         for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c)
           col.add_outer(bonds.neighbour[c], bVi, m_s[c], sr);
       }
+    };
+#pragma omp for schedule(static)
+    for (Index p = 0; p < n; ++p) {
+      if (!col.begin(p)) continue;
+      column(p);
+      // Mirror ghosts of p depend on u_p: their columns fold into p's (chain rule).
+      if (cons.has_images())
+        for (Index k = cons.image_start[p]; k < cons.image_start[p + 1]; ++k) {
+          col.fold_image(cons.images[k].sign);
+          column(cons.images[k].ghost);
+          col.fold_image({1.0, 1.0});
+        }
       // Contact pairs of p: d r_p / d u_p = J, d r_other / d u_p = -J.
       if (m_contact)
         for (auto e = m_contact->incident_begin(p); e != m_contact->incident_end(p); ++e)

@@ -73,7 +73,7 @@ class Builder {
       box.add(bc.hi);
     }
     int max_layers = scene.discretization.fictitious_layers;
-    for (const BoundaryCondition& bc : scene.boundary) max_layers = std::max(max_layers, bc.layers);
+    for (const BoundaryCondition& bc : scene.boundary) max_layers = std::max(max_layers, layers_of(bc));
     const int pad = max_layers + 2;
     m_model.lattice_index =
         LatticeIndex(lattice_floor(box.lo.x(), 0) - pad, lattice_floor(box.lo.y(), 1) - pad,
@@ -91,6 +91,7 @@ class Builder {
         make_stencil(m_scene.discretization.horizon_factor, m_dx, m_scene.discretization.quadrature);
     build_bonds();
     number_unknowns();
+    index_images();
     return std::move(m_model);
   }
 
@@ -98,6 +99,10 @@ class Builder {
   const Scene& m_scene;
   double m_dx;
   Model m_model;
+
+  int layers_of(const BoundaryCondition& bc) const {
+    return bc.mirror ? mirror_layers(m_scene.discretization.horizon_factor) : bc.layers;
+  }
 
   int lattice_floor(double x, int axis) const {
     return static_cast<int>(std::floor((x - m_scene.discretization.origin[axis]) / m_dx - 0.5));
@@ -221,7 +226,7 @@ class Builder {
           if (take) chosen.push_back(q);
         }
       } else {
-        const double depth = bc.layers * m_dx;
+        const double depth = layers_of(bc) * m_dx;
         const Box box = polygon_box(shape);
         for (int i = lattice_floor(box.lo.x() - depth, 0) - 1; i <= lattice_floor(box.hi.x() + depth, 0) + 1;
              ++i) {
@@ -256,6 +261,10 @@ class Builder {
     std::vector<int> owner(2 * static_cast<std::size_t>(n), -1);
     for (std::size_t k = 0; k < selected.size(); ++k) {
       const BoundaryCondition& bc = m_scene.boundary[k];
+      if (bc.mirror) {
+        apply_mirror(bc, selected[k], owner, static_cast<int>(k));
+        continue;
+      }
       for (Index q : selected[k]) {
         for (int comp = 0; comp < 2; ++comp) {
           const std::optional<AffineValue>& v = comp == 0 ? bc.ux : bc.uy;
@@ -273,6 +282,91 @@ class Builder {
         }
       }
     }
+  }
+
+  /// A mirror condition: every ghost reflects a real particle across the edge line; the
+  /// normal component is 2 U - u_n(source), the tangential one u_t(source).
+  void apply_mirror(const BoundaryCondition& bc, const std::vector<Index>& ghosts, std::vector<int>& owner,
+                    int k) {
+    const Body& body = *std::find_if(m_scene.bodies.begin(), m_scene.bodies.end(),
+                                     [&](const Body& b) { return b.name == bc.body; });
+    const std::size_t nv = body.shape.vertices.size();
+    const Vec2 a = body.shape.vertices[bc.edge], b = body.shape.vertices[(bc.edge + 1) % nv];
+    const Vec2 d = b - a;
+    const double tol = 1e-9 * d.norm();
+    if (std::abs(d.x()) > tol && std::abs(d.y()) > tol)
+      throw InputError(bc.where, "mirror needs an edge parallel to x or y; edge " + bc.edge_name +
+                                     " runs from " + format_point(a) + " to " + format_point(b));
+    const int axis = std::abs(d.x()) <= tol ? 0 : 1;  // the normal's axis (0: a vertical edge)
+    const char* normal = axis == 0 ? "ux" : "uy";
+    const char* tangential = axis == 0 ? "uy" : "ux";
+    const std::optional<AffineValue>& un = axis == 0 ? bc.ux : bc.uy;
+    const std::optional<AffineValue>& ut = axis == 0 ? bc.uy : bc.ux;
+    if (ut || !un)
+      throw InputError(bc.where, std::string("a mirror on edge ") + bc.edge_name + " prescribes only the normal component " +
+                                     normal + " (the platen's displacement); " + tangential +
+                                     " is the reflected body's own");
+    if (m_scene.failure.enabled)
+      throw InputError(bc.where, "mirror layers do not follow broken bonds: a scene with a failure "
+                                 "criterion needs layers or a surface grip instead");
+    const double reach = mirror_layers(m_scene.discretization.horizon_factor) * m_dx;
+    for (const Crack& crack : m_scene.cracks) {
+      const double gap =
+          bond_crosses_crack(a, b, crack.a, crack.b)
+              ? 0.0
+              : std::min({geometry::distance_to_segment(crack.a, a, b), geometry::distance_to_segment(crack.b, a, b),
+                          geometry::distance_to_segment(a, crack.a, crack.b),
+                          geometry::distance_to_segment(b, crack.a, crack.b)});
+      if (gap < reach)
+        throw InputError(bc.where, "a pre-crack passes " + std::to_string(gap) + " m from mirror edge " +
+                                       bc.edge_name + ", within the mirrored depth " + std::to_string(reach) +
+                                       " m: the reflected layers would not hold the crack");
+    }
+    // The edge line must be a lattice cell boundary for the reflection of a lattice point to
+    // be a lattice point.
+    const double line = (a[axis] - m_scene.discretization.origin[axis]) / m_dx;
+    const long twice = std::lround(line);
+    if (std::abs(line - static_cast<double>(twice)) > 1e-6)
+      throw InputError(bc.where, std::string("mirror needs the edge line on a lattice cell boundary: ") +
+                                     (axis == 0 ? "x" : "y") + " = " + std::to_string(a[axis]) +
+                                     " is " + std::to_string(line) +
+                                     " spacings from discretization.origin, not a whole number");
+    Constraints& c = m_model.constraints;
+    const Particles& p = m_model.particles;
+    for (Index g : ghosts) {
+      std::array<int, 2> l = p.lattice[g];
+      l[axis] = static_cast<int>(2 * twice - l[axis] - 1);
+      const Index source = m_model.lattice_index.at(l[0], l[1]);
+      if (source < 0 || p.fictitious[source] || p.body[source] != p.body[g])
+        throw InputError(bc.where, "the body is thinner than two horizons across edge " + bc.edge_name +
+                                       ": the mirror image of " + format_point(p.position[g]) +
+                                       " is not a particle of body '" + bc.body + "'");
+      Vec2 foot = p.position[g];
+      foot[axis] = a[axis];
+      MirrorImage image{g, source, {1.0, 1.0}};
+      image.sign[axis] = -1.0;
+      for (int comp = 0; comp < 2; ++comp) {
+        const std::size_t dof = 2 * static_cast<std::size_t>(g) + comp;
+        if (owner[dof] >= 0)
+          throw InputError(bc.where, "the mirror layers overlap the particles that " +
+                                         m_scene.boundary[owner[dof]].where.key + " prescribes");
+        owner[dof] = k;
+        c.prescribed[dof] = 1;
+        c.value[dof] = comp == axis ? 2.0 * un->at(foot) : 0.0;
+      }
+      c.images.push_back(image);
+    }
+  }
+
+  void index_images() {
+    Constraints& c = m_model.constraints;
+    if (c.images.empty()) return;
+    std::sort(c.images.begin(), c.images.end(),
+              [](const MirrorImage& x, const MirrorImage& y) { return x.source < y.source; });
+    const Index n = m_model.particles.size();
+    c.image_start.assign(n + 1, 0);
+    for (const MirrorImage& im : c.images) ++c.image_start[im.source + 1];
+    for (Index i = 0; i < n; ++i) c.image_start[i + 1] += c.image_start[i];
   }
 
   void build_bonds() {
@@ -426,11 +520,19 @@ void Constraints::expand(const VectorXd& x, double lambda, VectorXd& u) const {
   u.resize(static_cast<Index>(prescribed.size()));
   for (std::size_t d = 0; d < prescribed.size(); ++d)
     u[d] = prescribed[d] ? lambda * value[d] : x[free_index[d]];
+  for (const MirrorImage& im : images)  // a source is never a ghost: its u is final here
+    for (int c = 0; c < 2; ++c) u[2 * im.ghost + c] += im.sign[c] * u[2 * im.source + c];
 }
 
 void Constraints::scatter(const VectorXd& x, VectorXd& full) const {
   full.resize(static_cast<Index>(free_index.size()));
   for (std::size_t d = 0; d < free_index.size(); ++d) full[d] = free_index[d] >= 0 ? x[free_index[d]] : 0.0;
+  for (const MirrorImage& im : images)
+    for (int c = 0; c < 2; ++c) full[2 * im.ghost + c] = im.sign[c] * full[2 * im.source + c];
+}
+
+int mirror_layers(double horizon_factor) {
+  return 2 * static_cast<int>(std::ceil(horizon_factor + 0.5));
 }
 
 void Constraints::gather(const VectorXd& full, VectorXd& x) const {
@@ -445,7 +547,8 @@ std::size_t Model::memory_bytes() const {
   return bytes(p.position) + bytes(p.volume) + bytes(p.body) + bytes(p.fictitious) + bytes(p.lattice) +
          bytes(bonds.start) + bytes(bonds.neighbour) + bytes(bonds.xi) + bytes(bonds.weight) +
          bytes(bonds.reverse) + bytes(constraints.prescribed) + bytes(constraints.value) +
-         bytes(constraints.free_index) + lattice_index.memory_bytes();
+         bytes(constraints.free_index) + bytes(constraints.images) + bytes(constraints.image_start) +
+         lattice_index.memory_bytes();
 }
 
 }  // namespace peristat

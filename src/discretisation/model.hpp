@@ -34,6 +34,10 @@ struct Stencil {
 
 Stencil make_stencil(double horizon_factor, double spacing, Quadrature quadrature);
 
+/// Layers of a mirror condition: two stencil reaches, so that every ghost bonded to a real
+/// particle has its whole family.
+int mirror_layers(double horizon_factor);
+
 /// Bond families in CSR form: the bonds of particle i are start[i] .. start[i+1]-1.
 /// Bonds are symmetric: reverse[b] is the index of the bond j -> i for b = i -> j.
 struct Bonds {
@@ -46,12 +50,24 @@ struct Bonds {
   Index family_size(Index i) const { return start[i + 1] - start[i]; }
 };
 
-/// Prescribed displacement components: dof 2p + c (c = 0 for x, 1 for y).
+/// A fictitious particle of a mirror condition and the real particle it reflects:
+/// u_c(ghost) = sign[c] u_c(source) + lambda value_c(ghost) (docs/theory/osb.md, section 7).
+struct MirrorImage {
+  Index ghost = -1, source = -1;
+  std::array<double, 2> sign{1.0, 1.0};
+};
+
+/// Prescribed displacement components: dof 2p + c (c = 0 for x, 1 for y). A component of a
+/// mirror ghost counts as prescribed (it is not an unknown); its value is the affine part
+/// and its image adds sign * u(source).
 struct Constraints {
   std::vector<char> prescribed;   ///< 2N flags
   std::vector<double> value;      ///< 2N values at load factor 1
   std::vector<Index> free_index;  ///< 2N: index among the unknowns, or -1 if prescribed
   Index n_free = 0;
+  std::vector<MirrorImage> images;  ///< mirror ghosts, sorted by source (empty: no mirror)
+  std::vector<Index> image_start;   ///< N + 1 (CSR by source particle) when images exist
+  bool has_images() const { return !images.empty(); }
 
   // The one map between the unknowns x (n_free) and full vectors over every component (2N).
   /// u = x on free components, lambda times the prescribed value on the others.

@@ -260,11 +260,19 @@ void read_selector(const Map& m, const ParsedBody& body, int default_layers, Bou
 
 BoundaryCondition read_condition(const Field& field, const std::vector<ParsedBody>& bodies,
                                  int default_layers) {
-  const Map m = checked_map(field, {"body", "edge", "surround", "region", "block", "layers", "ux", "uy"});
+  const Map m =
+      checked_map(field, {"body", "edge", "surround", "region", "block", "layers", "mirror", "ux", "uy"});
   BoundaryCondition bc;
   const ParsedBody& body = find_body(m.require("body", "body, the name of an entry of bodies"), bodies);
   bc.body = body.body.name;
   read_selector(m, body, default_layers, bc);
+  if (auto f = m.find("mirror")) {
+    bc.mirror = schema::boolean(*f);
+    if (bc.mirror && bc.selector != BoundaryCondition::Selector::edge)
+      f->fail("mirror needs an edge selector (it reflects the body across that edge)");
+    if (bc.mirror && m.find("layers"))
+      f->fail("layers is not allowed with mirror: the mirrored layers are always two horizons deep");
+  }
   if (auto f = m.find("ux")) bc.ux = read_affine(*f);
   if (auto f = m.find("uy")) bc.uy = read_affine(*f);
   if (!bc.ux && !bc.uy) field.fail("prescribes nothing: expected at least one of ux, uy");

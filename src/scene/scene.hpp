@@ -65,6 +65,10 @@ struct AffineValue {
 ///  - layers 0 (edge or surround): no fictitious particles; the body's own particles within
 ///    one spacing inside the edge line (or the boundary) are prescribed (docs/theory/osb.md,
 ///    section 7: a grip on the body's surface).
+///  - mirror (edge only): fictitious layers two horizons deep that reflect the body across
+///    the edge line: the normal component is u_n(ghost) = 2 U - u_n(image), the tangential
+///    one u_t(ghost) = u_t(image), with U the one prescribed (normal) component. The edge
+///    is a frictionless rigid platen and a symmetry plane (docs/theory/osb.md, section 7).
 ///  - selector region: real particles of the body inside the box [lo, hi]; no layers.
 ///  - selector block: fictitious particles of the body at the lattice points inside the box
 ///    [lo, hi] that no body holds (e.g. the paper's fixed 3 x 3 corner block); no layers.
@@ -75,6 +79,7 @@ struct BoundaryCondition {
   int edge = -1;          ///< polygon edge index (selector edge)
   std::string edge_name;  ///< as written: "left", "3", ... (for messages)
   int layers = 3;         ///< fictitious layers (default discretization.fictitious_layers)
+  bool mirror = false;    ///< mirrored layers (selector edge; see above)
   Vec2 lo = Vec2::Zero(), hi = Vec2::Zero();  ///< selectors region and block
   std::optional<AffineValue> ux, uy;          ///< at least one is set
   SourceLocation where;

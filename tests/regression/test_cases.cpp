@@ -75,10 +75,11 @@ TEST(TensionPlateCase, SmokeRunMatchesUniaxialSolution) {
   EXPECT_EQ(rows, 5);
 
   // The Poisson contraction against the recorded run: uy(0.05, 0.098) - uy(0.05, 0.002) in
-  // step 2 (top and bottom rows at mid-width). The grips hold the end columns, whose centres
-  // are 0.096 m apart at dx = 4 mm, so the strain is 1e-4 / 0.096 and uniaxial stress would
-  // give -nu eps 0.096 m = -3.30e-5 m. Recorded: -3.343894615205e-5 m (one thread, surface
-  // correction and surface grips, issue 13; the fictitious-layer grips gave -3.151e-5).
+  // step 2 (top and bottom rows at mid-width, 0.096 m apart). The mirror grips hold x = 0 and
+  // x = 0.1 m, so the strain is 1e-3 and uniaxial stress would give -nu eps 0.096 m =
+  // -3.168e-5 m; the rows are the free edges' outermost particles, and at dx = 4 mm their
+  // skin adds 2.5%. Recorded: -3.247289779303e-5 m (one thread, surface correction and
+  // mirror grips, issue 13; surface grips gave -3.3439e-5, fictitious-layer grips -3.151e-5).
   // Tolerance 1e-6 relative: a direct solve (cholmod) to a relative residual of 2.5e-15;
   // repeated runs are bit-identical and two threads differ by 1.4e-16 of max |u|, so only
   // reordered sums move it, by orders of magnitude less than 1e-6; nu = 0.3299 instead of
@@ -87,7 +88,7 @@ TEST(TensionPlateCase, SmokeRunMatchesUniaxialSolution) {
   const double contraction =
       displacement_at(reader, 2, {0.05, 0.098}).y() - displacement_at(reader, 2, {0.05, 0.002}).y();
   std::printf("tension plate, dx = 4 mm, step 2: uy(0.05, 0.098) - uy(0.05, 0.002) = %.12e m\n", contraction);
-  EXPECT_NEAR(contraction, -3.343894615205e-5, 1e-6 * 3.343894615205e-5);
+  EXPECT_NEAR(contraction, -3.247289779303e-5, 1e-6 * 3.247289779303e-5);
   std::filesystem::remove_all(dir);
 }
 

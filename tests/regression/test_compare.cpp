@@ -137,7 +137,8 @@ TEST_F(CompareCli, DifferentSpacingIsBadInput) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_TRUE(r.out.empty()) << r.out;
   EXPECT_TRUE(contains(r.err, plain() + " and " + coarser() + " do not hold the same particles")) << r.err;
-  EXPECT_TRUE(contains(r.err, plain() + " has 400 particles, " + coarser() + " has 625")) << r.err;
+  // All particles, the mirror grips' 2 x 8 layers included: 400 + 320 and 625 + 400.
+  EXPECT_TRUE(contains(r.err, plain() + " has 720 particles, " + coarser() + " has 1025")) << r.err;
 }
 
 TEST_F(CompareCli, MissingOrForeignFileIsBadInput) {

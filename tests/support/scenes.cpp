@@ -40,15 +40,26 @@ std::string tension_boundary(double strain, const PlateSpec& s) {
   return y.str();
 }
 
-std::string surface_tension_boundary(double strain, const PlateSpec& s) {
+namespace {
+/// Tension grips given by `grip` ("layers: 0", "mirror: true") and the mid-height uy support.
+std::string gripped_tension_boundary(double strain, const PlateSpec& s, const std::string& grip) {
   std::ostringstream y;
   y.precision(17);
   const double L = s.nx * s.dx, H = s.ny * s.dx;
-  y << "  - {body: plate, edge: left, layers: 0, ux: 0}\n"
-    << "  - {body: plate, edge: right, layers: 0, ux: " << strain * L << "}\n"
+  y << "  - {body: plate, edge: left, " << grip << ", ux: 0}\n"
+    << "  - {body: plate, edge: right, " << grip << ", ux: " << strain * L << "}\n"
     << "  - {body: plate, region: {min: [0, " << 0.5 * H - s.dx << "], max: [" << s.dx << ", "
     << 0.5 * H + s.dx << "]}, uy: 0}\n";
   return y.str();
+}
+}  // namespace
+
+std::string surface_tension_boundary(double strain, const PlateSpec& s) {
+  return gripped_tension_boundary(strain, s, "layers: 0");
+}
+
+std::string mirror_tension_boundary(double strain, const PlateSpec& s) {
+  return gripped_tension_boundary(strain, s, "mirror: true");
 }
 
 std::string notch_yaml(double pull, bool failure, const std::string& solver, const std::string& extra,

@@ -33,6 +33,9 @@ std::string tension_boundary(double strain, const PlateSpec& spec);
 /// The same with grips on the body's own surface (`layers: 0`): ux = 0 on the leftmost
 /// column of particles, ux = strain * length on the rightmost.
 std::string surface_tension_boundary(double strain, const PlateSpec& spec);
+/// The same with mirror grips (`mirror: true`, docs/theory/osb.md section 7): each end edge
+/// is a frictionless platen, the body reflected across it two horizons deep.
+std::string mirror_tension_boundary(double strain, const PlateSpec& s);
 
 /// A 40 x 20 plate (dx = 1 mm, E = 1 GPa, m = 3) with an edge notch from the left edge to
 /// x = 15 mm at mid-height, pulled apart by `pull` [m] at the top edge (bottom uy = 0, one

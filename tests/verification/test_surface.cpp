@@ -27,7 +27,8 @@ struct PlateMeasure {
 
 /// grips "layers": the 3 fictitious layers of test::tension_boundary (ux held at one value
 /// over each grip's depth); "surface": `layers: 0`, ux prescribed on the body's outermost
-/// column at each end (docs/theory/osb.md, section 7).
+/// column at each end; "mirror": `mirror: true`, the plate reflected across each end edge
+/// (docs/theory/osb.md, section 7).
 PlateMeasure measure_plate(double nu, double dx, const std::string& correction, const std::string& grips,
                            double side = 0.1) {
   const int n_side = static_cast<int>(std::lround(side / dx));
@@ -38,7 +39,9 @@ PlateMeasure measure_plate(double nu, double dx, const std::string& correction, 
   spec.E = 70e9;
   spec.kinematics = "small";
   spec.surface_correction = correction;
-  spec.boundary = grips == "surface" ? test::surface_tension_boundary(1e-3, spec) : test::tension_boundary(1e-3, spec);
+  spec.boundary = grips == "surface"  ? test::surface_tension_boundary(1e-3, spec)
+                  : grips == "mirror" ? test::mirror_tension_boundary(1e-3, spec)
+                                      : test::tension_boundary(1e-3, spec);
   spec.solver = "  linear: cholmod\n  newton: {rtol: 1.0e-12}\n";
   auto s = test::solve_scene(test::plate_yaml(spec));
   EXPECT_TRUE(s->run.completed) << s->run.message;
@@ -79,27 +82,46 @@ PlateMeasure measure_plate(double nu, double dx, const std::string& correction, 
   return m;
 }
 
-// The acceptance of issue 13: the corrected model with surface grips gives the continuum's
-// uniform uniaxial field. Tolerances are the issue's: nu within 1% two horizons inside
-// (0.003 absolute at nu = 0) and within 2% one horizon inside; e_xx uniform to 0.2%;
-// interior |sigma_yy / sigma_xx| < 1e-3. The last two are not met everywhere (measured
-// 2026-11-24: spread 0.05-0.31%, |sigma_yy / sigma_xx| 1.4e-4 to 3.9e-3, worst at nu = 0.45
-// and dx = 2 mm; both shrink with dx as a boundary layer of width delta would): asserted
-// at the measured level with a margin, and issue 13 stays open on them.
+// The acceptance of issue 13: the corrected model with mirror grips (each end a frictionless
+// platen, the plate reflected across it; docs/theory/osb.md section 7) gives the
+// continuum's uniform uniaxial field. Tolerances are the issue's: nu within 1% two horizons
+// inside (0.003 absolute at nu = 0) and within 2% one horizon inside; e_xx uniform to 0.2%;
+// interior |sigma_yy / sigma_xx| < 1e-3. Measured 2026-11-24: nu within 0.02%, spread
+// <= 0.02%, |sigma_yy / sigma_xx| <= 1.9e-4.
+/// nu within 1% two horizons inside and 2% one horizon inside (0.003 and 0.006 absolute at
+/// nu = 0); e_xx spread and |sigma_yy / sigma_xx| below the given bounds.
+void expect_uniaxial(const PlateMeasure& m, double nu, double spread, double syy) {
+  const double tol_two = nu > 0 ? 0.01 * nu : 0.003, tol_one = nu > 0 ? 0.02 * nu : 0.006;
+  EXPECT_NEAR(m.nu_two, nu, tol_two);
+  EXPECT_NEAR(m.nu_one, nu, tol_one);
+  EXPECT_LT(m.exx_spread, spread);
+  EXPECT_LT(m.syy_ratio, syy);
+}
+
 class SurfaceCorrected : public ::testing::TestWithParam<std::tuple<double, double>> {};
 
 TEST_P(SurfaceCorrected, TensionPlateIsUniaxial) {
   const auto [nu, dx] = GetParam();
-  const PlateMeasure m = measure_plate(nu, dx, "moments", "surface");
-  const double tol_two = nu > 0 ? 0.01 * nu : 0.003, tol_one = nu > 0 ? 0.02 * nu : 0.006;
-  EXPECT_NEAR(m.nu_two, nu, tol_two);
-  EXPECT_NEAR(m.nu_one, nu, tol_one);
-  EXPECT_LT(m.exx_spread, 3.5e-3);
-  EXPECT_LT(m.syy_ratio, 4.5e-3);
+  expect_uniaxial(measure_plate(nu, dx, "moments", "mirror"), nu, 2e-3, 1e-3);
 }
 
 INSTANTIATE_TEST_SUITE_P(PoissonAndSpacing, SurfaceCorrected,
                          ::testing::Combine(::testing::Values(0.0, 0.2, 0.3, 0.45), ::testing::Values(1e-3, 2e-3)));
+
+// Grips on the body's own end columns (`layers: 0`) hold u_x over one spacing and leave a
+// soft end zone: nu still within the issue's 1%, but e_xx varies by up to 0.31% and
+// |sigma_yy / sigma_xx| reaches 3.9e-3 (measured 2026-11-24, worst at nu = 0.45 and
+// dx = 2 mm). Asserted at the measured level with a margin: a documented alternative, not
+// the acceptance.
+class SurfaceGripped : public ::testing::TestWithParam<std::tuple<double, double>> {};
+
+TEST_P(SurfaceGripped, TensionPlateNearlyUniaxial) {
+  const auto [nu, dx] = GetParam();
+  expect_uniaxial(measure_plate(nu, dx, "moments", "surface"), nu, 3.5e-3, 4.5e-3);
+}
+
+INSTANTIATE_TEST_SUITE_P(PoissonAndSpacing, SurfaceGripped,
+                         ::testing::Combine(::testing::Values(0.2, 0.45), ::testing::Values(1e-3, 2e-3)));
 
 // The same plates uncorrected, with the fictitious-layer grips of the paper: the distortion
 // the issue reported, kept as a measured contrast (nu at least 2.5% low for nu >= 0.2).
@@ -112,8 +134,9 @@ TEST(SurfaceUncorrected, LayerGripsDistortTheField) {
 
 // Which part is the grips' and which the edges': every combination at nu = 0.3, dx = 1 mm.
 // Measured nu errors: layers/none -3.74%, layers/moments -3.30%, surface/none -0.61%,
-// surface/moments -0.26%. Asserted: that order, each step at least 0.2 points better, so the
-// grips carry most of the distortion and the correction helps with either grip.
+// surface/moments -0.26%, mirror/moments -0.003%. Asserted: that order, each step at least
+// 0.2 points better, so the grips carry most of the distortion and the correction helps
+// with either of the first two grips; the mirror grip removes what is left to 0.05%.
 TEST(SurfaceGrips, CauseMostOfTheDistortion) {
   std::vector<double> error;
   for (const auto& [c, g] : {std::pair{"none", "layers"}, std::pair{"moments", "layers"}, std::pair{"none", "surface"},
@@ -122,6 +145,7 @@ TEST(SurfaceGrips, CauseMostOfTheDistortion) {
   for (std::size_t k = 1; k < error.size(); ++k) EXPECT_LT(error[k], error[k - 1] - 2e-3) << k;
   // The grips' share is larger than the correction's.
   EXPECT_GT(error[0] - error[2], 5.0 * (error[0] - error[1]));
+  EXPECT_LT(std::abs(measure_plate(0.3, 1e-3, "moments", "mirror").nu_two / 0.3 - 1.0), 5e-4);
 }
 
 }  // namespace
