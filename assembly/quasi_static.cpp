@@ -45,6 +45,10 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   m_beta_volume.assign(n, 0.0);
   m_u = VectorXd::Zero(2 * n);
   m_force = VectorXd::Zero(2 * n);
+  if (m_failure && model.constraints.has_images()) {
+    m_mirror_zone.assign(n, 0);
+    for (const MirrorImage& im : model.constraints.images) m_mirror_zone[im.ghost] = m_mirror_zone[im.source] = 1;
+  }
 }
 
 Mat2 QuasiStaticProblem::stress(Index i) const {
@@ -297,11 +301,28 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
 #pragma omp parallel for schedule(static)
   for (Index i = 0; i < n; ++i) family_displacements(i);
   const std::vector<std::pair<Index, Index>>& broken = m_failure->break_over_criterion(m_eta, at_most);
+  check_mirror_zone(broken);
   collect_changed_families(broken);
   if (!m_changed_families.empty()) m_correction.update(m_failure->weights(), m_changed_families);
   // The new faces are contact candidates at once (when the scene models contact).
   if (m_contact && !broken.empty()) m_contact->add_broken_bonds(broken, m_u);
   return static_cast<Index>(broken.size());
+}
+
+void QuasiStaticProblem::check_mirror_zone(const std::vector<std::pair<Index, Index>>& broken) {
+  if (m_mirror_zone.empty()) return;
+  for (const auto& [i, j] : broken) {
+    if (!m_mirror_zone[i] && !m_mirror_zone[j]) continue;
+    m_failure->revert();
+    const Vec2 &a = m_model.particles.position[i], &b = m_model.particles.position[j];
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "the bond (%.6g, %.6g)-(%.6g, %.6g) reached the failure criterion within the reflected "
+                  "depth of a mirror edge, where the mirror layers cannot follow broken bonds; move the "
+                  "mirror edge further from where the body breaks",
+                  a.x(), a.y(), b.x(), b.y());
+    throw ModelLimit(buf);
+  }
 }
 
 void QuasiStaticProblem::revert_irreversible_state() {

@@ -108,6 +108,9 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void gather_tangent(SparseMatrix& K) const;
   /// The particles holding a bond of `pairs` (their families change), into m_changed_families.
   void collect_changed_families(const std::vector<std::pair<Index, Index>>& pairs);
+  /// Throws ModelLimit (after undoing the round) when a pair of the round has an end among a
+  /// mirror condition's ghosts or their images: the reflection cannot follow broken bonds.
+  void check_mirror_zone(const std::vector<std::pair<Index, Index>>& broken);
 
   const Model& m_model;
   ProblemOptions m_options;
@@ -121,6 +124,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   SurfaceCorrection m_correction;
   /// Particles whose families changed in the last round of breaking (scratch).
   std::vector<Index> m_changed_families;
+  std::vector<char> m_mirror_zone;  ///< per particle, with failure and mirror conditions: ghost or image
   bool m_small_kinematics = false;   ///< every body linearised: the bond tangent is constant
   double m_contact_seconds = 0.0;
   double m_lambda = 0.0;

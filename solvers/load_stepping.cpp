@@ -1,5 +1,7 @@
 #include "solvers/load_stepping.hpp"
 
+#include "core/error.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -79,7 +81,13 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
   Index at_most = 0;  // 0: no cap beyond failure.fraction
   int successes = 0;  // converged rounds since the last halving
   for (int resolve = 1;; ++resolve) {
-    const Index broken = problem.advance_irreversible_state(x, at_most);
+    Index broken = 0;
+    try {
+      broken = problem.advance_irreversible_state(x, at_most);
+    } catch (const ModelLimit& limit) {
+      std::snprintf(buf, sizeof buf, "load step %d/%d: %s", k, n, limit.what());
+      return buf;
+    }
     if (broken == 0) return {};
     if (resolve > loading.max_resolves) {
       problem.revert_irreversible_state();

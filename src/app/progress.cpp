@@ -112,9 +112,9 @@ void ProgressPrinter::step_done(const StepReport& s) const {
   if (const BondFailure* failure = m_problem.failure())
     std::printf(
         "  failure: %ld bonds broke in this step (%d re-solves, %d halved after a failed re-solve), "
-        "%ld in all\n",
+        "%ld in all; largest criterion ratio of an intact bond %.4f\n",
         static_cast<long>(s.bonds_broken), s.resolves, s.break_cutbacks,
-        static_cast<long>(failure->broken()));
+        static_cast<long>(failure->broken()), failure->peak().ratio);
   if (m_adr) {
     std::printf("  %s: %d ADR iterations, relative residual %.3e; %.2f s (force evaluations %.2f s)\n",
                 s.unconverged ? "NOT converged, kept (on_budget: accept)" : "converged", s.newton_iterations,

@@ -130,6 +130,16 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     rec.counts["broken_bonds_total"] = failure->broken();
     rec.counts["resolves"] = s.resolves;
     rec.counts["break_cutbacks"] = s.break_cutbacks;
+    // The intact pair closest to breaking at the step's final state (docs/guide/results.md).
+    const BondFailure::Peak peak = failure->peak();
+    rec.counts["criterion_peak"] = peak.ratio;
+    if (peak.bond >= 0) {
+      const Model& model = m_problem.model();
+      const Index b = peak.bond, i = model.bonds.neighbour[model.bonds.reverse[b]];
+      const Vec2 mid = model.particles.position[i] + 0.5 * model.bonds.xi[b];
+      rec.counts["criterion_peak_x"] = mid.x();
+      rec.counts["criterion_peak_y"] = mid.y();
+    }
   }
   if (m_scene.solver.type == SolverKind::adr) {
     rec.counts["adr_iterations"] = s.newton_iterations;

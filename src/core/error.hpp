@@ -44,6 +44,14 @@ class InputError : public std::runtime_error {
       : std::runtime_error(where.describe() + ": " + message) {}
 };
 
+/// The model cannot follow the state the run reached (e.g. a bond breaking inside a mirror
+/// condition's reflected layers). The run stops with exit code 3 and this reason; converged
+/// steps are kept.
+class ModelLimit : public std::runtime_error {
+ public:
+  explicit ModelLimit(const std::string& message) : std::runtime_error(message) {}
+};
+
 }  // namespace peristat
 
 #ifndef NDEBUG

@@ -306,9 +306,6 @@ class Builder {
       throw InputError(bc.where, std::string("a mirror on edge ") + bc.edge_name + " prescribes only the normal component " +
                                      normal + " (the platen's displacement); " + tangential +
                                      " is the reflected body's own");
-    if (m_scene.failure.enabled)
-      throw InputError(bc.where, "mirror layers do not follow broken bonds: a scene with a failure "
-                                 "criterion needs layers or a surface grip instead");
     const double reach = mirror_layers(m_scene.discretization.horizon_factor) * m_dx;
     for (const Crack& crack : m_scene.cracks) {
       const double gap =

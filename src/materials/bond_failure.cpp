@@ -54,11 +54,13 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
   }
   // Candidates: intact pairs (b < reverse) whose larger ratio of the two directions exceeds 1.
   m_over.clear();
+  m_peak = Peak{};
   for (Index b = 0; b < bonds.n_bonds(); ++b) {
     const Index r = bonds.reverse[b];
     if (b > r || m_weight[b] == 0.0) continue;
     if (p.fictitious[bonds.neighbour[b]] && p.fictitious[bonds.neighbour[r]]) continue;
     const double ratio = std::max(m_ratio[b], m_ratio[r]);
+    if (ratio > m_peak.ratio) m_peak = Peak{ratio, b};
     if (ratio > 1.0) m_over.emplace_back(ratio, b);
   }
   if (m_over.empty()) return m_round;

@@ -35,6 +35,15 @@ class BondFailure {
   std::span<const double> weights() const { return m_weight; }
   /// Bonds broken since the start (pairs).
   Index broken() const { return m_broken; }
+  /// The intact pair closest to breaking at the last evaluation: its larger ratio
+  /// value / critical of the two directions (0 and bond -1 before the first evaluation or
+  /// when no pair can break). After a round that broke nothing, this is how far the
+  /// converged state is from the criterion.
+  struct Peak {
+    double ratio = 0.0;
+    Index bond = -1;
+  };
+  Peak peak() const { return m_peak; }
   /// Damage of each particle, 1 - sum of intact bond weights / sum of all (N).
   void damage(VectorXd& d) const;
   std::size_t memory_bytes() const;
@@ -50,6 +59,7 @@ class BondFailure {
   std::vector<std::pair<Index, Index>> m_round;  ///< pairs broken by the last round
   std::vector<Index> m_round_bonds;              ///< their bonds b (b < reverse[b])
   Index m_broken = 0;
+  Peak m_peak;
 };
 
 }  // namespace peristat
