@@ -51,6 +51,12 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   }
 }
 
+Vec2 QuasiStaticProblem::reaction(std::size_t k) const {
+  Vec2 f = Vec2::Zero();
+  for (const Index d : m_model.constraints.condition_dofs.at(k)) f[d % 2] += m_force[d];
+  return f;
+}
+
 Mat2 QuasiStaticProblem::stress(Index i) const {
   const Bonds& bonds = m_model.bonds;
   Mat2 P = Mat2::Zero();

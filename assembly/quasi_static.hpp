@@ -78,6 +78,11 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// Internal force dPi/du of every component (2N) from the last evaluate; on prescribed
   /// components these are the reactions.
   const VectorXd& internal_force() const { return m_force; }
+  /// The force boundary condition k applies to hold its particles, from the last evaluate:
+  /// the sum of dPi/du over the components it prescribes [N]. For layers and surface grips it
+  /// is the reaction on the body; for a mirror condition, the force its ghosts take from the
+  /// body (pairs between ghosts cancel in the sum).
+  Vec2 reaction(std::size_t k) const;
   /// First Piola stress at particle i from the last evaluate, P = sum_b t_b M_b xi_b^T: the
   /// derivative of W with respect to the deformation gradient when the family deforms
   /// homogeneously (docs/theory/osb.md, section 5). Meaningful away from boundaries.

@@ -123,6 +123,12 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
                 {"cutbacks", s.cutbacks},
                 {"factorizations", s.factorizations},
                 {"linear_iterations", s.linear_iterations}};
+  // The force each boundary condition applies (docs/guide/results.md).
+  for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) {
+    const Vec2 f = m_problem.reaction(k);
+    rec.counts["reaction_" + std::to_string(k) + "_x"] = f.x();
+    rec.counts["reaction_" + std::to_string(k) + "_y"] = f.y();
+  }
   if (const BondFailure* failure = m_problem.failure()) {
     failure->damage(m_damage);
     rec.damage = &m_damage;

@@ -92,6 +92,7 @@ class Builder {
     build_bonds();
     number_unknowns();
     index_images();
+    record_condition_dofs();
     return std::move(m_model);
   }
 
@@ -99,6 +100,7 @@ class Builder {
   const Scene& m_scene;
   double m_dx;
   Model m_model;
+  std::vector<int> m_owner;  ///< per component, the condition that prescribes it (-1: free)
 
   int layers_of(const BoundaryCondition& bc) const {
     return bc.mirror ? mirror_layers(m_scene.discretization.horizon_factor) : bc.layers;
@@ -258,7 +260,8 @@ class Builder {
     const Index n = m_model.particles.size();
     c.prescribed.assign(2 * static_cast<std::size_t>(n), 0);
     c.value.assign(2 * static_cast<std::size_t>(n), 0.0);
-    std::vector<int> owner(2 * static_cast<std::size_t>(n), -1);
+    std::vector<int>& owner = m_owner;
+    owner.assign(2 * static_cast<std::size_t>(n), -1);
     for (std::size_t k = 0; k < selected.size(); ++k) {
       const BoundaryCondition& bc = m_scene.boundary[k];
       if (bc.mirror) {
@@ -353,6 +356,14 @@ class Builder {
       }
       c.images.push_back(image);
     }
+  }
+
+  void record_condition_dofs() {
+    Constraints& c = m_model.constraints;
+    c.condition_dofs.assign(m_scene.boundary.size(), {});
+    for (std::size_t d = 0; d < m_owner.size(); ++d)
+      if (m_owner[d] >= 0) c.condition_dofs[m_owner[d]].push_back(static_cast<Index>(d));
+    std::vector<int>().swap(m_owner);
   }
 
   void index_images() {
@@ -545,6 +556,11 @@ std::size_t Model::memory_bytes() const {
          bytes(bonds.start) + bytes(bonds.neighbour) + bytes(bonds.xi) + bytes(bonds.weight) +
          bytes(bonds.reverse) + bytes(constraints.prescribed) + bytes(constraints.value) +
          bytes(constraints.free_index) + bytes(constraints.images) + bytes(constraints.image_start) +
+         [&] {
+           std::size_t b = 0;
+           for (const auto& dofs : constraints.condition_dofs) b += bytes(dofs);
+           return b;
+         }() +
          lattice_index.memory_bytes();
 }
 

@@ -65,6 +65,7 @@ struct Constraints {
   std::vector<double> value;      ///< 2N values at load factor 1
   std::vector<Index> free_index;  ///< 2N: index among the unknowns, or -1 if prescribed
   Index n_free = 0;
+  std::vector<std::vector<Index>> condition_dofs;  ///< per boundary condition, the components it prescribes
   std::vector<MirrorImage> images;  ///< mirror ghosts, sorted by source (empty: no mirror)
   std::vector<Index> image_start;   ///< N + 1 (CSR by source particle) when images exist
   bool has_images() const { return !images.empty(); }
