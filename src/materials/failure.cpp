@@ -1,6 +1,7 @@
 #include "materials/failure.hpp"
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace peristat {
@@ -20,6 +21,12 @@ double critical_stretch(double G_c, double kappa, double mu, double delta) {
 
 double critical_skew(double G_c, double mu, double delta) {
   return std::sqrt(75.0 * std::numbers::pi * G_c / (64.0 * mu * delta));
+}
+
+double closed_crack_start_stress(double E, double G_c, double a, double theta, double f_c) {
+  const double driving = std::sin(theta) * std::cos(theta) - f_c * std::cos(theta) * std::cos(theta);
+  if (driving <= 0.0) return std::numeric_limits<double>::infinity();
+  return std::sqrt(E * G_c / (std::numbers::pi * a)) / driving;
 }
 
 double bond_stretch(const Vec2& xi, const Vec2& eta) {

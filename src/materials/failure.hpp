@@ -19,6 +19,15 @@ double critical_stretch(double G_c, double kappa, double mu, double delta);
 /// Critical skew, paper eq 19 (Zhang and Qiao 2019): gamma_c = sqrt(75 pi G_c / (64 mu delta)).
 double critical_skew(double G_c, double mu, double delta);
 
+/// Closed-crack LEFM (docs/theory/failure.md, "A closed crack in compression"): a straight
+/// crack of length 2a whose normal makes the angle theta [rad] with a uniaxial compression
+/// sigma, faces closed with Coulomb friction f_c. The effective shear on the faces is
+/// tau_eff = sigma (sin theta cos theta - f_c cos^2 theta), K_II = tau_eff sqrt(pi a), and
+/// in-plane (mode II) growth starts at K_II = sqrt(E G_c) (plane stress):
+///   sigma_c = sqrt(E G_c / (pi a)) / (sin theta cos theta - f_c cos^2 theta).
+/// +infinity when friction holds the faces (sin theta cos theta <= f_c cos^2 theta).
+double closed_crack_start_stress(double E, double G_c, double a, double theta, double f_c);
+
 /// Stretch |xi + eta| / |xi| - 1 of a bond.
 double bond_stretch(const Vec2& xi, const Vec2& eta);
 

@@ -2,6 +2,7 @@
 // 4.4, the skew of a rigid rotation (zero) and of a simple shear (its amount), and the
 // stretch of single bonds either side of the threshold.
 #include <cmath>
+#include <numbers>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -11,6 +12,24 @@
 
 namespace peristat {
 namespace {
+
+// Closed-crack LEFM start stress (docs/theory/failure.md): hand values. theta = 45 deg,
+// f_c = 0: sin cos = 1/2, so sigma_c = 2 sqrt(E G_c / (pi a)) = 5.0463 MPa for E = 10 GPa,
+// G_c = 100 J/m^2, a = 0.05 m (sqrt(6.3662e12) = 2.52313e6). The friction factor
+// 1 / (sin cos - f cos^2) at 45 deg is 1 / (0.5 - 0.5 f): 2.5 at f_c = 0.2 against 2 at
+// f_c = 0 (ratio 1.25). Locked faces (theta = 30 deg, f_c = 0.6 > tan 30 deg = 0.577)
+// never start.
+TEST(FailureCriteria, ClosedCrackStartStress) {
+  const double pi = std::numbers::pi;
+  const double s0 = closed_crack_start_stress(10e9, 100.0, 0.05, pi / 4, 0.0);
+  EXPECT_NEAR(s0, 2.0 * std::sqrt(10e9 * 100.0 / (pi * 0.05)), 1e-6);
+  EXPECT_NEAR(s0, 5.04626e6, 1.0e1);
+  EXPECT_NEAR(closed_crack_start_stress(10e9, 100.0, 0.05, pi / 4, 0.2) / s0, 1.25, 1e-12);
+  EXPECT_NEAR(closed_crack_start_stress(10e9, 100.0, 0.05, pi / 3, 0.4),
+              std::sqrt(10e9 * 100.0 / (pi * 0.05)) / (std::sqrt(3.0) / 4.0 - 0.4 * 0.25), 1e-6);
+  EXPECT_TRUE(std::isinf(closed_crack_start_stress(10e9, 100.0, 0.05, pi / 6, 0.6)));
+  EXPECT_FALSE(std::isinf(closed_crack_start_stress(10e9, 100.0, 0.05, pi / 6, 0.57)));
+}
 
 // Case 4.4: E = 10 GPa, nu = 0.3, G_c = 50 kJ/m^2, delta = 0.06 m. Reference values computed
 // by hand from the formulas (python, double precision): mu = 3.846e9 Pa, plane-stress
