@@ -1,0 +1,62 @@
+// cases/lefm_inclined_crack end to end (issue 14, docs/verification.md "Frictional crack
+// initiation"), coarse (dx = 10 mm, a = 5 dx): the start-load measurement itself. A probe
+// run (G_c raised so nothing breaks) reports the criterion peak; since the response is
+// linear in the load and the criterion scales with sqrt(G_c), the first bond must break
+// between 0.99 and 1.01 times the load the peak predicts. Checked with two real runs. The
+// agreement with LEFM is not asserted: the critical skew starts at 0.16-0.42 sigma_c
+// (issue 14 stays open on it).
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "support/cli.hpp"
+
+namespace peristat {
+namespace {
+
+const std::string kScene = std::string(PERISTAT_SOURCE_DIR) + "/cases/lefm_inclined_crack/scene.yaml";
+
+/// The last step's counts of a run of the case at dx = 10 mm, theta = 45 deg, f_c = 0.4,
+/// exact contact, with the top displacement u_top and critical energy G_c.
+nlohmann::json run_case(const std::filesystem::path& dir, double u_top, double G_c) {
+  char sets[512];
+  std::snprintf(sets, sizeof sets,
+                " --set discretization.spacing=0.01 --set contact.friction=0.4 --set contact.enforcement=exact"
+                " --set solver.linear=cg --set failure.G_c=%.17g --set boundary.1.uy=%.17g"
+                " --set 'boundary.2.region.min=[0,0.49]' --set 'boundary.2.region.max=[0.01,0.51]'",
+                G_c, -u_top);
+  const auto r = test::run_cli("run " + kScene + " --quiet --out " + dir.string() + sets);
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  std::ifstream in(dir / "summary.json");
+  const nlohmann::json s = nlohmann::json::parse(in);
+  return s["steps"].back()["counts"];
+}
+
+TEST(LefmInclinedCrack, FirstBondBreaksWhereTheProbePredicts) {
+  const auto dir = std::filesystem::temp_directory_path() / ("peristat_lefm_" + std::to_string(::getpid()));
+  const double G_c = 100.0, G_probe = 1e6, u_probe = 0.25e-3;
+  const nlohmann::json probe = run_case(dir / "probe", u_probe, G_probe);
+  ASSERT_EQ(probe["bonds_broken"].get<double>(), 0.0);
+  const double ratio = probe["criterion_peak"].get<double>() * std::sqrt(G_probe / G_c);
+  ASSERT_GT(ratio, 1.0);  // the probe load is above the start: the prediction scales down
+  const double u_start = u_probe / ratio;
+  const double sigma = -probe["reaction_1_y"].get<double>() / (1.0 * 0.01) / ratio;
+  std::printf("predicted start: top displacement %.6e m, remote stress %.4f MPa (LEFM 8.410 MPa)\n", u_start,
+              sigma / 1e6);
+  // The recorded probe (2026-11-24: 2.295 MPa; the table of docs/verification.md). 1%: the
+  // probe is one deterministic solve to rtol 1e-8 (cg), and only the thread count's
+  // summation order and the Krylov path move it, by far less.
+  EXPECT_NEAR(sigma / 1e6, 2.295, 0.023);
+  EXPECT_EQ(run_case(dir / "below", 0.99 * u_start, G_c)["bonds_broken"].get<double>(), 0.0);
+  EXPECT_GE(run_case(dir / "above", 1.01 * u_start, G_c)["bonds_broken"].get<double>(), 1.0);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace peristat
