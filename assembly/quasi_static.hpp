@@ -76,7 +76,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// Full displacement (2N, interleaved) of x at the current load factor.
   void expand(const VectorXd& x, VectorXd& u) const { m_model.constraints.expand(x, m_lambda, u); }
   /// Internal force dPi/du of every component (2N) from the last evaluate; on prescribed
-  /// components these are the reactions.
+  /// components of layers and surface grips these are the reactions (mirror ghosts: see
+  /// reaction()).
   const VectorXd& internal_force() const { return m_force; }
   /// The force boundary condition k applies to hold its particles, from the last evaluate:
   /// the sum of dPi/du over the components it prescribes [N]. For layers and surface grips it
@@ -87,7 +88,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// derivative of W with respect to the deformation gradient when the family deforms
   /// homogeneously (docs/theory/osb.md, section 5). Meaningful away from boundaries.
   Mat2 stress(Index i) const;
-  /// Total strain energy Pi [J] of the last evaluate.
+  /// Total strain energy Pi [J] of the last evaluate: every family, fictitious ones included
+  /// (with mirror conditions, the ghosts' families too).
   double energy() const { return m_energy; }
   const Model& model() const { return m_model; }
   /// The contact candidates and their state, or null when the scene has no contact.

@@ -1,13 +1,12 @@
 #include "solvers/load_stepping.hpp"
 
-#include "core/error.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
 
 #include "core/clock.hpp"
+#include "core/error.hpp"
 
 namespace peristat {
 

@@ -170,11 +170,16 @@ class Builder {
                                    format_point(p.position[existing]));
   }
 
-  std::vector<Index> select(const BoundaryCondition& bc) {
+  /// The index of the body a condition names (the parser has checked that it exists).
+  int body_of(const BoundaryCondition& bc) const {
     const auto it = std::find_if(m_scene.bodies.begin(), m_scene.bodies.end(),
                                  [&](const Body& b) { return b.name == bc.body; });
-    const int body = static_cast<int>(it - m_scene.bodies.begin());
-    const Polygon& shape = it->shape;
+    return static_cast<int>(it - m_scene.bodies.begin());
+  }
+
+  std::vector<Index> select(const BoundaryCondition& bc) {
+    const int body = body_of(bc);
+    const Polygon& shape = m_scene.bodies[body].shape;
     std::vector<Index> chosen;
     const double eps = 1e-9 * m_dx;
     const auto in_box = [&](const Vec2& x) {  // selectors region and block
@@ -291,8 +296,7 @@ class Builder {
   /// normal component is 2 U - u_n(source), the tangential one u_t(source).
   void apply_mirror(const BoundaryCondition& bc, const std::vector<Index>& ghosts, std::vector<int>& owner,
                     int k) {
-    const Body& body = *std::find_if(m_scene.bodies.begin(), m_scene.bodies.end(),
-                                     [&](const Body& b) { return b.name == bc.body; });
+    const Body& body = m_scene.bodies[body_of(bc)];
     const std::size_t nv = body.shape.vertices.size();
     const Vec2 a = body.shape.vertices[bc.edge], b = body.shape.vertices[(bc.edge + 1) % nv];
     const Vec2 d = b - a;
@@ -325,8 +329,8 @@ class Builder {
     // The edge line must be a lattice cell boundary for the reflection of a lattice point to
     // be a lattice point.
     const double line = (a[axis] - m_scene.discretization.origin[axis]) / m_dx;
-    const long twice = std::lround(line);
-    if (std::abs(line - static_cast<double>(twice)) > 1e-6)
+    const long line_index = std::lround(line);
+    if (std::abs(line - static_cast<double>(line_index)) > 1e-6)
       throw InputError(bc.where, std::string("mirror needs the edge line on a lattice cell boundary: ") +
                                      (axis == 0 ? "x" : "y") + " = " + std::to_string(a[axis]) +
                                      " is " + std::to_string(line) +
@@ -335,7 +339,7 @@ class Builder {
     const Particles& p = m_model.particles;
     for (Index g : ghosts) {
       std::array<int, 2> l = p.lattice[g];
-      l[axis] = static_cast<int>(2 * twice - l[axis] - 1);
+      l[axis] = static_cast<int>(2 * line_index - l[axis] - 1);
       const Index source = m_model.lattice_index.at(l[0], l[1]);
       if (source < 0 || p.fictitious[source] || p.body[source] != p.body[g])
         throw InputError(bc.where, "the body is thinner than two horizons across edge " + bc.edge_name +

@@ -271,7 +271,7 @@ BoundaryCondition read_condition(const Field& field, const std::vector<ParsedBod
     if (bc.mirror && bc.selector != BoundaryCondition::Selector::edge)
       f->fail("mirror needs an edge selector (it reflects the body across that edge)");
     if (bc.mirror && m.find("layers"))
-      f->fail("layers is not allowed with mirror: the mirrored layers are always two horizons deep");
+      f->fail("layers is not allowed with mirror: the mirrored depth is always two stencil reaches, 2 ceil(m + 1/2) layers");
   }
   if (auto f = m.find("ux")) bc.ux = read_affine(*f);
   if (auto f = m.find("uy")) bc.uy = read_affine(*f);

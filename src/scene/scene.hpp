@@ -65,10 +65,11 @@ struct AffineValue {
 ///  - layers 0 (edge or surround): no fictitious particles; the body's own particles within
 ///    one spacing inside the edge line (or the boundary) are prescribed (docs/theory/osb.md,
 ///    section 7: a grip on the body's surface).
-///  - mirror (edge only): fictitious layers two horizons deep that reflect the body across
-///    the edge line: the normal component is u_n(ghost) = 2 U - u_n(image), the tangential
-///    one u_t(ghost) = u_t(image), with U the one prescribed (normal) component. The edge
-///    is a frictionless rigid platen and a symmetry plane (docs/theory/osb.md, section 7).
+///  - mirror (edge only): fictitious layers two stencil reaches deep (2 ceil(m + 1/2) layers)
+///    that reflect the body across the edge line: the normal component is
+///    u_n(ghost) = 2 U - u_n(image), the tangential one u_t(ghost) = u_t(image), with U the
+///    one prescribed (normal) component. The edge is a frictionless rigid platen and a
+///    symmetry plane (docs/theory/osb.md, section 7).
 ///  - selector region: real particles of the body inside the box [lo, hi]; no layers.
 ///  - selector block: fictitious particles of the body at the lattice points inside the box
 ///    [lo, hi] that no body holds (e.g. the paper's fixed 3 x 3 corner block); no layers.

@@ -7,10 +7,7 @@
 // (issue 14 stays open on it).
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <string>
-
-#include <unistd.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -33,13 +30,11 @@ nlohmann::json run_case(const std::filesystem::path& dir, double u_top, double G
                 G_c, -u_top);
   const auto r = test::run_cli("run " + kScene + " --quiet --out " + dir.string() + sets);
   EXPECT_EQ(r.exit_code, 0) << r.err;
-  std::ifstream in(dir / "summary.json");
-  const nlohmann::json s = nlohmann::json::parse(in);
-  return s["steps"].back()["counts"];
+  return test::read_json(dir / "summary.json")["steps"].back()["counts"];
 }
 
 TEST(LefmInclinedCrack, FirstBondBreaksWhereTheProbePredicts) {
-  const auto dir = std::filesystem::temp_directory_path() / ("peristat_lefm_" + std::to_string(::getpid()));
+  const auto dir = test::fresh_directory("peristat_lefm");
   const double G_c = 100.0, G_probe = 1e6, u_probe = 0.25e-3;
   const nlohmann::json probe = run_case(dir / "probe", u_probe, G_probe);
   ASSERT_EQ(probe["bonds_broken"].get<double>(), 0.0);
