@@ -88,6 +88,10 @@ struct FailureOptions {
   FailureCriterion criterion = FailureCriterion::stretch;
   double G_c = 0.0;               ///< critical energy release rate [J/m^2], > 0
   Vec2 direction = Vec2::Zero();  ///< skew: reference direction (non-zero)
+  /// skew: bonds within this angle [degrees] of the reference have their offset across it
+  /// floored at |xi| sin(angle) (docs/theory/failure.md, "The skew of shallow bonds");
+  /// 0 is the paper's eq 22. [0, 90).
+  double skew_min_angle = 45.0;
   double fraction = 1.0;  ///< break this most critical fraction of the bonds over the criterion, (0, 1]
   SourceLocation where;
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <numbers>
 
 #include "materials/failure.hpp"
 #include "materials/osb.hpp"
@@ -10,7 +11,10 @@
 namespace peristat {
 
 BondFailure::BondFailure(const Model& model, const FailureOptions& options)
-    : m_model(model), m_options(options), m_weight(model.bonds.weight) {
+    : m_model(model),
+      m_options(options),
+      m_min_sin(std::sin(options.skew_min_angle * std::numbers::pi / 180.0)),
+      m_weight(model.bonds.weight) {
   const Bonds& bonds = model.bonds;
   const Index n = model.particles.size();
   for (const BodyInfo& body : model.bodies) {
@@ -35,6 +39,7 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
                                                                               Index at_most) {
   m_round.clear();
   m_round_bonds.clear();
+  m_round_references.clear();
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
   const Index n = p.size();
@@ -45,7 +50,7 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
     const double critical = m_critical[p.body[i]];
     if (skew) {
       if (m_reference_bond[i] < 0) continue;
-      bond_skews(std::span(bonds.xi).subspan(b0, nb), eta.subspan(b0, nb), m_reference_bond[i] - b0,
+      bond_skews(std::span(bonds.xi).subspan(b0, nb), eta.subspan(b0, nb), m_reference_bond[i] - b0, m_min_sin,
                  std::span(m_ratio).subspan(b0, nb));
       for (Index b = b0; b < b0 + nb; ++b) m_ratio[b] /= critical;
     } else {
@@ -76,12 +81,28 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
     m_round_bonds.push_back(b);
   }
   m_broken += static_cast<Index>(count);
+  if (skew) {
+    // A particle whose reference bond broke measures its skew against the closest intact
+    // bond from now on: the broken one's rotation contains the crack's slip.
+    for (const Index b : m_round_bonds) {
+      for (const Index c : {b, bonds.reverse[b]}) {
+        const Index i = bonds.neighbour[bonds.reverse[c]];
+        if (m_reference_bond[i] != c) continue;
+        const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+        const Index r = reference_bond(std::span(bonds.xi).subspan(b0, nb), m_options.direction,
+                                       std::span<const double>(m_weight).subspan(b0, nb));
+        m_round_references.emplace_back(i, c);
+        m_reference_bond[i] = r >= 0 ? b0 + r : -1;
+      }
+    }
+  }
   return m_round;
 }
 
 void BondFailure::commit() {
   m_round.clear();
   m_round_bonds.clear();
+  m_round_references.clear();
 }
 
 void BondFailure::revert() {
@@ -91,6 +112,8 @@ void BondFailure::revert() {
     m_weight[bonds.reverse[b]] = bonds.weight[bonds.reverse[b]];
   }
   m_broken -= static_cast<Index>(m_round_bonds.size());
+  for (auto it = m_round_references.rbegin(); it != m_round_references.rend(); ++it)
+    m_reference_bond[it->first] = it->second;
   commit();
 }
 
@@ -110,7 +133,8 @@ void BondFailure::damage(VectorXd& d) const {
 
 std::size_t BondFailure::memory_bytes() const {
   return (m_critical.capacity() + m_weight.capacity() + m_ratio.capacity()) * sizeof(double) +
-         m_reference_bond.capacity() * sizeof(Index);
+         m_reference_bond.capacity() * sizeof(Index) +
+         m_round_references.capacity() * sizeof(std::pair<Index, Index>);
 }
 
 }  // namespace peristat

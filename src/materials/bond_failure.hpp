@@ -44,6 +44,9 @@ class BondFailure {
     Index bond = -1;
   };
   Peak peak() const { return m_peak; }
+  /// skew: the reference bond of particle i (global bond index; -1 without an intact bond
+  /// or for critical stretch).
+  Index reference(Index i) const { return m_reference_bond.empty() ? -1 : m_reference_bond[i]; }
   /// Damage of each particle, 1 - sum of intact bond weights / sum of all (N).
   void damage(VectorXd& d) const;
   std::size_t memory_bytes() const;
@@ -52,7 +55,9 @@ class BondFailure {
   const Model& m_model;
   FailureOptions m_options;
   std::vector<double> m_critical;                ///< per body: s_c or gamma_c
-  std::vector<Index> m_reference_bond;           ///< skew: per particle, the reference bond (global index)
+  double m_min_sin;                              ///< skew: sin(skew_min_angle), the floor of |xi . e2| / |xi|
+  std::vector<Index> m_reference_bond;           ///< skew: per particle, the reference bond (global index), intact
+  std::vector<std::pair<Index, Index>> m_round_references;  ///< (particle, reference before the last round)
   std::vector<double> m_weight;                  ///< per bond, 0 once broken
   std::vector<double> m_ratio;                   ///< per bond: criterion value / critical (scratch)
   std::vector<std::pair<double, Index>> m_over;  ///< scratch: (ratio, bond) over the criterion

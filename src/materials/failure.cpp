@@ -1,5 +1,6 @@
 #include "materials/failure.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -9,6 +10,8 @@ namespace peristat {
 namespace {
 /// Cosines closer than this are the same lattice direction (the shortest bond wins).
 constexpr double kSameDirection = 1e-12;
+/// Relative length difference below which two bonds are equally long.
+constexpr double kSameLength = 1e-9;
 /// A bond whose offset across the reference direction is below this fraction of its length
 /// is parallel to it and has no skew.
 constexpr double kParallel = 1e-9;
@@ -33,16 +36,20 @@ double bond_stretch(const Vec2& xi, const Vec2& eta) {
   return (xi + eta).norm() / xi.norm() - 1.0;
 }
 
-Index reference_bond(std::span<const Vec2> xi, const Vec2& direction) {
+Index reference_bond(std::span<const Vec2> xi, const Vec2& direction, std::span<const double> weight) {
   const Vec2 d = direction.normalized();
   Index best = -1;
   double best_cos = -1.0, best_len = 0.0;
   for (std::size_t b = 0; b < xi.size(); ++b) {
+    if (!weight.empty() && !(weight[b] > 0.0)) continue;
     const double len = xi[b].norm();
     const double c = std::abs(xi[b].dot(d)) / len;
     // Directions on a lattice repeat exactly; compare with a tolerance so that the
-    // shortest of parallel bonds wins.
-    if (c > best_cos + kSameDirection || (std::abs(c - best_cos) <= kSameDirection && len < best_len)) {
+    // shortest of parallel bonds wins. Lengths too: the two senses of a direction are
+    // equally long, and round-off in the positions must not pick one (the first in the
+    // family's order does).
+    if (c > best_cos + kSameDirection ||
+        (std::abs(c - best_cos) <= kSameDirection && len < best_len * (1.0 - kSameLength))) {
       best = static_cast<Index>(b);
       best_cos = c;
       best_len = len;
@@ -51,7 +58,8 @@ Index reference_bond(std::span<const Vec2> xi, const Vec2& direction) {
   return best;
 }
 
-void bond_skews(std::span<const Vec2> xi, std::span<const Vec2> eta, Index r, std::span<double> gamma) {
+void bond_skews(std::span<const Vec2> xi, std::span<const Vec2> eta, Index r, double min_sin,
+                std::span<double> gamma) {
   const Vec2& x0 = xi[r];
   const Vec2 y0 = x0 + eta[r];
   // R: the rotation taking x0's direction to y0's (eqs 20-21).
@@ -61,8 +69,12 @@ void bond_skews(std::span<const Vec2> xi, std::span<const Vec2> eta, Index r, st
   for (std::size_t b = 0; b < xi.size(); ++b) {
     const Vec2 y = xi[b] + eta[b];
     const Vec2 back(c * y.x() + s * y.y(), -s * y.x() + c * y.y());  // R^T y (eq 23)
-    const double across = xi[b].dot(e2);
-    gamma[b] = std::abs(across) < kParallel * xi[b].norm() ? 0.0 : std::abs((back - xi[b]).dot(e1) / across);
+    const double along = std::abs((back - xi[b]).dot(e1));
+    const double across = std::abs(xi[b].dot(e2)), floor = min_sin * xi[b].norm();
+    if (floor > 0.0)
+      gamma[b] = along / std::max(across, floor);
+    else
+      gamma[b] = across < kParallel * xi[b].norm() ? 0.0 : along / across;
   }
 }
 

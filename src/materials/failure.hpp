@@ -32,14 +32,23 @@ double closed_crack_start_stress(double E, double G_c, double a, double theta, d
 double bond_stretch(const Vec2& xi, const Vec2& eta);
 
 /// The reference bond of a family for the skew: the bond whose direction is closest to
-/// `direction` (either sense), the shortest among equally close ones; -1 for an empty family.
-Index reference_bond(std::span<const Vec2> xi, const Vec2& direction);
+/// `direction` (either sense), the shortest among equally close ones, the first in the
+/// family's order among equally short ones (the two senses); -1 for an empty family.
+/// With `weight` given (one per bond), only intact bonds (weight > 0) are candidates: a
+/// broken reference would measure the skew against the crack's slip (-1 if none is intact).
+Index reference_bond(std::span<const Vec2> xi, const Vec2& direction, std::span<const double> weight = {});
 
 /// Skew of every bond of a family (paper eqs 20-23): R rotates the reference bond r from its
 /// reference to its current direction; each bond's current vector rotated back,
-/// xi' = R^T (xi + eta), gives gamma = |(xi' - xi) . e1 / (xi . e2)| with e1 along xi_r.
-/// Bonds (nearly) parallel to e1 (|xi . e2| < 1e-9 |xi|) have no skew and get 0.
-/// A rigid rotation gives 0 for every bond; simple shear u = g (X . e2) e1 gives g.
-void bond_skews(std::span<const Vec2> xi, std::span<const Vec2> eta, Index r, std::span<double> gamma);
+/// xi' = R^T (xi + eta), gives
+///   gamma = |(xi' - xi) . e1| / max(|xi . e2|, min_sin |xi|)   with e1 along xi_r.
+/// min_sin = 0 is the paper's eq 22, where bonds (nearly) parallel to e1
+/// (|xi . e2| < 1e-9 |xi|) have no skew and get 0. min_sin = sin(failure.skew_min_angle)
+/// > 0 floors the offset across e1 of bonds within that angle of the reference
+/// (docs/theory/failure.md, "The skew of shallow bonds"). A rigid rotation gives 0 for
+/// every bond; simple shear u = g (X . e2) e1 gives g for every bond at least the floor's
+/// angle from e1, and g |xi . e2| / (min_sin |xi|) < g for the shallower ones.
+void bond_skews(std::span<const Vec2> xi, std::span<const Vec2> eta, Index r, double min_sin,
+                std::span<double> gamma);
 
 }  // namespace peristat

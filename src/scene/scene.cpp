@@ -358,7 +358,7 @@ Loading read_loading(const Field& field) {
 }
 
 FailureOptions read_failure(const Field& field) {
-  const Map m = checked_map(field, {"criterion", "G_c", "direction", "fraction"});
+  const Map m = checked_map(field, {"criterion", "G_c", "direction", "fraction", "skew_min_angle"});
   FailureOptions o;
   o.enabled = true;
   o.criterion =
@@ -376,6 +376,13 @@ FailureOptions read_failure(const Field& field) {
   if (auto f = m.find("fraction")) {
     o.fraction = schema::number(*f);
     if (!(o.fraction > 0.0 && o.fraction <= 1.0)) schema::out_of_range(*f, "0 < fraction <= 1");
+  }
+  if (auto f = m.find("skew_min_angle")) {
+    if (o.criterion != FailureCriterion::skew)
+      f->fail("skew_min_angle applies to criterion skew only (the criterion is stretch)");
+    o.skew_min_angle = schema::number(*f);
+    if (!(o.skew_min_angle >= 0.0 && o.skew_min_angle < 90.0))
+      schema::out_of_range(*f, "0 <= skew_min_angle < 90 [degrees] (0 is the paper's eq 22)");
   }
   o.where = field.where();
   return o;

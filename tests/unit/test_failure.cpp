@@ -1,6 +1,7 @@
 // Failure criteria on single families (issue 5): the critical values of the paper's case
 // 4.4, the skew of a rigid rotation (zero) and of a simple shear (its amount), and the
 // stretch of single bonds either side of the threshold.
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <vector>
@@ -57,7 +58,35 @@ TEST(FailureCriteria, ReferenceBondIsTheShortestAlongTheDirection) {
   EXPECT_NEAR(xi[r].x(), xi[r].y(), 1e-15);
 }
 
-// A rigid rotation by 0.3 rad: every bond's skew vanishes (round-off: 1e-12).
+// A broken bond is never a reference: with the two diagonal bonds (1,1) and (-1,-1)
+// broken, the next closest direction to (1,1) with the shortest length is (2,2)'s pair,
+// and with those broken too, a bond 11.3 degrees off ((3,2), (2,3) or opposites; the
+// partial-area stencil holds them, 3.6 dx long).
+TEST(FailureCriteria, ReferenceBondIsIntact) {
+  const std::vector<Vec2> xi = family(1.0);
+  std::vector<double> weight(xi.size(), 1.0);
+  auto break_direction = [&](double x, double y) {
+    for (std::size_t b = 0; b < xi.size(); ++b)
+      if (std::abs(xi[b].x() - x) < 1e-12 && std::abs(xi[b].y() - y) < 1e-12) weight[b] = 0.0;
+  };
+  break_direction(1, 1);
+  break_direction(-1, -1);
+  Index r = reference_bond(xi, Vec2(1.0, 1.0), weight);
+  ASSERT_GE(r, 0);
+  EXPECT_NEAR(std::abs(xi[r].x()), 2.0, 1e-15);
+  EXPECT_NEAR(xi[r].x(), xi[r].y(), 1e-15);
+  break_direction(2, 2);
+  break_direction(-2, -2);
+  r = reference_bond(xi, Vec2(1.0, 1.0), weight);
+  ASSERT_GE(r, 0);
+  EXPECT_NEAR(std::abs(xi[r].normalized().dot(Vec2(1.0, 1.0).normalized())), 5.0 / std::sqrt(26.0), 1e-12);
+  EXPECT_GT(weight[r], 0.0);
+  std::fill(weight.begin(), weight.end(), 0.0);
+  EXPECT_EQ(reference_bond(xi, Vec2(1.0, 1.0), weight), -1);
+}
+
+// A rigid rotation by 0.3 rad: every bond's skew vanishes (round-off: 1e-12), with the
+// paper's eq 22 (min_sin = 0) and with the default floor at 45 degrees.
 TEST(FailureCriteria, RigidRotationHasNoSkew) {
   const std::vector<Vec2> xi = family(0.02);
   const Mat2 Q = rotation(0.3);
@@ -65,12 +94,15 @@ TEST(FailureCriteria, RigidRotationHasNoSkew) {
   for (const Vec2& x : xi) eta.push_back(Q * x - x);
   std::vector<double> gamma(xi.size());
   const Index r = reference_bond(xi, Vec2(1.0, 1.0));
-  bond_skews(xi, eta, r, gamma);
-  for (double g : gamma) EXPECT_LT(g, 1e-12);
+  for (const double min_sin : {0.0, std::sqrt(0.5)}) {
+    bond_skews(xi, eta, r, min_sin, gamma);
+    for (double g : gamma) EXPECT_LT(g, 1e-12);
+  }
 }
 
 // Simple shear of amount g along the reference direction (45 degrees), then a rigid
-// rotation: every bond not parallel to e1 has skew g (to 1e-9 relative), the parallel ones 0.
+// rotation. Paper's eq 22 (min_sin = 0): every bond not parallel to e1 has skew g (to 1e-9
+// relative), the parallel ones 0.
 TEST(FailureCriteria, SimpleShearGivesItsAmount) {
   const std::vector<Vec2> xi = family(0.02);
   const Vec2 e1 = Vec2(1.0, 1.0).normalized(), e2(-e1.y(), e1.x());
@@ -79,7 +111,7 @@ TEST(FailureCriteria, SimpleShearGivesItsAmount) {
   std::vector<Vec2> eta;
   for (const Vec2& x : xi) eta.push_back(Q * (x + g * x.dot(e2) * e1) - x);
   std::vector<double> gamma(xi.size());
-  bond_skews(xi, eta, reference_bond(xi, e1), gamma);
+  bond_skews(xi, eta, reference_bond(xi, e1), 0.0, gamma);
   int parallel = 0;
   for (std::size_t b = 0; b < xi.size(); ++b) {
     if (std::abs(xi[b].dot(e2)) < 1e-9 * xi[b].norm()) {
@@ -90,6 +122,33 @@ TEST(FailureCriteria, SimpleShearGivesItsAmount) {
     }
   }
   EXPECT_EQ(parallel, 4);  // (1,1), (2,2) and their opposites lie within 3 dx
+}
+
+// The same shear with the offset across e1 floored at |xi| sin 45 deg (the default): bonds
+// at 45 degrees or more from e1 still read g (1e-9), the shallower ones read
+// g |xi . e2| / (|xi| sin 45) < g, the parallel ones 0 (they do not shear along e1).
+TEST(FailureCriteria, SimpleShearWithTheFloor) {
+  const std::vector<Vec2> xi = family(0.02);
+  const Vec2 e1 = Vec2(1.0, 1.0).normalized(), e2(-e1.y(), e1.x());
+  const double g = 2e-3, s = std::sqrt(0.5);
+  const Mat2 Q = rotation(-0.2);
+  std::vector<Vec2> eta;
+  for (const Vec2& x : xi) eta.push_back(Q * (x + g * x.dot(e2) * e1) - x);
+  std::vector<double> gamma(xi.size());
+  bond_skews(xi, eta, reference_bond(xi, e1), s, gamma);
+  int steep = 0, shallow = 0;
+  for (std::size_t b = 0; b < xi.size(); ++b) {
+    const double sin_b = std::abs(xi[b].dot(e2)) / xi[b].norm();
+    if (sin_b >= s - 1e-12) {
+      EXPECT_NEAR(gamma[b] / g, 1.0, 1e-9) << "bond " << b;
+      ++steep;
+    } else {
+      EXPECT_NEAR(gamma[b], g * sin_b / s, 1e-9 * g) << "bond " << b;
+      ++shallow;
+    }
+  }
+  EXPECT_GT(steep, 0);
+  EXPECT_GT(shallow, 4);  // more than the four parallel bonds
 }
 
 // Single bonds below, at and above the critical stretch of case 4.4: the stretch the

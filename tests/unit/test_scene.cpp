@@ -351,6 +351,16 @@ TEST(SceneFailure, ParsesTheSectionAndChecksIt) {
                "missing required key");
   expect_error(k_minimal + "failure: {criterion: stretch, G_c: 1.0, fraction: 0}\n",
                "scene.yaml:21: failure.fraction", "0 < fraction <= 1");
+  // The skew's floor angle: 45 degrees unless given, 0 is the paper's eq 22, [0, 90).
+  EXPECT_EQ(s.failure.skew_min_angle, 45.0);
+  EXPECT_EQ(parse_scene_text(k_minimal + "failure: {criterion: skew, G_c: 1.0, direction: [1, 0], skew_min_angle: 0}\n",
+                             "scene.yaml")
+                .failure.skew_min_angle,
+            0.0);
+  expect_error(k_minimal + "failure: {criterion: skew, G_c: 1.0, direction: [1, 0], skew_min_angle: 90}\n",
+               "scene.yaml:21: failure.skew_min_angle", "0 <= skew_min_angle < 90");
+  expect_error(k_minimal + "failure: {criterion: stretch, G_c: 1.0, skew_min_angle: 30}\n",
+               "scene.yaml:21: failure.skew_min_angle", "applies to criterion skew only");
 }
 
 TEST(SceneErrors, UnknownKeyInNestedMaps) {

@@ -2,6 +2,7 @@
 // the first bonds to break sit at the notch tip, and Newton and ADR break the same bonds.
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -131,10 +132,45 @@ TEST(Failure, UndoingARoundRestoresTheProblemExactly) {
   EXPECT_EQ(d.maxCoeff(), 0.0);
 }
 
+// The same with the critical skew: a round that breaks reference bonds gives their
+// particles new, intact references (docs/theory/failure.md), and undoing it restores the
+// old ones, so that the same round can be taken again bond for bond with the same peak.
+TEST(Failure, UndoingASkewRoundRestoresTheReferences) {
+  const Scene scene = test::scene_from_yaml(
+      notch(1e-6, false, "{linear: umfpack}", "failure: {criterion: skew, G_c: 10.0, direction: [1, 0]}\n"));
+  const Model model = discretise(scene);
+  QuasiStaticProblem problem(model, problem_options(scene));
+  problem.set_load_factor(1.0);
+  VectorXd x = VectorXd::Zero(problem.n_unknowns());
+  for (Index i = 0; i < x.size(); ++i) x[i] = 5e-5 * std::sin(1.7 * static_cast<double>(i));
+  const BondFailure& failure = *problem.failure();
+  const Index n = model.particles.size();
+  std::vector<Index> before(n);
+  for (Index i = 0; i < n; ++i) before[i] = failure.reference(i);
+  ASSERT_EQ(problem.advance_irreversible_state(x, 200), 200);
+  const auto first = failure.last_round();
+  const double peak = failure.peak().ratio;
+  Index replaced = 0;
+  for (Index i = 0; i < n; ++i) {
+    if (failure.reference(i) == before[i]) continue;
+    ++replaced;
+    const Index r = failure.reference(i);
+    ASSERT_GE(r, 0);
+    EXPECT_GT(failure.weights()[r], 0.0) << "particle " << i << " has a broken reference";
+    EXPECT_EQ(failure.weights()[before[i]], 0.0) << "particle " << i << " lost an intact reference";
+  }
+  EXPECT_GT(replaced, 0);  // 200 of the most skewed bonds of a random state include references
+  problem.revert_irreversible_state();
+  for (Index i = 0; i < n; ++i) EXPECT_EQ(failure.reference(i), before[i]) << "particle " << i;
+  ASSERT_EQ(problem.advance_irreversible_state(x, 200), 200);
+  EXPECT_EQ(failure.last_round(), first);
+  EXPECT_EQ(failure.peak().ratio, peak);
+}
+
 // The paper's case 4.4 (skew criterion, contact with f_c = 0.3 on old and new faces) at
 // dx = 0.05 m, its first four steps (to 10 mm): Newton and ADR break the same bonds in
-// every step, so the same particles carry the same damage at the end (141 bonds when this
-// was written; the test does not pin the number, only that some broke), and the
+// every step, so the same particles carry the same damage at the end (26 bonds with the
+// skew's floor, 141 with eq 22; the test does not pin the number, only that some broke), and the
 // displacements agree to the solvers' tolerances (relative 1e-5: both converge to 1e-8 or
 // better, the contact and friction states are the same).
 TEST(Failure, NewtonAndAdrGrowTheSameCrackInCase44) {
