@@ -12,6 +12,7 @@
 
 #include "app/interrupt.hpp"
 #include "app/model_size.hpp"
+#include "app/preflight.hpp"
 #include "app/progress.hpp"
 #include "app/setup.hpp"
 #include "app/step_recorder.hpp"
@@ -65,6 +66,8 @@ int finish_run(StepRecorder& recorder, const std::function<RunReport()>& run, bo
 
 int check_command(const std::string& scene_path, const std::vector<std::string>& overrides) {
   const Scene scene = parse_scene(scene_path, parse_overrides(overrides));
+  const SizeEstimate estimate = estimate_size(scene);
+  for (const std::string& w : preflight(scene, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
   const Model model = discretise(scene);
   const QuasiStaticProblem problem(model, problem_options(scene));
   std::printf("%s: scene '%s' is valid\n", scene_path.c_str(), scene.name.c_str());
@@ -73,6 +76,9 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   std::printf("  spacing        %g m, horizon %g m (m = %g), %zu bonds per interior family\n", model.spacing,
               model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
   print_size(measure(model, problem));
+  std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
+              estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,
+              estimate.available_bytes / 1e6);
   return exit_success;
 }
 
@@ -82,6 +88,8 @@ int run_command(const RunArguments& args) {
   const Scene scene = parse_scene(args.scene, overrides);
   if (args.threads > 0) omp_set_num_threads(args.threads);
   const double t_start = wall_seconds();
+  const std::vector<std::string> warnings = preflight(scene, estimate_size(scene));
+  for (const std::string& w : warnings) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
 
   const Model model = discretise(scene);
   QuasiStaticProblem problem(model, problem_options(scene));
@@ -94,6 +102,7 @@ int run_command(const RunArguments& args) {
   progress.header(scene, size, wall_seconds() - t_start, method);
   StepRecorder recorder(args.out.empty() ? "results/" + scene.name : args.out, scene, problem, size,
                         linear ? linear->name() : "", omp_get_max_threads());
+  for (const std::string& w : warnings) recorder.add_warning(w);
 
   LoadSteppingCallbacks callbacks = progress.callbacks();
   callbacks.on_step = [&](const StepReport& step, const VectorXd& x) {

@@ -31,6 +31,8 @@ class StepRecorder {
   void record(const StepReport& s, const VectorXd& x);
   /// The final status ("completed", "no_convergence", "interrupted") and message.
   void finish(const std::string& status, const std::string& message) { m_writer.finish(status, message); }
+  /// A warning of the run as a whole (summary.json `warnings`).
+  void add_warning(const std::string& text) { m_writer.add_warning(text); }
   std::string h5_path() const { return m_writer.h5_path(); }
 
  private:

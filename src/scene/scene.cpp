@@ -77,8 +77,15 @@ Discretization read_discretization(const Field& field) {
   const Map m = checked_map(
       field, {"spacing", "horizon_factor", "fictitious_layers", "quadrature", "surface_correction", "origin"});
   Discretization d;
-  d.spacing = schema::positive(m.require("spacing", "spacing, the lattice spacing dx [m], a number > 0"));
-  if (auto f = m.find("horizon_factor")) d.horizon_factor = schema::at_least(*f, 1.0);
+  const Field& spacing = m.require("spacing", "spacing, the lattice spacing dx [m], a number > 0");
+  d.spacing = schema::positive(spacing);
+  d.spacing_where = spacing.where();
+  d.horizon_where = field.where();
+  d.horizon_where.key += ".horizon_factor";
+  if (auto f = m.find("horizon_factor")) {
+    d.horizon_factor = schema::at_least(*f, 1.0);
+    d.horizon_where = f->where();
+  }
   if (auto f = m.find("fictitious_layers")) d.fictitious_layers = schema::int_at_least(*f, 0);
   if (auto f = m.find("quadrature")) d.quadrature = read_quadrature(*f);
   if (auto f = m.find("surface_correction")) d.surface_correction = read_surface_correction(*f);

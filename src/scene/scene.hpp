@@ -103,6 +103,7 @@ struct Discretization {
   SurfaceCorrectionMethod surface_correction = SurfaceCorrectionMethod::moments;
   Vec2 origin = Vec2::Zero();  ///< lattice points sit at origin + (i + 1/2, j + 1/2) dx
   SourceLocation where;
+  SourceLocation spacing_where, horizon_where;  ///< of the two keys (the section's when absent)
 };
 
 /// The solver options of a scene (solver.*): which solver, and each one's own options.

@@ -175,10 +175,48 @@ TEST_F(BadInput, SpacingNotPositive) {
                   at(8, "discretization.spacing"), "out of range");
 }
 
+/// The minimal scene with `horizon_factor: m` on line 9.
+std::string with_horizon_factor(const std::string& m) {
+  return replace(k_minimal, "  spacing: 1.0e-3\n", "  spacing: 1.0e-3\n  horizon_factor: " + m + "\n");
+}
+
 TEST_F(BadInput, HorizonFactorBelowOne) {
-  expect_rejected(
-      run_text(replace(k_minimal, "  spacing: 1.0e-3\n", "  spacing: 1.0e-3\n  horizon_factor: 0.5\n")),
-      at(9, "discretization.horizon_factor"), "expected horizon_factor >= 1");
+  expect_rejected(run_text(with_horizon_factor("0.5")), at(9, "discretization.horizon_factor"),
+                  "expected horizon_factor >= 1");
+}
+
+// Refused before anything is allocated (issue 15, "Refuse what cannot fit"; src/app/preflight.cpp).
+// A spacing of 1e-7 m on the 20 x 10 mm plate is 2e10 particles, about 1e4 TB: exit 2 with the
+// numbers, where it used to end in std::bad_alloc (exit 1).
+TEST_F(BadInput, ModelThatCannotFitIsRefused) {
+  const Outcome o = run_text(replace(k_minimal, "spacing: 1.0e-3", "spacing: 1.0e-7"));
+  expect_rejected(o, at(8, "discretization.spacing"), "refused before allocating");
+  EXPECT_NE(o.stderr_text.find("available"), std::string::npos) << o.stderr_text;
+}
+
+// A horizon factor of 1e6 (3e12 bonds per family) used to run for minutes without output.
+TEST_F(BadInput, HugeFamilyIsRefused) {
+  expect_rejected(run_text(with_horizon_factor("1.0e6")), at(9, "discretization.horizon_factor"),
+                  "bonds per family; at most 2000 are accepted");
+}
+
+// A horizon longer than the body: every family spans it.
+TEST_F(BadInput, HorizonLongerThanTheBodyIsRefused) {
+  expect_rejected(run_text(with_horizon_factor("21")), at(9, "discretization.horizon_factor"),
+                  "is longer than body 'plate'");
+}
+
+// horizon_factor 1 runs, with a warning on stderr and in summary.json that says what it costs.
+TEST_F(BadInput, SmallHorizonFactorWarns) {
+  const Outcome o = run_text(with_horizon_factor("1"), "--quiet");
+  EXPECT_EQ(o.exit_status, 0) << o.stderr_text;
+  EXPECT_NE(o.stderr_text.find("WARNING: " + at(9, "discretization.horizon_factor") + ": horizon_factor 1 < 2"),
+            std::string::npos)
+      << o.stderr_text;
+  std::ifstream in(out_dir() / "summary.json");
+  std::ostringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("start a mode I crack at about 1.8 K_Ic"), std::string::npos);
 }
 
 TEST_F(BadInput, EmptyBodies) {

@@ -1,0 +1,37 @@
+// Checks of a scene before it is discretised (issue 15, "Refuse what cannot fit";
+// docs/guide/cli.md): the size of a family, a horizon longer than a body, and the memory
+// the model and its tangent will take, estimated from the scene alone so that a run that
+// cannot fit is refused (exit 2, with the numbers) before anything is allocated.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "scene/scene.hpp"
+
+namespace peristat {
+
+/// The estimate, from the scene alone (no lattice is built).
+struct SizeEstimate {
+  double particles = 0.0;          ///< real particles: the bodies' areas / dx^2
+  double fictitious = 0.0;         ///< layers along the edges that carry conditions
+  double family = 0.0;             ///< bonds per interior family (the stencil's; pi (m + 1/2)^2 for m > 64)
+  double nonzeros = 0.0;           ///< of the tangent: 4 per pair of particles within 2 horizons
+  double memory_bytes = 0.0;       ///< model, problem state and tangent (no factorisation)
+  double available_bytes = 0.0;    ///< MemAvailable of /proc/meminfo; 0 when unknown
+};
+
+/// Bytes per tangent nonzero of the model, problem state and tangent together, measured with
+/// `check` on the paper cases and the tension plate (24.4-24.9 B, 2026-11-24).
+inline constexpr double kBytesPerNonzero = 25.0;
+/// Largest family accepted (bonds of an interior particle): horizon_factor up to about 24.
+inline constexpr double kMaxFamily = 2000.0;
+
+SizeEstimate estimate_size(const Scene& scene);
+
+/// Throws InputError (exit 2) when the scene cannot be run: a family over kMaxFamily bonds,
+/// a horizon longer than a body's longest side, or an estimated memory over what the machine
+/// has available. Returns warnings to print (horizon_factor below 2).
+std::vector<std::string> preflight(const Scene& scene, const SizeEstimate& estimate);
+
+}  // namespace peristat
