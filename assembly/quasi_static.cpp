@@ -125,6 +125,15 @@ std::string QuasiStaticProblem::check_converged_state(const VectorXd& x) {
   return buf;
 }
 
+std::vector<std::string> QuasiStaticProblem::state_checks() const {
+  std::vector<std::string> checks = Problem::state_checks();
+  if (m_contact) {
+    checks.emplace_back("no crossed contact pair");
+    checks.emplace_back("contact slide since the partner search within its reach");
+  }
+  return checks;
+}
+
 void QuasiStaticProblem::commit(const VectorXd& x) {
   // Elastic bonds carry no history; a round of breaking becomes permanent, friction slip
   // and contact multipliers are updated.

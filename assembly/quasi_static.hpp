@@ -64,6 +64,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// Rejects a state in which a contact pair has crossed (docs/theory/contact.md, section 9),
   /// or whose faces slid further than a partner search covers (section 10).
   std::string check_converged_state(const VectorXd& x) override;
+  std::vector<std::string> state_checks() const override;
 
   /// This problem as ADR's pseudo-velocity input when its friction law reads a velocity
   /// (the paper's eq 13), else null.

@@ -49,6 +49,14 @@ SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& tria
     accumulate(step, r);
   }
   if (r.converged || r.accepted_unconverged) {
+    // Invariant of every accepted state, whatever the solver reported: it is finite.
+    for (Index k = 0; k < trial.size(); ++k) {
+      if (std::isfinite(trial[k])) continue;
+      r.converged = false;
+      r.accepted_unconverged = false;
+      r.reason = "the solver's state holds a non-finite value (unknown " + std::to_string(k) + ")";
+      return r;
+    }
     if (std::string why = problem.check_converged_state(trial); !why.empty()) {
       r.converged = false;
       r.accepted_unconverged = false;

@@ -11,7 +11,8 @@ namespace peristat {
 namespace {
 
 /// The resolved options and model size, stored under "run" in summary.json.
-std::string run_info_json(const Scene& scene, const ModelSize& s, const std::string& linear, int threads) {
+std::string run_info_json(const Scene& scene, const ModelSize& s, const std::string& linear, int threads,
+                          const std::vector<std::string>& checks) {
   const NewtonOptions& n = scene.solver.newton;
   nlohmann::ordered_json solver = {{"type", to_string(scene.solver.type)}};
   if (scene.solver.type == SolverKind::adr) {
@@ -38,7 +39,8 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                        {"spacing", scene.discretization.spacing},
                                        {"horizon_factor", scene.discretization.horizon_factor},
                                        {"load_steps", scene.loading.steps},
-                                       {"solver", solver}};
+                                       {"solver", solver},
+                                       {"checks", checks}};
   {
     const SurfaceCorrectionStats& c = s.correction_stats;
     nlohmann::ordered_json sc = {
@@ -98,7 +100,7 @@ StepRecorder::StepRecorder(const std::string& dir, const Scene& scene, const Qua
     : m_scene(scene),
       m_problem(problem),
       m_writer(dir, scene.name, scene.text, particle_table(scene, problem.model()),
-               run_info_json(scene, size, linear, threads)) {}
+               run_info_json(scene, size, linear, threads, problem.state_checks())) {}
 
 bool StepRecorder::due(int step) const {
   return step % m_scene.output.every == 0 || step == m_scene.loading.steps;

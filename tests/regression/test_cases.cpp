@@ -173,7 +173,8 @@ TEST(PaperCases, CrackGrowthCaseGrowsFromTheTip) {
                     "/scene.yaml --quiet --out " + dir.string() + " --set discretization.spacing=0.05");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string summary = test::read_file(dir / "summary.json");
-  for (const char* key : {"bonds_broken", "broken_bonds_total", "resolves", "break_cutbacks"})
+  for (const char* key : {"bonds_broken", "broken_bonds_total", "resolves", "break_cutbacks", "\"checks\"",
+                          "\"finite state\"", "\"no crossed contact pair\""})
     EXPECT_NE(summary.find(key), std::string::npos) << key;
   ResultsReader reader((dir / (name + ".h5")).string());
   ASSERT_EQ(reader.steps().size(), 6u);

@@ -114,6 +114,35 @@ TEST(LoadStepping, SubStepsAreCommittedOnlyWhenConverged) {
   EXPECT_GT(p.committed.back(), 0.75) << "sub-steps advanced past the last nominal step";
 }
 
+// A solver that reports convergence with a non-finite state (as a Krylov solver fed a
+// breakdown might): the state is never accepted, the step is cut back, and the run stops
+// with the reason instead of completing (issue 15, invariants of every accepted state).
+class LyingSolver final : public StepSolver {
+ public:
+  SolveReport solve(VectorXd& x, const SolveMonitor& = {}) override {
+    x.setConstant(std::numeric_limits<double>::infinity());
+    SolveReport r;
+    r.converged = true;
+    r.reason = "converged";
+    r.residuals = {0.0};
+    return r;
+  }
+};
+
+TEST(LoadStepping, NonFiniteStateIsNeverAccepted) {
+  ScalarProblem p(10.0);
+  LyingSolver solver;
+  Loading loading;
+  loading.steps = 2;
+  loading.max_cutbacks = 2;
+  VectorXd x = VectorXd::Zero(1);
+  const RunReport r = run_load_steps(p, solver, x, loading, {});
+  EXPECT_FALSE(r.completed);
+  EXPECT_EQ(r.steps_done, 0);
+  EXPECT_TRUE(p.committed.empty());
+  EXPECT_NE(r.message.find("non-finite value"), std::string::npos) << r.message;
+}
+
 // A crack that runs: from load factor 0.5 on, `pending` bonds are over the criterion. The
 // re-solve after a round fails (non-finite residual) when the round broke more than
 // `tolerable` bonds at once, as Newton does when too much of the structure lets go at once.
