@@ -17,7 +17,8 @@ std::string describe(Eigen::ComputationInfo info) {
       return "success";
     case Eigen::NumericalIssue:
       return "numerical issue (the matrix is singular or not positive definite: is every "
-             "body held against rigid motion?)";
+             "body held against rigid motion? With contact, the pair terms can make the tangent "
+             "indefinite or nearly singular: solver.linear=cg copes)";
     case Eigen::NoConvergence:
       return "the iterative solver did not converge";
     case Eigen::InvalidInput:
