@@ -14,7 +14,7 @@
 //   mode I,  critical stretch:                        0.72-1.20, mean 0.92-1.02 per angle
 //   mode II, critical skew, floor at 45 deg (default): 0.72-1.23, mean 0.94-1.03 per angle
 //   mode II, critical skew, paper's eq 22:             0.27-0.76, mean 0.32-0.71 per angle
-// The mode I stretch is the yardstick: the PD solution of a mode I crack starts at 1.09 x
+// The mode I stretch is the yardstick: the PD solution of a mode I crack starts at 1.03-1.04 x
 // Griffith (verification.Failure.ModeIStartLoadAgainstGriffith). The skew with the floor
 // must agree with LEFM as well as that (every start within [0.7, 1.3] K_c, the mean per
 // angle within 10%), and the paper's eq 22 is kept as the reason for the floor: it starts
