@@ -91,10 +91,14 @@ class Problem {
 
   /// Checks a converged state before it is accepted; returns why it must be rejected (e.g. a
   /// contact pair whose particles have passed each other), or "" when it may be accepted.
+  /// The load stepping calls it right after evaluate(x, r, nullptr).
   virtual std::string check_converged_state(const VectorXd& /*x*/) { return {}; }
   /// What every accepted state has been checked for (summary.json run.checks): the load
-  /// stepping's own "finite state", and what check_converged_state() adds.
-  virtual std::vector<std::string> state_checks() const { return {"finite state"}; }
+  /// stepping's own checks (finite state, residual recomputed within the solver's
+  /// tolerance), and what check_converged_state() adds.
+  virtual std::vector<std::string> state_checks() const {
+    return {"finite state", "residual recomputed from scratch within the solver's tolerance"};
+  }
 
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;

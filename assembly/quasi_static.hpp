@@ -22,6 +22,24 @@
 
 namespace peristat {
 
+/// The energy ledger of the accepted states (docs/theory/newton.md, "Energy balance"), summed
+/// over the increments between them by the trapezoid rule on the forces of the two states.
+/// external_work + residual_work = strain_energy + contact_work + released + quadrature holds
+/// exactly (up to round-off): `quadrature` is the trapezoid's error on the bonds' work over the
+/// increments without breaking. The check of each such increment compares the change of the
+/// stored energy with the work of the bond forces by a rule exact for the kernel's energy to
+/// round-off (trapezoid, linearised kinematics) or to high order (Simpson, finite kinematics).
+struct EnergyLedger {
+  double external_work = 0.0;  ///< work of the forces on the prescribed components [J]
+  double residual_work = 0.0;  ///< work of the residual forces on the unknowns (the solver's tolerance) [J]
+  double strain_energy = 0.0;  ///< Pi of the bonds at the last accepted state [J]
+  double contact_work = 0.0;   ///< work taken by the contact pairs: stored in them + dissipated by friction [J]
+  double released = 0.0;       ///< work the bonds took over increments that broke bonds and no longer store [J]
+  double quadrature = 0.0;     ///< accumulated (trapezoid work of the bond forces - change of Pi) [J]
+  double worst_relative = 0.0; ///< largest |change of Pi - rule's work| / energy scale of a checked increment
+  Index checked = 0;           ///< increments checked
+};
+
 /// What the problem models beyond the bonds: each part is built only when enabled.
 struct ProblemOptions {
   ContactOptions contact;                         ///< contact.enabled = false: no candidates, no cost
@@ -63,6 +81,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   ConstraintUpdate update_multipliers(const VectorXd& x) override;
   /// Rejects a state in which a contact pair has crossed (docs/theory/contact.md, section 9),
   /// or whose faces slid further than a partner search covers (section 10).
+  /// Also checks that no particle's damage decreased since the last accepted state, and the
+  /// energy balance of the bonds over the increment (EnergyLedger).
   std::string check_converged_state(const VectorXd& x) override;
   std::vector<std::string> state_checks() const override;
 
@@ -93,6 +113,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// (with mirror conditions, the ghosts' families too).
   double energy() const { return m_energy; }
   const Model& model() const { return m_model; }
+  /// The energy ledger up to the last accepted state.
+  const EnergyLedger& energy_ledger() const { return m_ledger; }
   /// The contact candidates and their state, or null when the scene has no contact.
   const ContactSystem* contact() const { return m_contact.get(); }
   /// The bonds' failure state, or null when the scene models no failure.
@@ -119,6 +141,12 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// Throws ModelLimit (after undoing the round) when a pair of the round has an end among a
   /// mirror condition's ghosts or their images: the reflection cannot follow broken bonds.
   void check_mirror_zone(const std::vector<std::pair<Index, Index>>& broken);
+  /// The increment of the ledger from the last accepted state to x, whose evaluate() was the
+  /// last (may evaluate the bonds at the midpoint, then x again). Returns why the energy
+  /// balance fails, or "" (failures are reported only when `check`).
+  std::string measure_increment(const VectorXd& x, bool check);
+  /// Why damage decreased at the state of the bonds' weights, or "".
+  std::string check_damage();
 
   const Model& m_model;
   ProblemOptions m_options;
@@ -137,6 +165,17 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   double m_contact_seconds = 0.0;
   double m_lambda = 0.0;
   double m_committed_lambda = 0.0;  ///< load factor of the last commit()
+
+  // The last accepted state for the energy ledger: full displacement, bond forces and
+  // contact forces (2N each), and the increment measured by the last check (pending until
+  // commit()).
+  EnergyLedger m_ledger, m_pending_ledger;
+  bool m_pending = false;
+  bool m_bonds_changed = false;  ///< bonds broke since the last accepted state
+  double m_energy_unit = 0.0;    ///< sum of V_i E_i [J]: the energy scale of round-off
+  VectorXd m_u_accepted, m_fbond_accepted, m_fcontact_accepted;
+  VectorXd m_u_next, m_fbond_next, m_fcontact_next, m_scratch;
+  VectorXd m_damage_accepted, m_damage_now;  ///< per particle, with failure
 
   // State of the last evaluate.
   VectorXd m_u, m_force;

@@ -47,6 +47,10 @@ void AdrSolver::prepare(const VectorXd& x) {
   m_have_density = true;
 }
 
+double AdrSolver::residual_tolerance(double force_scale) const {
+  return std::max(m_options.rtol * force_scale, kForceFloor);
+}
+
 SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   SolveReport report;
   const AdrOptions& o = m_options;
@@ -58,7 +62,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, nullptr);
   report.seconds_evaluate += wall_seconds() - t0;
-  const auto tolerance = [&] { return std::max(o.rtol * m_problem.force_scale(), kForceFloor); };
+  const auto tolerance = [&] { return residual_tolerance(m_problem.force_scale()); };
   const auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kForceFloor); };
   double norm = m_r.norm();
   report.residuals.push_back(relative(norm));

@@ -23,6 +23,8 @@ class AdrSolver final : public StepSolver {
   void prepare(const VectorXd& x) override;
   bool prepared() const override { return m_have_density && m_structure == m_problem.structure_version(); }
   bool cutback_helps() const override { return false; }
+  /// max(rtol * force_scale, a floor of 1e-300 N), the convergence test of the pseudo-time steps.
+  double residual_tolerance(double force_scale) const override;
 
   /// The fictitious density of the last prepare() (per unknown).
   const VectorXd& density() const { return m_density; }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string>
 
 #include "core/clock.hpp"
@@ -29,10 +30,13 @@ void accumulate(StepReport& step, const SolveReport& r) {
 
 /// One solve at the problem's current load, with what a state needs before it is accepted:
 /// while the multiplier constraints are violated, their update and a re-solve; then the
-/// problem's admissibility check. A state that fails either is reported as not converged,
-/// with the reason. Work is added to `step`.
-SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& trial, const LoadSteppingCallbacks& cb,
-                            StepReport& step) {
+/// invariants of every accepted state, whatever the solver reported: the state is finite,
+/// its residual recomputed from scratch is within the solver's tolerance (states ADR keeps
+/// unconverged are exempt: they are counted as such), and the problem's own checks pass. A
+/// state that fails any is reported as not converged, with the reason. Work is added to
+/// `step`; `r_check` is scratch.
+SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& trial, VectorXd& r_check,
+                            const LoadSteppingCallbacks& cb, StepReport& step) {
   SolveReport r = solver.solve(trial, cb.on_iteration);
   accumulate(step, r);
   while (r.converged) {
@@ -48,21 +52,32 @@ SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& tria
     r = solver.solve(trial, cb.on_iteration);
     accumulate(step, r);
   }
-  if (r.converged || r.accepted_unconverged) {
-    // Invariant of every accepted state, whatever the solver reported: it is finite.
-    for (Index k = 0; k < trial.size(); ++k) {
-      if (std::isfinite(trial[k])) continue;
-      r.converged = false;
-      r.accepted_unconverged = false;
-      r.reason = "the solver's state holds a non-finite value (unknown " + std::to_string(k) + ")";
-      return r;
-    }
-    if (std::string why = problem.check_converged_state(trial); !why.empty()) {
-      r.converged = false;
-      r.accepted_unconverged = false;
-      r.reason = std::move(why);
-    }
+  if (!r.converged && !r.accepted_unconverged) return r;
+  const auto reject = [&](std::string why) {
+    r.converged = false;
+    r.accepted_unconverged = false;
+    r.reason = std::move(why);
+    return r;
+  };
+  if (!trial.allFinite()) {
+    Index k = 0;
+    while (std::isfinite(trial[k])) ++k;
+    return reject("the solver's state holds a non-finite value (unknown " + std::to_string(k) + ")");
   }
+  problem.evaluate(trial, r_check, nullptr);
+  const double norm = r_check.norm(), scale = problem.force_scale();
+  r.true_residual = norm / std::max(scale, std::numeric_limits<double>::min());
+  if (!std::isfinite(norm))
+    return reject("the residual recomputed at the solver's state is not finite");
+  if (r.converged && norm > solver.residual_tolerance(scale)) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "the residual recomputed at the solver's converged state, %.3e relative, exceeds the solver's "
+                  "tolerance (%.3e relative): the solver's convergence report was wrong",
+                  r.true_residual, solver.residual_tolerance(scale) / std::max(scale, std::numeric_limits<double>::min()));
+    return reject(buf);
+  }
+  if (std::string why = problem.check_converged_state(trial); !why.empty()) return reject(std::move(why));
   return r;
 }
 
@@ -71,7 +86,7 @@ void accept(Problem& problem, VectorXd& x, VectorXd& trial, const SolveReport& r
   if (!r.converged) ++step.unconverged;
   x.swap(trial);
   problem.commit(x);
-  step.final_residual = r.residuals.back();
+  step.final_residual = r.true_residual;
 }
 
 /// Quasi-static breaking at the converged, committed state x of nominal step step.step of n,
@@ -81,7 +96,7 @@ void accept(Problem& problem, VectorXd& x, VectorXd& trial, const SolveReport& r
 /// two rounds in a row converge. Returns "" or why the run has to stop (x is then the last
 /// converged state).
 std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x, VectorXd& trial,
-                              const Loading& loading, const LoadSteppingCallbacks& cb, StepReport& step,
+                              VectorXd& r_check, const Loading& loading, const LoadSteppingCallbacks& cb, StepReport& step,
                               int n, double lambda) {
   const int k = step.step;
   char buf[320];
@@ -109,7 +124,7 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
     solver.invalidate_factorization();
     solver.prepare(x);  // the tangent without the broken bonds
     trial = x;
-    const SolveReport r = solve_and_check(problem, solver, trial, cb, step);
+    const SolveReport r = solve_and_check(problem, solver, trial, r_check, cb, step);
     if (r.converged || r.accepted_unconverged) {
       accept(problem, x, trial, r, step);
       step.bonds_broken += broken;
@@ -142,7 +157,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
   const int n = loading.steps;
   const double nominal = 1.0 / n;
   double lambda = problem.load_factor();
-  VectorXd trial;
+  VectorXd trial, r_check;
   for (int k = 1; k <= n; ++k) {
     const double start = wall_seconds();
     const double target = static_cast<double>(k) / n;
@@ -156,12 +171,12 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
       problem.set_load_factor(next);
       if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
       trial = x;
-      const SolveReport r = solve_and_check(problem, solver, trial, cb, step);
+      const SolveReport r = solve_and_check(problem, solver, trial, r_check, cb, step);
       if (r.converged || r.accepted_unconverged) {
         accept(problem, x, trial, r, step);
         lambda = next;
         ++step.substeps;
-        if (std::string why = break_and_resolve(problem, solver, x, trial, loading, cb, step, n, lambda);
+        if (std::string why = break_and_resolve(problem, solver, x, trial, r_check, loading, cb, step, n, lambda);
             !why.empty()) {
           run.message = std::move(why);
           return run;

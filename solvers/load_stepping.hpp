@@ -32,7 +32,7 @@ struct StepReport {
   int break_cutbacks = 0;         ///< failed re-solves retried with half as many bonds
   int multiplier_updates = 0;     ///< re-solves after updating constraint multipliers (exact contact)
   std::vector<double> residuals;  ///< relative residuals of all sub-steps, in order
-  double final_residual = 0.0;
+  double final_residual = 0.0;    ///< relative residual recomputed from scratch at the final state
   double seconds_evaluate = 0.0, seconds_factorize = 0.0, seconds_solve = 0.0;
   double wall_seconds = 0.0;
 };

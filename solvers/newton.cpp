@@ -93,12 +93,16 @@ SolveReport NewtonSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   return report;
 }
 
+double NewtonSolver::residual_tolerance(double force_scale) const {
+  return std::max(m_options.rtol * force_scale, m_options.atol);
+}
+
 SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report) {
   // Iteration 1 uses the factor of the last converged state when there is one.
   bool use_existing = m_have_factor;
   const NewtonOptions& o = m_options;
   auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kTiny); };
-  auto converged = [&](double norm) { return norm <= std::max(o.rtol * m_problem.force_scale(), o.atol); };
+  auto converged = [&](double norm) { return norm <= residual_tolerance(m_problem.force_scale()); };
 
   double t0 = wall_seconds();
   const bool assemble0 = !(reuse_factor() || use_existing);

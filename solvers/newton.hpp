@@ -35,6 +35,8 @@ class NewtonSolver final : public StepSolver {
   bool prepared() const override { return m_have_factor && m_structure == m_problem.structure_version(); }
   /// Forget the factorisation (after a failed solve, or when the pattern changed).
   void invalidate_factorization() override { m_have_factor = false; }
+  /// max(rtol * force_scale, atol), the convergence test of every iterate.
+  double residual_tolerance(double force_scale) const override;
 
  private:
   SolveReport solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report);

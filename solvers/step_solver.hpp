@@ -20,6 +20,9 @@ struct SolveReport {
   std::string reason;              ///< why it stopped (converged, max iterations, ...)
   int iterations = 0;              ///< Newton: linear solves; ADR: pseudo-time steps
   std::vector<double> residuals;   ///< relative residuals (Newton: every iterate; ADR: sampled)
+  /// The relative residual recomputed from scratch at the final state by the load stepping
+  /// (set only for states it checked for acceptance).
+  double true_residual = 0.0;
   std::vector<double> increments;  ///< Newton: alpha ||dx|| / max(||x||, tiny) of each accepted update
   int factorizations = 0;
   int linear_iterations = 0;  ///< Krylov iterations, summed
@@ -50,6 +53,10 @@ class StepSolver {
   /// Whether a smaller load increment can rescue a failed solve. ADR fails by running out
   /// of its iteration budget, which a smaller increment does not change much.
   virtual bool cutback_helps() const { return true; }
+  /// The largest residual norm ||r|| this solver accepts as converged when the problem's
+  /// force scale is `force_scale` (the load stepping checks every accepted state against it,
+  /// with the residual recomputed from scratch).
+  virtual double residual_tolerance(double force_scale) const = 0;
 };
 
 }  // namespace peristat

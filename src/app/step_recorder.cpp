@@ -131,6 +131,15 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     rec.counts["reaction_" + std::to_string(k) + "_x"] = f.x();
     rec.counts["reaction_" + std::to_string(k) + "_y"] = f.y();
   }
+  // The energy ledger up to this state (docs/guide/results.md).
+  const EnergyLedger& e = m_problem.energy_ledger();
+  rec.counts["energy_external_work"] = e.external_work;
+  rec.counts["energy_strain"] = e.strain_energy;
+  rec.counts["energy_contact_work"] = e.contact_work;
+  rec.counts["energy_residual_work"] = e.residual_work;
+  rec.counts["energy_released"] = e.released;
+  rec.counts["energy_quadrature"] = e.quadrature;
+  rec.counts["energy_worst_relative"] = e.worst_relative;
   if (const BondFailure* failure = m_problem.failure()) {
     failure->damage(m_damage);
     rec.damage = &m_damage;

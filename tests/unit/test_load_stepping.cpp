@@ -114,33 +114,52 @@ TEST(LoadStepping, SubStepsAreCommittedOnlyWhenConverged) {
   EXPECT_GT(p.committed.back(), 0.75) << "sub-steps advanced past the last nominal step";
 }
 
-// A solver that reports convergence with a non-finite state (as a Krylov solver fed a
-// breakdown might): the state is never accepted, the step is cut back, and the run stops
-// with the reason instead of completing (issue 15, invariants of every accepted state).
+// A solver that reports convergence whatever the state: with `poison`, after filling it with
+// infinities (as a Krylov solver fed a breakdown might); without, leaving it where it was (at
+// the new load factor a finite state that is not an equilibrium). The load stepping's own
+// checks must catch both: the state is never accepted, the step is cut back, and the run
+// stops with the reason instead of completing (issue 15, invariants of every accepted state).
 class LyingSolver final : public StepSolver {
  public:
+  explicit LyingSolver(bool poison) : m_poison(poison) {}
   SolveReport solve(VectorXd& x, const SolveMonitor& = {}) override {
-    x.setConstant(std::numeric_limits<double>::infinity());
+    if (m_poison) x.setConstant(std::numeric_limits<double>::infinity());
     SolveReport r;
     r.converged = true;
     r.reason = "converged";
     r.residuals = {0.0};
     return r;
   }
+  double residual_tolerance(double force_scale) const override { return 1e-10 * force_scale; }
+
+ private:
+  bool m_poison;
 };
 
-TEST(LoadStepping, NonFiniteStateIsNeverAccepted) {
-  ScalarProblem p(10.0);
-  LyingSolver solver;
+RunReport run_lying(ScalarProblem& p, bool poison) {
+  LyingSolver solver(poison);
   Loading loading;
   loading.steps = 2;
   loading.max_cutbacks = 2;
   VectorXd x = VectorXd::Zero(1);
-  const RunReport r = run_load_steps(p, solver, x, loading, {});
+  return run_load_steps(p, solver, x, loading, {});
+}
+
+TEST(LoadStepping, NonFiniteStateIsNeverAccepted) {
+  ScalarProblem p(10.0);
+  const RunReport r = run_lying(p, true);
   EXPECT_FALSE(r.completed);
   EXPECT_EQ(r.steps_done, 0);
   EXPECT_TRUE(p.committed.empty());
   EXPECT_NE(r.message.find("non-finite value"), std::string::npos) << r.message;
+}
+
+TEST(LoadStepping, ClaimedConvergenceIsCheckedWithTheTrueResidual) {
+  ScalarProblem p(10.0);
+  const RunReport r = run_lying(p, false);
+  EXPECT_FALSE(r.completed);
+  EXPECT_TRUE(p.committed.empty()) << "a state with residual 0.5 (tolerance 1e-10) was accepted";
+  EXPECT_NE(r.message.find("residual recomputed"), std::string::npos) << r.message;
 }
 
 // A crack that runs: from load factor 0.5 on, `pending` bonds are over the criterion. The
