@@ -272,6 +272,51 @@ void QuasiStaticProblem::commit(const VectorXd& x) {
   }
 }
 
+void QuasiStaticProblem::save_state(StateArchive& archive) const {
+  archive.put("problem/load_factor", m_committed_lambda);
+  const EnergyLedger& e = m_ledger;
+  archive.put("problem/energy_ledger", {e.external_work, e.residual_work, e.strain_energy, e.contact_work, e.released,
+                                        e.quadrature, e.worst_relative, static_cast<double>(e.checked)});
+  if (m_failure) m_failure->save(archive);
+  if (m_contact) m_contact->save(archive);
+}
+
+void QuasiStaticProblem::restore_state(const StateArchive& archive, const VectorXd& x) {
+  const double lambda = archive.scalar("problem/load_factor");
+  const std::vector<double>& e = archive.get("problem/energy_ledger", 8);
+  m_ledger = EnergyLedger{e[0], e[1], e[2], e[3], e[4], e[5], e[6], static_cast<Index>(e[7])};
+  if (m_failure) {
+    m_failure->restore(archive);
+    // The families holding a broken bond get their influence factors again (each family's
+    // factors depend on its own bonds only, so the order of the rounds does not matter).
+    const Bonds& bonds = m_model.bonds;
+    std::vector<std::pair<Index, Index>> broken;
+    for (const double b : archive.get("failure/broken_bonds")) {
+      const auto k = static_cast<Index>(b);
+      broken.emplace_back(bonds.neighbour[bonds.reverse[k]], bonds.neighbour[k]);
+    }
+    collect_changed_families(broken);
+    if (!m_changed_families.empty()) m_correction.update(m_failure->weights(), m_changed_families);
+  }
+  if (m_contact) {
+    m_contact->restore(archive);
+    m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get());
+    m_preconditioner.reset();
+  }
+  set_load_factor(lambda);
+  m_committed_lambda = lambda;
+  if (m_contact) m_contact->start_trial(1.0);
+  // The ledger's accepted state: x's displacement and forces (the increment measured from
+  // the fresh problem's zero state is discarded).
+  evaluate(x, m_scratch, nullptr);
+  measure_increment(x, false);
+  m_pending = m_bonds_changed = false;
+  m_u_accepted.swap(m_u_next);
+  m_fbond_accepted.swap(m_fbond_next);
+  if (m_contact) m_fcontact_accepted.swap(m_fcontact_next);
+  if (m_failure) m_failure->damage(m_damage_accepted);
+}
+
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {
   m_pending = false;  // a check measured an earlier evaluation
   expand(x, m_u);

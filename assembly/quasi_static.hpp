@@ -113,6 +113,11 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// (with mirror conditions, the ghosts' families too).
   double energy() const { return m_energy; }
   const Model& model() const { return m_model; }
+  /// The committed state into / from a checkpoint (peristat run --resume): load factor,
+  /// energy ledger, broken bonds, contact candidates and their history. restore_state()
+  /// expects a fresh problem of the same model and the committed unknowns x.
+  void save_state(StateArchive& archive) const;
+  void restore_state(const StateArchive& archive, const VectorXd& x);
   /// The energy ledger up to the last accepted state.
   const EnergyLedger& energy_ledger() const { return m_ledger; }
   /// The contact candidates and their state, or null when the scene has no contact.

@@ -152,13 +152,14 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
 }  // namespace
 
 RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, const Loading& loading,
-                         const LoadSteppingCallbacks& cb) {
+                         const LoadSteppingCallbacks& cb, int steps_done) {
   RunReport run;
+  run.steps_done = steps_done;
   const int n = loading.steps;
   const double nominal = 1.0 / n;
   double lambda = problem.load_factor();
   VectorXd trial, r_check;
-  for (int k = 1; k <= n; ++k) {
+  for (int k = steps_done + 1; k <= n; ++k) {
     const double start = wall_seconds();
     const double target = static_cast<double>(k) / n;
     StepReport step;

@@ -62,8 +62,10 @@ struct LoadSteppingCallbacks {
   std::function<void(const std::string& reason, double next_increment)> on_cutback;
 };
 
-/// Runs the load steps from the committed state x (normally zero at load factor 0).
+/// Runs the load steps from the committed state x (normally zero at load factor 0): nominal
+/// steps steps_done + 1 .. loading.steps, the problem's load factor being that of step
+/// steps_done (a resumed run).
 RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, const Loading& loading,
-                         const LoadSteppingCallbacks& callbacks);
+                         const LoadSteppingCallbacks& callbacks, int steps_done = 0);
 
 }  // namespace peristat

@@ -20,6 +20,7 @@
 #include "core/clock.hpp"
 #include "core/error.hpp"
 #include "discretisation/model.hpp"
+#include "io/checkpoint.hpp"
 #include "io/results.hpp"
 #include "solvers/adr.hpp"
 #include "solvers/linear/linear_solver.hpp"
@@ -62,6 +63,42 @@ int finish_run(StepRecorder& recorder, const std::function<RunReport()>& run, bo
   return exit_success;
 }
 
+/// The options a checkpoint was written with, as texts (compared on --resume).
+std::string joined(const std::vector<std::string>& items) {
+  std::string out;
+  for (const std::string& item : items) out += (out.empty() ? "" : " ") + item;
+  return out;
+}
+
+/// Refuses (InputError) a resume whose scene or options differ from the checkpoint's, saying which.
+void check_same_run(const StateArchive& checkpoint, const std::string& path, const Scene& scene,
+                    const RunArguments& args) {
+  const auto text = [&](const std::string& key) {
+    const auto it = checkpoint.texts.find(key);
+    return it == checkpoint.texts.end() ? std::string() : it->second;
+  };
+  if (text("overrides") != joined(args.overrides))
+    throw InputError(path + ": the run was started with --set options [" + text("overrides") +
+                     "], the resume has [" + joined(args.overrides) + "]; give the same options");
+  if (text("solver") != args.solver)
+    throw InputError(path + ": the run was started with --solver '" + text("solver") + "', the resume has '" +
+                     args.solver + "'");
+  const std::string before = text("scene");
+  if (before == scene.text) return;
+  // The first line that differs.
+  std::size_t line = 1, a = 0, b = 0;
+  for (;;) {
+    const std::size_t ea = before.find('\n', a), eb = scene.text.find('\n', b);
+    const std::string la = before.substr(a, ea - a), lb = scene.text.substr(b, eb - b);
+    if (la != lb || ea == std::string::npos || eb == std::string::npos)
+      throw InputError(path + ": the scene differs from the one the run was started with, at line " +
+                       std::to_string(line) + " of the scene as run: '" + la + "' then, '" + lb + "' now");
+    a = ea + 1;
+    b = eb + 1;
+    ++line;
+  }
+}
+
 }  // namespace
 
 int check_command(const std::string& scene_path, const std::vector<std::string>& overrides) {
@@ -98,22 +135,46 @@ int run_command(const RunArguments& args) {
   const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear);
   const std::string method = linear ? "Newton, linear solver " + linear->name() : std::string("ADR");
 
+  const std::string out = args.out.empty() ? "results/" + scene.name : args.out;
+  const std::string checkpoint_path = out + "/" + scene.name + ".checkpoint.h5";
+  VectorXd x = VectorXd::Zero(problem.n_unknowns());
+  int steps_done = 0;
+  if (args.resume) {
+    const StateArchive checkpoint = read_checkpoint(checkpoint_path);
+    check_same_run(checkpoint, checkpoint_path, scene, args);
+    const std::vector<double>& saved = checkpoint.get("state/x", problem.n_unknowns());
+    x = Eigen::Map<const VectorXd>(saved.data(), problem.n_unknowns());
+    steps_done = static_cast<int>(checkpoint.scalar("state/steps_done"));
+    problem.restore_state(checkpoint, x);
+  } else {
+    problem.set_load_factor(0.0);
+  }
+
   const ProgressPrinter progress(!args.quiet, scene.solver.type, problem);
   progress.header(scene, size, wall_seconds() - t_start, method);
-  StepRecorder recorder(args.out.empty() ? "results/" + scene.name : args.out, scene, problem, size,
-                        linear ? linear->name() : "", omp_get_max_threads());
+  StepRecorder recorder(out, scene, problem, size, linear ? linear->name() : "", omp_get_max_threads(),
+                        args.resume ? steps_done : -1);
   for (const std::string& w : warnings) recorder.add_warning(w);
+  if (args.resume && !args.quiet)
+    std::printf("peristat: resuming after load step %d/%d (load factor %.6g) from %s\n", steps_done,
+                scene.loading.steps, problem.load_factor(), checkpoint_path.c_str());
 
+  // Every nominal step: the results, then the checkpoint (a stop between the two repeats the step).
+  StateArchive checkpoint;
+  checkpoint.texts = {{"scene", scene.text}, {"overrides", joined(args.overrides)}, {"solver", args.solver}};
   LoadSteppingCallbacks callbacks = progress.callbacks();
-  callbacks.on_step = [&](const StepReport& step, const VectorXd& x) {
-    recorder.record(step, x);
+  callbacks.on_step = [&](const StepReport& step, const VectorXd& state) {
+    recorder.record(step, state);
     if (recorder.due(step.step)) progress.step_done(step);
+    checkpoint.arrays.clear();
+    checkpoint.put("state/x", {state.data(), state.data() + state.size()});
+    checkpoint.put("state/steps_done", step.step);
+    problem.save_state(checkpoint);
+    write_checkpoint(checkpoint_path, checkpoint);
   };
-  VectorXd x = VectorXd::Zero(problem.n_unknowns());
-  problem.set_load_factor(0.0);
   return finish_run(
-      recorder, [&] { return run_load_steps(problem, *solver, x, scene.loading, callbacks); }, !args.quiet,
-      t_start);
+      recorder, [&] { return run_load_steps(problem, *solver, x, scene.loading, callbacks, steps_done); },
+      !args.quiet, t_start);
 }
 
 int probe_command(const ProbeArguments& args) {

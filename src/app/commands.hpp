@@ -17,6 +17,7 @@ struct RunArguments {
   std::vector<std::string> overrides;  ///< --set KEY=VALUE
   bool quiet = false;
   int threads = 0;  ///< 0 = OpenMP default
+  bool resume = false;  ///< --resume: continue the run in `out` from its checkpoint
 };
 
 int run_command(const RunArguments& args);

@@ -96,11 +96,15 @@ std::string compliance_warning(const QuasiStaticProblem& problem, const StepRepo
 }
 
 StepRecorder::StepRecorder(const std::string& dir, const Scene& scene, const QuasiStaticProblem& problem,
-                           const ModelSize& size, const std::string& linear, int threads)
-    : m_scene(scene),
-      m_problem(problem),
-      m_writer(dir, scene.name, scene.text, particle_table(scene, problem.model()),
-               run_info_json(scene, size, linear, threads, problem.state_checks())) {}
+                           const ModelSize& size, const std::string& linear, int threads, int resume_after)
+    : m_scene(scene), m_problem(problem) {
+  const std::string info = run_info_json(scene, size, linear, threads, problem.state_checks());
+  m_writer = resume_after >= 0
+                 ? std::make_unique<ResultsWriter>(dir, scene.name, resume_after,
+                                                   static_cast<std::size_t>(problem.model().particles.size()), info)
+                 : std::make_unique<ResultsWriter>(dir, scene.name, scene.text,
+                                                   particle_table(scene, problem.model()), info);
+}
 
 bool StepRecorder::due(int step) const {
   return step % m_scene.output.every == 0 || step == m_scene.loading.steps;
@@ -109,7 +113,7 @@ bool StepRecorder::due(int step) const {
 void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   const double step_contact_seconds = m_problem.contact_seconds() - m_contact_seconds_before;
   m_contact_seconds_before = m_problem.contact_seconds();
-  if (std::string warning = compliance_warning(m_problem, s); !warning.empty()) m_writer.add_warning(warning);
+  if (std::string warning = compliance_warning(m_problem, s); !warning.empty()) m_writer->add_warning(warning);
   if (!due(s.step)) return;
   m_problem.expand(x, m_u);
   StepRecord rec;
@@ -179,7 +183,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
       {"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};
   if (m_problem.contact()) rec.timings["contact"] = step_contact_seconds;
   const WriteGuard guard;
-  m_writer.write_step(rec);
+  m_writer->write_step(rec);
 }
 
 }  // namespace peristat

@@ -3,6 +3,8 @@
 // the last.
 #pragma once
 
+#include <memory>
+
 #include <string>
 
 #include "app/model_size.hpp"
@@ -21,8 +23,10 @@ class StepRecorder {
  public:
   /// Creates the files in `dir` with the scene, the particles and the run information
   /// (model size, resolved options; `linear` is the linear solver's name, empty for ADR).
+  /// With `resume_after` >= 0 the files of a stopped run in `dir` are continued after that
+  /// step instead (ResultsWriter's resume constructor).
   StepRecorder(const std::string& dir, const Scene& scene, const QuasiStaticProblem& problem,
-               const ModelSize& size, const std::string& linear, int threads);
+               const ModelSize& size, const std::string& linear, int threads, int resume_after = -1);
 
   /// Whether step k is written (every output.every-th and the last).
   bool due(int step) const;
@@ -30,15 +34,15 @@ class StepRecorder {
   /// The contact counts and forces are those of the problem's last evaluation (the commit's, at x).
   void record(const StepReport& s, const VectorXd& x);
   /// The final status ("completed", "no_convergence", "interrupted") and message.
-  void finish(const std::string& status, const std::string& message) { m_writer.finish(status, message); }
+  void finish(const std::string& status, const std::string& message) { m_writer->finish(status, message); }
   /// A warning of the run as a whole (summary.json `warnings`).
-  void add_warning(const std::string& text) { m_writer.add_warning(text); }
-  std::string h5_path() const { return m_writer.h5_path(); }
+  void add_warning(const std::string& text) { m_writer->add_warning(text); }
+  std::string h5_path() const { return m_writer->h5_path(); }
 
  private:
   const Scene& m_scene;
   const QuasiStaticProblem& m_problem;
-  ResultsWriter m_writer;
+  std::unique_ptr<ResultsWriter> m_writer;
   double m_contact_seconds_before = 0.0;  ///< contact evaluation time up to the previous step
   VectorXd m_u, m_contact_force, m_damage;
 };

@@ -710,6 +710,64 @@ void ContactSystem::append_state(const ContactPair& c, const VectorXd& u) {
   }
 }
 
+void ContactSystem::save(StateArchive& archive) const {
+  std::vector<double> pairs;
+  pairs.reserve(6 * m_pairs.size());
+  for (const ContactPair& c : m_pairs)
+    pairs.insert(pairs.end(), {static_cast<double>(c.i), static_cast<double>(c.j), c.normal.x(), c.normal.y(), c.gap0,
+                               c.stiffness});
+  archive.put("contact/pairs", std::move(pairs));
+  if (!m_slip.empty()) archive.put("contact/slip", m_slip);
+  if (m_law.exact) {
+    archive.put("contact/multiplier", m_multiplier_committed);
+    archive.put("contact/boost", m_boost);
+    archive.put("contact/boost_limit", m_boost_limit);
+    archive.put("contact/augmentation_capped", m_augmentation_capped ? 1.0 : 0.0);
+  }
+  if (!m_surfaces.empty()) {
+    archive.put("contact/u_search", {m_u_search.data(), m_u_search.data() + m_u_search.size()});
+    archive.put("contact/searches", m_searches);
+  }
+}
+
+void ContactSystem::restore(const StateArchive& archive) {
+  const std::vector<double>& flat = archive.get("contact/pairs");
+  if (flat.size() % 6 != 0) throw InputError("the checkpoint's 'contact/pairs' is not a list of pairs");
+  const Index n = m_model.particles.size(), np = static_cast<Index>(flat.size() / 6);
+  m_pairs.resize(np);
+  for (Index k = 0; k < np; ++k) {
+    const double* v = &flat[6 * k];
+    ContactPair& c = m_pairs[k];
+    c.i = StateArchive::index(v[0], 0, n, "contact/pairs");
+    c.j = StateArchive::index(v[1], 0, n, "contact/pairs");
+    c.normal = Vec2(v[2], v[3]);
+    c.gap0 = v[4];
+    c.stiffness = v[5];
+  }
+  m_result.assign(np, PairResult{});
+  if (m_law.friction > 0.0 && !m_law.velocity_sign) m_slip = archive.get("contact/slip", np);
+  if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
+  if (m_law.exact) {
+    m_multiplier_committed = archive.get("contact/multiplier", np);
+    m_multiplier = m_multiplier_committed;
+    m_boost = archive.get("contact/boost", np);
+    m_boost_limit = archive.get("contact/boost_limit", np);
+    m_last_violation.assign(np, 0.0);
+    m_augmentation_capped = archive.scalar("contact/augmentation_capped") != 0.0;
+  }
+  if (!m_surfaces.empty()) {
+    const std::vector<double>& u = archive.get("contact/u_search", 2 * static_cast<std::int64_t>(n));
+    m_u_search = Eigen::Map<const VectorXd>(u.data(), static_cast<Eigen::Index>(u.size()));
+    m_searches = static_cast<int>(archive.scalar("contact/searches"));
+  }
+  m_counts = ContactCounts{};
+  m_counts.candidates = m_counts.open = np;
+  m_round_start = np;
+  m_multiplier_updates = 0;
+  build_incidence();
+  ++m_version;
+}
+
 std::size_t ContactSystem::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   return bytes(m_pairs) + bytes(m_slip) + bytes(m_tangential_velocity) + bytes(m_multiplier) +

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/options.hpp"
+#include "core/state_archive.hpp"
 #include "core/types.hpp"
 #include "discretisation/model.hpp"
 
@@ -198,6 +199,12 @@ class ContactSystem {
   /// tangent's pattern must then grow: version() changes). commit() calls it once the
   /// faces have slid half a spacing since the last search.
   bool search(const VectorXd& u);
+
+  /// The committed state (every candidate pair, its friction slip, multiplier and boost, the
+  /// displacement of the last partner search) into / from a checkpoint (peristat run
+  /// --resume). restore() replaces the candidates; version() changes.
+  void save(StateArchive& archive) const;
+  void restore(const StateArchive& archive);
   /// Changes whenever the candidate set grows by a search.
   std::uint64_t version() const { return m_version; }
   /// Searches done so far.

@@ -57,12 +57,20 @@ class ResultsWriter {
   /// a JSON object, std::runtime_error on I/O failure.
   ResultsWriter(const std::string& dir, const std::string& name, const std::string& scene_text,
                 const ParticleTable& particles, const std::string& run_info_json);
+  /// Continues the files of a stopped run in DIR (peristat run --resume) after its step
+  /// `last_step` (0: none): later step groups (written before the stop but after the
+  /// checkpoint) are removed, summary.json's steps and warnings up to it are kept. Throws
+  /// InputError naming the file when DIR holds no such results or they hold another model.
+  ResultsWriter(const std::string& dir, const std::string& name, int last_step, std::size_t n_particles,
+                const std::string& run_info_json);
   ~ResultsWriter();
   ResultsWriter(const ResultsWriter&) = delete;
   ResultsWriter& operator=(const ResultsWriter&) = delete;
 
   /// Appends /steps/<index> with its datasets and attributes, rewrites the XDMF and
-  /// summary.json. Signals SIGINT/SIGTERM/SIGHUP are blocked while this runs.
+  /// summary.json. Signals SIGINT/SIGTERM/SIGHUP are blocked while this runs. The HDF5 file
+  /// is copied, the step appended to the copy and the copy renamed over the file, so that a
+  /// stop at any instant (SIGKILL included) leaves the file as it was before or after.
   void write_step(const StepRecord& step);
 
   /// Records the final status ("completed", "no_convergence", "interrupted", "error") and a message in

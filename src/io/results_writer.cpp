@@ -1,6 +1,13 @@
 // ResultsWriter: DIR/<name>.h5, DIR/<name>.xdmf and DIR/summary.json (docs/guide/results.md).
+#include <algorithm>
 #include <cmath>
+#include <csignal>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <set>
@@ -8,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/error.hpp"
 #include "io/h5.hpp"
 #include "io/layout.hpp"
 #include "io/results.hpp"
@@ -150,6 +158,33 @@ nlohmann::ordered_json step_json(const StepSummary& s) {
           {"timings", s.timings}};
 }
 
+/// The inverse of step_json (figures only), for a resumed run's earlier steps.
+StepSummary step_from_json(const nlohmann::ordered_json& j, bool has_damage, bool has_contact_force) {
+  StepSummary s;
+  const auto number = [](const nlohmann::ordered_json& v) {
+    return v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
+  };
+  s.index = j.value("step", 0);
+  s.load_factor = number(j.value("load_factor", nlohmann::ordered_json()));
+  s.newton_iterations = j.value("newton_iterations", 0);
+  s.active_set_iterations = j.value("active_set_iterations", 0);
+  s.residual_norm = number(j.value("residual_norm", nlohmann::ordered_json()));
+  s.wall_seconds = number(j.value("wall_seconds", nlohmann::ordered_json()));
+  if (j.contains("residual_history"))
+    for (const auto& v : j["residual_history"]) s.residual_history.push_back(number(v));
+  for (const char* map : {"counts", "timings"})
+    if (j.contains(map) && j[map].is_object())
+      for (const auto& [key, v] : j[map].items()) (map[0] == 'c' ? s.counts : s.timings)[key] = number(v);
+  s.has_damage = has_damage;
+  s.has_contact_force = has_contact_force;
+  return s;
+}
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
 /// Writes integral floating-point values (counts, load factor 1) as JSON integers, "30" and
 /// not "30.0", as summary.json has always had them; every other number keeps its shortest
 /// round-trip form.
@@ -206,24 +241,57 @@ struct ResultsWriter::Impl {
     }
   }
 
-  /// Appends /steps/<index>; a group left half-written by a failure is removed again.
+  /// Appends /steps/<index> to a copy of the file and renames the copy over it (the file is
+  /// whole at every instant); a copy left half-written by a failure is removed.
   void append_h5(const StepRecord& step) const {
-    h5::File file = h5::File::open(h5().string(), true);
-    const std::string group_name = io::step_group_name(step.index);
-    {
+    const std::string temporary = h5().string() + ".tmp";
+    edit_copy(temporary, [&](h5::File& file) {
       h5::Handle steps_group = file.open_group(file.id(), "steps");
-      try {
-        h5::Handle group = file.create_group(steps_group, group_name);
-        write_step_contents(file, group, step);
-      } catch (...) {
-        try {
-          if (file.link_exists(steps_group, group_name)) file.delete_link(steps_group, group_name);
-        } catch (...) {  // NOLINT(bugprone-empty-catch): the first error is the one to report
-        }
-        throw;
+      h5::Handle group = file.create_group(steps_group, io::step_group_name(step.index));
+      write_step_contents(file, group, step);
+      if (const char* at = std::getenv("PERISTAT_FAULT_KILL_IN_WRITE"); at && std::atoi(at) == step.index) {
+        group = h5::Handle();
+        steps_group = h5::Handle();
+        std::raise(SIGKILL);  // fault injection for tests: a stop inside the step write
       }
+    });
+  }
+
+  /// Copies the HDF5 file to `temporary`, lets `edit` change the copy, renames it over the file.
+  template <class Edit>
+  void edit_copy(const std::string& temporary, Edit&& edit) const {
+    std::error_code error;
+    fs::copy_file(h5(), temporary, fs::copy_options::overwrite_existing, error);
+    if (error) throw std::runtime_error("cannot copy '" + h5().string() + "' to '" + temporary + "': " + error.message());
+    try {
+      h5::File file = h5::File::open(temporary, true);
+      edit(file);
+      file.close();
+    } catch (...) {
+      fs::remove(temporary, error);
+      throw;
     }
-    file.close();
+    fs::rename(temporary, h5(), error);
+    if (error) throw std::runtime_error("cannot rename '" + temporary + "' to '" + h5().string() + "': " + error.message());
+  }
+
+  /// Resume: removes the step groups after `last_step`; returns which of the others hold
+  /// damage and contact forces (by step index).
+  std::map<int, std::pair<bool, bool>> keep_steps_up_to(int last_step) const {
+    std::map<int, std::pair<bool, bool>> kept;
+    edit_copy(h5().string() + ".tmp", [&](h5::File& file) {
+      h5::Handle steps_group = file.open_group(file.id(), "steps");
+      for (const std::string& group_name : file.link_names(steps_group)) {
+        const int index = std::atoi(group_name.c_str());
+        if (index > last_step || index < 1) {
+          file.delete_link(steps_group, group_name);
+          continue;
+        }
+        h5::Handle group = file.open_group(steps_group, group_name);
+        kept[index] = {file.link_exists(group, "damage"), file.link_exists(group, "contact_force")};
+      }
+    });
+    return kept;
   }
 
   void write_xdmf() const {
@@ -266,6 +334,53 @@ ResultsWriter::ResultsWriter(const std::string& dir, const std::string& name, co
   }
   const io::SignalBlocker hold_signals;
   impl->create_h5(scene_text, particles);
+  impl->write_xdmf();
+  impl->write_summary();
+  m_impl = impl.release();
+}
+
+ResultsWriter::ResultsWriter(const std::string& dir, const std::string& name, int last_step, std::size_t n_particles,
+                             const std::string& run_info_json)
+    : m_impl(nullptr) {
+  auto impl = std::make_unique<Impl>();
+  impl->name = name;
+  impl->dir = fs::path(dir);
+  impl->run_info = parse_run_info(run_info_json);
+  impl->n_particles = n_particles;
+  if (!fs::exists(impl->h5())) throw InputError(impl->h5().string() + ": no results to resume");
+  const io::SignalBlocker hold_signals;
+  std::map<int, std::pair<bool, bool>> kept;
+  try {
+    const h5::File file = h5::File::open(impl->h5().string(), false);
+    const std::vector<hsize_t> shape = file.shape(file.id(), "particles/volume");
+    if (shape.size() != 1 || shape[0] != n_particles)
+      throw InputError(impl->h5().string() + ": holds another model (" + std::to_string(shape.empty() ? 0 : shape[0]) +
+                       " particles, the scene has " + std::to_string(n_particles) + ")");
+  } catch (const std::runtime_error& e) {
+    if (dynamic_cast<const InputError*>(&e)) throw;
+    throw InputError(std::string("cannot resume: ") + e.what());
+  }
+  kept = impl->keep_steps_up_to(last_step);
+  // summary.json: the steps up to last_step that the HDF5 file holds, and the warnings.
+  nlohmann::ordered_json summary =
+      nlohmann::ordered_json::parse(read_text(impl->summary()), nullptr, false);
+  if (summary.is_object()) {
+    if (summary.contains("warnings") && summary["warnings"].is_array())
+      for (const auto& w : summary["warnings"])
+        if (w.is_string()) impl->warnings.push_back(w.get<std::string>());
+    if (summary.contains("steps") && summary["steps"].is_array())
+      for (const auto& j : summary["steps"]) {
+        const int index = j.value("step", 0);
+        const auto it = kept.find(index);
+        if (it == kept.end()) continue;
+        impl->steps.push_back(step_from_json(j, it->second.first, it->second.second));
+      }
+  }
+  for (const auto& [index, fields] : kept) {
+    const bool listed = std::any_of(impl->steps.begin(), impl->steps.end(), [&](const StepSummary& x) { return x.index == index; });
+    if (!listed) throw InputError(impl->summary().string() + ": does not list step " + std::to_string(index) +
+                                  " of " + impl->h5().string() + "; cannot resume");
+  }
   impl->write_xdmf();
   impl->write_summary();
   m_impl = impl.release();

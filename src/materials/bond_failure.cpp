@@ -131,6 +131,31 @@ void BondFailure::damage(VectorXd& d) const {
   }
 }
 
+void BondFailure::save(StateArchive& archive) const {
+  const Bonds& bonds = m_model.bonds;
+  std::vector<double> broken;
+  for (Index b = 0; b < bonds.n_bonds(); ++b)
+    if (b < bonds.reverse[b] && m_weight[b] == 0.0 && bonds.weight[b] != 0.0) broken.push_back(b);
+  archive.put("failure/broken_bonds", std::move(broken));
+  if (!m_reference_bond.empty()) archive.put("failure/reference_bonds", {m_reference_bond.begin(), m_reference_bond.end()});
+}
+
+void BondFailure::restore(const StateArchive& archive) {
+  const Bonds& bonds = m_model.bonds;
+  const Index nb = bonds.n_bonds();
+  for (const double v : archive.get("failure/broken_bonds")) {
+    const Index b = StateArchive::index(v, 0, nb, "failure/broken_bonds");
+    m_weight[b] = m_weight[bonds.reverse[b]] = 0.0;
+    ++m_broken;
+  }
+  if (!m_reference_bond.empty()) {
+    const std::vector<double>& r = archive.get("failure/reference_bonds", static_cast<std::int64_t>(m_reference_bond.size()));
+    for (std::size_t i = 0; i < r.size(); ++i)
+      m_reference_bond[i] = r[i] < 0 ? -1 : StateArchive::index(r[i], 0, nb, "failure/reference_bonds");
+  }
+  commit();
+}
+
 std::size_t BondFailure::memory_bytes() const {
   return (m_critical.capacity() + m_weight.capacity() + m_ratio.capacity()) * sizeof(double) +
          m_reference_bond.capacity() * sizeof(Index) +

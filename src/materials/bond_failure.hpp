@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/options.hpp"
+#include "core/state_archive.hpp"
 #include "discretisation/model.hpp"
 
 namespace peristat {
@@ -50,6 +51,10 @@ class BondFailure {
   /// Damage of each particle, 1 - sum of intact bond weights / sum of all (N).
   void damage(VectorXd& d) const;
   std::size_t memory_bytes() const;
+  /// The committed state (broken pairs, skew references) into / from a checkpoint
+  /// (peristat run --resume). restore() expects a fresh object of the same model.
+  void save(StateArchive& archive) const;
+  void restore(const StateArchive& archive);
 
  private:
   const Model& m_model;

@@ -23,6 +23,8 @@ int main(int argc, char** argv) {
       ->take_all()
       ->allow_extra_args(false);
   run_cmd->add_flag("--quiet", run.quiet, "no progress output");
+  run_cmd->add_flag("--resume", run.resume,
+                    "continue the stopped run in --out from its last converged load step (same scene and options)");
   run_cmd->add_option("--threads", run.threads, "OpenMP threads for assembly (default: all cores)")
       ->check(CLI::PositiveNumber);
 
