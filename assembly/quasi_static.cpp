@@ -10,6 +10,7 @@
 
 #include "assembly/column_writer.hpp"
 #include "core/clock.hpp"
+#include "materials/fragments.hpp"
 
 namespace peristat {
 
@@ -61,7 +62,11 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   // The ledger starts from the undeformed, unloaded state: no force, no energy.
   m_u_accepted = m_fbond_accepted = VectorXd::Zero(2 * n);
   if (m_contact) m_fcontact_accepted = VectorXd::Zero(2 * n);
-  if (m_failure) m_damage_accepted = VectorXd::Zero(n);
+  if (m_failure) {
+    m_damage_accepted = VectorXd::Zero(n);
+    find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component);
+    m_fragment.assign(n, 0);
+  }
   for (Index i = 0; i < n; ++i) m_energy_unit += model.particles.volume[i] * model.bodies[model.particles.body[i]].material.E;
   if (m_failure && model.constraints.has_images()) {
     m_mirror_zone.assign(n, 0);
@@ -303,6 +308,7 @@ void QuasiStaticProblem::restore_state(const StateArchive& archive, const Vector
     m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get());
     m_preconditioner.reset();
   }
+  update_fragments();
   set_load_factor(lambda);
   m_committed_lambda = lambda;
   if (m_contact) m_contact->start_trial(1.0);
@@ -329,8 +335,47 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
     m_force_scale = m_force.norm();
     m_contact_seconds += wall_seconds() - t0;
   }
+  for (const Index c : m_fragment_components) m_force[c] = 0.0;
   m_model.constraints.gather(m_force, r);
-  if (K) gather_tangent(*K);
+  if (K) {
+    gather_tangent(*K);
+    decouple_fragments(*K);
+  }
+}
+
+void QuasiStaticProblem::update_fragments() {
+  if (!m_failure) return;
+  find_unsupported(m_model, m_failure->weights(), m_unsupported, m_component);
+  const Index n = m_model.particles.size();
+  const std::vector<Index>& free = m_model.constraints.free_index;
+  m_fragment_unknowns.clear();
+  m_fragment_components.clear();
+  m_fragment_particles = 0;
+  std::vector<Index> roots;
+  for (Index i = 0; i < n; ++i) {
+    m_fragment[i] = m_unsupported[i] && !m_initially_unsupported[i];
+    if (!m_fragment[i]) continue;
+    ++m_fragment_particles;
+    roots.push_back(m_component[i]);
+    for (int d = 0; d < 2; ++d) {
+      m_fragment_components.push_back(2 * i + d);
+      if (free[2 * i + d] >= 0) m_fragment_unknowns.push_back(free[2 * i + d]);
+    }
+  }
+  std::sort(roots.begin(), roots.end());
+  m_fragments = static_cast<Index>(std::unique(roots.begin(), roots.end()) - roots.begin());
+  if (m_contact) m_contact->set_excluded(m_fragment_particles > 0 ? m_fragment : std::vector<char>{});
+}
+
+void QuasiStaticProblem::decouple_fragments(SparseMatrix& K) const {
+  if (m_fragment_unknowns.empty()) return;
+  const double d = K.diagonal().cwiseAbs().maxCoeff();
+  for (const Index f : m_fragment_unknowns) {
+    for (SparseMatrix::InnerIterator it(K, f); it; ++it) {
+      if (it.row() != f) K.coeffRef(f, it.row()) = 0.0;  // the pattern is symmetric
+      it.valueRef() = it.row() == f ? d : 0.0;
+    }
+  }
 }
 
 void QuasiStaticProblem::family_displacements(Index i) {
@@ -458,6 +503,7 @@ SparseMatrix QuasiStaticProblem::make_preconditioner() {
 void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
   if (!m_preconditioner) make_preconditioner();
   m_preconditioner->assemble(P, m_correction.weights(), m_direction);
+  decouple_fragments(P);
 }
 
 void QuasiStaticProblem::add_stiffness_bound(VectorXd& row_sums) const {
@@ -490,7 +536,10 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
   if (!m_changed_families.empty()) m_correction.update(m_failure->weights(), m_changed_families);
   // The new faces are contact candidates at once (when the scene models contact).
   if (m_contact && !broken.empty()) m_contact->add_broken_bonds(broken, m_u);
-  if (!broken.empty()) m_bonds_changed = true;
+  if (!broken.empty()) {
+    m_bonds_changed = true;
+    update_fragments();
+  }
   return static_cast<Index>(broken.size());
 }
 
@@ -520,6 +569,7 @@ void QuasiStaticProblem::revert_irreversible_state() {
     m_contact->drop_last_round();
     m_contact->start_trial(1.0);  // the failed re-solve's multipliers go too
   }
+  update_fragments();
 }
 
 void QuasiStaticProblem::collect_changed_families(const std::vector<std::pair<Index, Index>>& pairs) {

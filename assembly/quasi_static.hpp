@@ -118,6 +118,12 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// expects a fresh problem of the same model and the committed unknowns x.
   void save_state(StateArchive& archive) const;
   void restore_state(const StateArchive& archive, const VectorXd& x);
+  /// Fragments: particles whose piece of the body lost every bond to the prescribed
+  /// displacements by breaking (a piece the scene declared without support is not one).
+  /// They are held where they were and taken out of the system: zero residual, a diagonal
+  /// tangent, inactive contact pairs (docs/theory/failure.md, "Fragments").
+  Index fragment_particles() const { return m_fragment_particles; }
+  Index fragments() const { return m_fragments; }
   /// The energy ledger up to the last accepted state.
   const EnergyLedger& energy_ledger() const { return m_ledger; }
   /// The contact candidates and their state, or null when the scene has no contact.
@@ -150,6 +156,10 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// last (may evaluate the bonds at the midpoint, then x again). Returns why the energy
   /// balance fails, or "" (failures are reported only when `check`).
   std::string measure_increment(const VectorXd& x, bool check);
+  /// The fragments at the current bonds (after breaking, undoing or restoring).
+  void update_fragments();
+  /// Fragment unknowns of K: rows and columns zero, the diagonal the largest of K's.
+  void decouple_fragments(SparseMatrix& K) const;
   /// Why damage decreased at the state of the bonds' weights, or "".
   std::string check_damage();
 
@@ -181,6 +191,11 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   VectorXd m_u_accepted, m_fbond_accepted, m_fcontact_accepted;
   VectorXd m_u_next, m_fbond_next, m_fcontact_next, m_scratch;
   VectorXd m_damage_accepted, m_damage_now;  ///< per particle, with failure
+  // Fragments (with failure): per particle, pieces without support before any bond broke,
+  // the fragments now, scratch; the fragments' unknowns.
+  std::vector<char> m_initially_unsupported, m_fragment, m_unsupported;
+  std::vector<Index> m_component, m_fragment_unknowns, m_fragment_components;
+  Index m_fragment_particles = 0, m_fragments = 0;
 
   // State of the last evaluate.
   VectorXd m_u, m_force;

@@ -114,6 +114,16 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   const double step_contact_seconds = m_problem.contact_seconds() - m_contact_seconds_before;
   m_contact_seconds_before = m_problem.contact_seconds();
   if (std::string warning = compliance_warning(m_problem, s); !warning.empty()) m_writer->add_warning(warning);
+  if (m_problem.fragment_particles() > m_fragment_particles) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "step %d: %ld particles in %ld fragments have lost every bond to the prescribed displacements: "
+                  "held where they were and taken out of the system (their contact pairs are inactive)",
+                  s.step, static_cast<long>(m_problem.fragment_particles()), static_cast<long>(m_problem.fragments()));
+    std::fprintf(stderr, "WARNING: %s\n", buf);
+    m_writer->add_warning(buf);
+    m_fragment_particles = m_problem.fragment_particles();
+  }
   if (!due(s.step)) return;
   m_problem.expand(x, m_u);
   StepRecord rec;
@@ -154,6 +164,8 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     // The intact pair closest to breaking at the step's final state (docs/guide/results.md).
     const BondFailure::Peak peak = failure->peak();
     rec.counts["criterion_peak"] = peak.ratio;
+    rec.counts["fragments"] = m_problem.fragments();
+    rec.counts["fragment_particles"] = m_problem.fragment_particles();
     if (peak.bond >= 0) {
       const Model& model = m_problem.model();
       const Index b = peak.bond, i = model.bonds.neighbour[model.bonds.reverse[b]];

@@ -44,6 +44,7 @@ class StepRecorder {
   const QuasiStaticProblem& m_problem;
   std::unique_ptr<ResultsWriter> m_writer;
   double m_contact_seconds_before = 0.0;  ///< contact evaluation time up to the previous step
+  Index m_fragment_particles = 0;         ///< fragment particles already warned about
   VectorXd m_u, m_contact_force, m_damage;
 };
 

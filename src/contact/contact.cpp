@@ -421,6 +421,10 @@ void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
 #pragma omp parallel for schedule(static)
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
+    if (excluded(c)) {
+      m_result[k] = PairResult{};
+      continue;
+    }
     const Vec2 du(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
     const PairHistory history{friction ? m_slip[k] : 0.0, m_law.exact ? m_multiplier[k] : 0.0,
                               m_law.velocity_sign ? m_tangential_velocity[k] : 0.0,
@@ -572,6 +576,7 @@ Index ContactSystem::first_crossed(const VectorXd& u) const {
   const Index np = size();
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
+    if (excluded(c)) continue;
     const Vec2 du(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
     if (crossed(pair_gap(c, p.position[c.j] - p.position[c.i], du), m_model.spacing)) return k;
   }
@@ -608,6 +613,7 @@ double ContactSystem::slide_since_search(const VectorXd& u) const {
   if (m_surfaces.empty()) return 0.0;
   double slide = 0.0;
   for (const ContactPair& c : m_pairs) {
+    if (excluded(c)) continue;
     const Vec2 d(u[2 * c.j] - m_u_search[2 * c.j] - u[2 * c.i] + m_u_search[2 * c.i],
                  u[2 * c.j + 1] - m_u_search[2 * c.j + 1] - u[2 * c.i + 1] + m_u_search[2 * c.i + 1]);
     slide = std::max(slide, std::abs(c.tangent().dot(d)));

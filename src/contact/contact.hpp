@@ -200,6 +200,10 @@ class ContactSystem {
   /// faces have slid half a spacing since the last search.
   bool search(const VectorXd& u);
 
+  /// Particles taken out of the system (fragments, per particle 1): their pairs stay open and
+  /// are not checked for crossing.
+  void set_excluded(const std::vector<char>& excluded) { m_excluded = excluded; }
+
   /// The committed state (every candidate pair, its friction slip, multiplier and boost, the
   /// displacement of the last partner search) into / from a checkpoint (peristat run
   /// --resume). restore() replaces the candidates; version() changes.
@@ -272,6 +276,8 @@ class ContactSystem {
   double m_search_radius = 0.0, m_search_slide = 0.0;
   std::uint64_t m_version = 0;
   int m_searches = 0;
+  std::vector<char> m_excluded;  ///< per particle, or empty: none excluded
+  bool excluded(const ContactPair& c) const { return !m_excluded.empty() && (m_excluded[c.i] || m_excluded[c.j]); }
 };
 
 }  // namespace peristat
