@@ -116,6 +116,9 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
               estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,
               estimate.available_bytes / 1e6);
+  if (estimate.factor_bytes > 0.0)
+    std::printf("  factorisation  of %s: about %.3g factor nonzeros, %.1f MB more (estimated)\n",
+                estimate.factor_of.c_str(), estimate.factor_nonzeros, estimate.factor_bytes / 1e6);
   return exit_success;
 }
 

@@ -18,12 +18,25 @@ struct SizeEstimate {
   double family = 0.0;             ///< bonds per interior family (the stencil's; pi (m + 1/2)^2 for m > 64)
   double nonzeros = 0.0;           ///< of the tangent: 4 per pair of particles within 2 horizons
   double memory_bytes = 0.0;       ///< model, problem state and tangent (no factorisation)
+  double factor_nonzeros = 0.0;    ///< of the Cholesky factor the linear solver makes (0: none)
+  double factor_bytes = 0.0;       ///< the factor and the copy of the matrix the factorisation takes
+  std::string factor_of;           ///< what is factorised: "the tangent", "the bond preconditioner" or ""
   double available_bytes = 0.0;    ///< MemAvailable of /proc/meminfo; 0 when unknown
 };
 
 /// Bytes per tangent nonzero of the model, problem state and tangent together, measured with
 /// `check` on the paper cases and the tension plate (24.4-24.9 B, 2026-11-24).
 inline constexpr double kBytesPerNonzero = 25.0;
+/// The Cholesky factor's nonzeros per nonzero of the matrix factorised, by CHOLMOD's default
+/// ordering on square plates of N particles (m = 3; peristat_bench factor, 2026-11-25): the
+/// tangent 1.97, 3.08, 4.34 at N = 2,500, 10,000, 40,000, i.e. 0.59 log2 N - 4.7; the bond
+/// preconditioner (0.14 of the tangent's nonzeros) 3.5, 5.1, 5.6, i.e. 0.51 log2 N - 2.0.
+double factor_fill(double particles, bool bond_preconditioner);
+/// Bytes per factor nonzero (values and supernodal indices) and per nonzero of the matrix
+/// CHOLMOD copies: with kBytesPerNonzero they give the measured peak memory of the factorisation
+/// within 12% (2,500 to 40,000 particles; 2.06 GB measured, 1.98 GB estimated at 40,000).
+inline constexpr double kBytesPerFactorNonzero = 10.0;
+inline constexpr double kBytesPerCopiedNonzero = 12.0;
 /// Largest family accepted (bonds of an interior particle): horizon_factor up to about 24.
 inline constexpr double kMaxFamily = 2000.0;
 
