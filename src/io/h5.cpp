@@ -1,5 +1,6 @@
 #include "io/h5.hpp"
 
+#include <cstdio>
 #include <functional>
 #include <numeric>
 #include <stdexcept>
@@ -165,8 +166,35 @@ std::vector<hsize_t> File::shape(hid_t loc, const std::string& name) const {
   return dims;
 }
 
+/// A damaged file can claim any shape, and the buffer is allocated before HDF5 reads (and
+/// fails on) data that is not there: the shape is checked against the bytes the file can
+/// hold first. Contiguous and compact data are stored as they are; chunked data may be
+/// compressed, by at most deflate's 1032:1. Data kept outside the file (external or virtual
+/// storage, never in a peristat file) is refused.
 std::size_t File::element_count(hid_t loc, const std::string& name) const {
-  return static_cast<std::size_t>(product(shape(loc, name)));
+  const std::vector<hsize_t> dims = shape(loc, name);
+  const std::string what = "read dataset '" + name + "'";
+  Handle dset(check(H5Dopen2(loc, name.c_str(), H5P_DEFAULT), what), H5Dclose);
+  Handle type(check(H5Dget_type(dset), what), H5Tclose);
+  Handle plist(check(H5Dget_create_plist(dset), what), H5Pclose);
+  const H5D_layout_t layout = H5Pget_layout(plist);
+  const int n_external = H5Pget_external_count(plist);
+  hsize_t file_bytes = 0;
+  check_status(H5Fget_filesize(m_handle, &file_bytes), what);
+  if (layout < 0 || n_external < 0) fail(m_path, what);
+  if (layout == H5D_VIRTUAL || n_external > 0) {
+    throw std::runtime_error("'" + m_path + "': dataset '" + name + "' keeps its data outside the file");
+  }
+  double bytes = static_cast<double>(H5Tget_size(type));  // a double cannot overflow here
+  for (const hsize_t d : dims) bytes *= static_cast<double>(d);
+  const double ratio = layout == H5D_CHUNKED ? 1032.0 : 1.0;
+  if (bytes > ratio * static_cast<double>(file_bytes)) {
+    char text[160];
+    std::snprintf(text, sizeof text, "claims %.4g bytes, more than the %llu of the file can hold", bytes,
+                  static_cast<unsigned long long>(file_bytes));
+    throw std::runtime_error("'" + m_path + "': dataset '" + name + "' " + text + " (is the file damaged?)");
+  }
+  return static_cast<std::size_t>(product(dims));
 }
 
 void File::read_dataset(hid_t loc, const std::string& name, hid_t mem_type, void* out,
@@ -227,9 +255,33 @@ void File::write_attribute(hid_t obj, const std::string& name, const std::vector
   if (!texts.empty()) check_status(H5Awrite(attr, type, texts.data()), what);
 }
 
+Handle File::open_attribute(hid_t obj, const std::string& name, const std::string& what) const {
+  Handle attr(check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), what), H5Aclose);
+  Handle type(check(H5Aget_type(attr), what), H5Tclose);
+  Handle space(check(H5Aget_space(attr), what), H5Sclose);
+  const hssize_t n_points = H5Sget_simple_extent_npoints(space);
+  const htri_t is_variable = H5Tis_variable_str(type);
+  if (n_points < 0 || is_variable < 0) fail(m_path, what);
+  // A variable-length value is stored as a global heap ID: a 4-byte length, an address, a 4-byte index.
+  std::size_t element_bytes = H5Tget_size(type);
+  if (is_variable > 0 || H5Tget_class(type) == H5T_VLEN) {
+    Handle plist(check(H5Fget_create_plist(m_handle), what), H5Pclose);
+    std::size_t address_bytes = 0;
+    check_status(H5Pget_sizes(plist, &address_bytes, nullptr), what);
+    element_bytes = 8 + address_bytes;
+  }
+  const hsize_t stored = H5Aget_storage_size(attr);
+  if (stored != static_cast<hsize_t>(n_points) * element_bytes) {
+    throw std::runtime_error("'" + m_path + "': attribute '" + name + "' holds " + std::to_string(stored) +
+                             " bytes for " + std::to_string(n_points) + " values of " +
+                             std::to_string(element_bytes) + " bytes (is the file damaged?)");
+  }
+  return attr;
+}
+
 double File::read_double_attribute(hid_t obj, const std::string& name) const {
   const std::string what = "read attribute '" + name + "'";
-  Handle attr(check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), what), H5Aclose);
+  Handle attr = open_attribute(obj, name, what);
   double value = 0.0;
   check_status(H5Aread(attr, H5T_NATIVE_DOUBLE, &value), what);
   return value;
@@ -237,7 +289,7 @@ double File::read_double_attribute(hid_t obj, const std::string& name) const {
 
 std::vector<std::string> File::read_string_array_attribute(hid_t obj, const std::string& name) const {
   const std::string what = "read string attribute '" + name + "'";
-  Handle attr(check(H5Aopen(obj, name.c_str(), H5P_DEFAULT), what), H5Aclose);
+  Handle attr = open_attribute(obj, name, what);
   Handle file_type(check(H5Aget_type(attr), what), H5Tclose);
   if (H5Tget_class(file_type) != H5T_STRING) {
     throw std::runtime_error("attribute '" + name + "' in '" + m_path + "' is not a string");

@@ -104,7 +104,12 @@ class File {
                      const std::vector<hsize_t>& dims) const;
   void read_dataset(hid_t loc, const std::string& name, hid_t mem_type, void* out,
                     std::size_t n_expected) const;
+  /// Elements of a dataset; throws when its shape claims more bytes than the file can hold.
   std::size_t element_count(hid_t loc, const std::string& name) const;
+  /// Opens an attribute after checking that the file stored as many bytes as its shape and
+  /// type need (HDF5 1.10 copies by shape and type without checking: a heap-buffer-overflow
+  /// in H5A__read on a damaged file).
+  Handle open_attribute(hid_t obj, const std::string& name, const std::string& what) const;
   void write_scalar_attribute(hid_t obj, const std::string& name, hid_t mem_type, hid_t file_type,
                               const void* value) const;
 

@@ -22,6 +22,10 @@ namespace {
 
 using Key = std::uint64_t;
 
+/// The particles of a probed file span at most this many spacings in x and in y, so that
+/// lattice and bucket coordinates fit the 32 bits pack() keeps of each.
+constexpr double k_max_cells = 1u << 30;
+
 Key pack(std::int64_t i, std::int64_t j) {
   return (static_cast<Key>(static_cast<std::uint32_t>(i)) << 32) |
          static_cast<Key>(static_cast<std::uint32_t>(j));
@@ -43,6 +47,10 @@ class ParticleLocator {
   /// Nearest non-fictitious particle within one spacing (lowest index on ties), or -1.
   int nearest(const Vec2& x) const {
     if (m_bucket_range.empty()) return -1;
+    // Particles lie within k_max_cells spacings of m_origin (probe_line checks): a point
+    // farther out (or NaN) has none within one spacing, and its bucket would not fit an int64.
+    const Vec2 cells = (x - m_origin) / m_h;
+    if (!(cells.cwiseAbs().maxCoeff() <= 2.0 * k_max_cells)) return -1;
     const std::int64_t bi = bucket_coord(x.x() - m_origin.x());
     const std::int64_t bj = bucket_coord(x.y() - m_origin.y());
     int best = -1;
@@ -188,6 +196,27 @@ Vec2 interpolate(const ParticleLocator& index, const ParticleTable& particles, c
   return sum / weight_sum;
 }
 
+/// A damaged file can hold any positions: each non-fictitious one must be finite and the
+/// set must span at most k_max_cells spacings (the locator's keys and integer casts).
+void require_lattice_extent(const ParticleTable& particles, double h) {
+  Vec2 lo = Vec2::Constant(std::numeric_limits<double>::infinity());
+  Vec2 hi = -lo;
+  for (std::size_t i = 0; i < particles.size(); ++i) {
+    if (particles.fictitious[i] != 0) continue;
+    const Vec2& x = particles.position[i];
+    if (!x.allFinite()) {
+      throw InputError("probe: particle " + std::to_string(i) +
+                       " of the results file has a position that is not finite (is the file damaged?)");
+    }
+    lo = lo.cwiseMin(x);
+    hi = hi.cwiseMax(x);
+  }
+  if (lo.x() <= hi.x() && !(((hi - lo) / h).maxCoeff() <= k_max_cells)) {
+    throw InputError(
+        "probe: the particles of the results file span more than 2^30 spacings (is the file damaged?)");
+  }
+}
+
 }  // namespace
 
 std::vector<ProbeSample> probe_line(const ResultsReader& results, int step, Vec2 a, Vec2 b, int n_points) {
@@ -199,6 +228,7 @@ std::vector<ProbeSample> probe_line(const ResultsReader& results, int step, Vec2
   if (!(h > 0.0) || !std::isfinite(h)) {
     throw InputError("probe: the results file has no valid particle spacing (got " + std::to_string(h) + ")");
   }
+  require_lattice_extent(particles, h);
   const VectorXd u = results.displacement(step);
   const ParticleLocator index(particles, h);
 

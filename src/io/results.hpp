@@ -88,10 +88,11 @@ class ResultsWriter {
   Impl* m_impl;
 };
 
-/// Read access to a results file, for probe and compare.
+/// Read access to a results file, for probe and compare. Every failure to read the file
+/// (missing, not HDF5, not a peristat file, damaged: HDF5's own errors included) throws
+/// InputError naming the file, from the constructor and from each accessor.
 class ResultsReader {
  public:
-  /// Throws std::runtime_error naming the file when it is missing or not a peristat file.
   explicit ResultsReader(const std::string& h5_path);
 
   const ParticleTable& particles() const { return m_particles; }

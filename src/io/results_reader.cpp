@@ -110,14 +110,29 @@ std::vector<int> read_step_numbers(const h5::File& file) {
   return steps;
 }
 
+/// A damaged file is the user's input: HDF5's failures to read it (h5.hpp throws them as
+/// std::runtime_error) become InputError, so that probe and compare exit 2 and not 1.
+template <class Read>
+auto as_input_error(Read read) -> decltype(read()) {
+  try {
+    return read();
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::runtime_error& e) {
+    throw InputError(e.what());
+  }
+}
+
 }  // namespace
 
 ResultsReader::ResultsReader(const std::string& h5_path) : m_path(h5_path) {
-  h5::File file = open_results(m_path);
-  require_layout(file);
-  m_scene_text = file.read_string_attribute(file.id(), "scene");
-  m_particles = read_particles(file);
-  m_steps = read_step_numbers(file);
+  as_input_error([&] {
+    h5::File file = open_results(m_path);
+    require_layout(file);
+    m_scene_text = file.read_string_attribute(file.id(), "scene");
+    m_particles = read_particles(file);
+    m_steps = read_step_numbers(file);
+  });
 }
 
 namespace {
@@ -135,30 +150,36 @@ std::string step_path(const std::string& file, const std::vector<int>& steps, in
 
 VectorXd ResultsReader::displacement(int step) const {
   const std::string group = step_path(m_path, m_steps, step);
-  h5::File file = h5::File::open(m_path, false);
-  const std::string dataset = group + "/displacement";
-  require_shape(file, dataset, {static_cast<hsize_t>(m_particles.size()), 2});
-  const std::vector<double> values = file.read_doubles(file.id(), dataset);
-  return Eigen::Map<const VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
+  return as_input_error([&] {
+    h5::File file = h5::File::open(m_path, false);
+    const std::string dataset = group + "/displacement";
+    require_shape(file, dataset, {static_cast<hsize_t>(m_particles.size()), 2});
+    const std::vector<double> values = file.read_doubles(file.id(), dataset);
+    return VectorXd(Eigen::Map<const VectorXd>(values.data(), static_cast<Eigen::Index>(values.size())));
+  });
 }
 
 VectorXd ResultsReader::damage(int step) const {
   const std::string group = step_path(m_path, m_steps, step);
-  h5::File file = h5::File::open(m_path, false);
-  const std::string dataset = group + "/damage";
-  if (!file.link_exists(file.id(), dataset))
-    throw InputError("'" + m_path + "': step " + std::to_string(step) +
-                     " has no damage (the scene has no failure section)");
-  require_shape(file, dataset, {static_cast<hsize_t>(m_particles.size())});
-  const std::vector<double> values = file.read_doubles(file.id(), dataset);
-  return Eigen::Map<const VectorXd>(values.data(), static_cast<Eigen::Index>(values.size()));
+  return as_input_error([&] {
+    h5::File file = h5::File::open(m_path, false);
+    const std::string dataset = group + "/damage";
+    if (!file.link_exists(file.id(), dataset))
+      throw InputError("'" + m_path + "': step " + std::to_string(step) +
+                       " has no damage (the scene has no failure section)");
+    require_shape(file, dataset, {static_cast<hsize_t>(m_particles.size())});
+    const std::vector<double> values = file.read_doubles(file.id(), dataset);
+    return VectorXd(Eigen::Map<const VectorXd>(values.data(), static_cast<Eigen::Index>(values.size())));
+  });
 }
 
 double ResultsReader::load_factor(int step) const {
   const std::string group_path = step_path(m_path, m_steps, step);
-  h5::File file = h5::File::open(m_path, false);
-  h5::Handle group = file.open_group(file.id(), group_path);
-  return file.read_double_attribute(group, "load_factor");
+  return as_input_error([&] {
+    h5::File file = h5::File::open(m_path, false);
+    h5::Handle group = file.open_group(file.id(), group_path);
+    return file.read_double_attribute(group, "load_factor");
+  });
 }
 
 }  // namespace peristat

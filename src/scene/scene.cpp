@@ -8,6 +8,7 @@
 #include <sstream>
 #include <tuple>
 
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include "scene/geometry.hpp"
@@ -523,18 +524,66 @@ Scene read_scene(const Field& root) {
   return scene;
 }
 
+/// Records where each document of a YAML text starts (its root node, else the document
+/// marker), building nothing.
+class DocumentStarts : public YAML::EventHandler {
+ public:
+  std::vector<YAML::Mark> marks;
+  void OnDocumentStart(const YAML::Mark& mark) override {
+    marks.push_back(mark);
+    m_root_pending = true;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t) override { node(mark); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { node(mark); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t, const std::string&) override {
+    node(mark);
+  }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {
+    node(mark);
+  }
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {
+    node(mark);
+  }
+  void OnMapEnd() override {}
+
+ private:
+  void node(const YAML::Mark& mark) {
+    if (m_root_pending && !marks.empty()) marks.back() = mark;
+    m_root_pending = false;
+  }
+  bool m_root_pending = false;
+};
+
 /// The one YAML document of `text`; syntax errors become InputError at their line.
+/// Documents are counted one at a time rather than by YAML::LoadAll: yaml-cpp 0.7 never
+/// consumes a ',' outside a flow collection at the start of a document and returns empty
+/// documents at the same place forever (`peristat check` on a file starting with ',' hung,
+/// tests/fuzz/crashes/scene/timeout-7b176a32...).
 YAML::Node load_document(const std::string& text, const std::string& path) {
-  std::vector<YAML::Node> docs;
+  DocumentStarts starts;
+  YAML::Node first;
   try {
-    docs = YAML::LoadAll(text);
+    std::istringstream in(text);
+    YAML::Parser parser(in);
+    while (parser.HandleNextDocument(starts)) {
+      const std::vector<YAML::Mark>& m = starts.marks;
+      if (m.size() >= 2 && m[m.size() - 1].pos == m[m.size() - 2].pos)
+        throw InputError(SourceLocation{path, m.back().line + 1, ""},
+                         "YAML syntax error: unexpected text at column " +
+                             std::to_string(m.back().column + 1) + " (a ',' outside [ ] or { }?)");
+    }
+    if (starts.marks.size() == 1) first = YAML::Load(text);
   } catch (const YAML::ParserException& e) {
     throw InputError(SourceLocation{path, e.mark.line + 1, ""}, "YAML syntax error: " + e.msg);
   }
-  if (docs.size() > 1)
-    throw InputError(SourceLocation{path, docs[1].Mark().line + 1, ""},
-                     "found " + std::to_string(docs.size()) + " YAML documents: expected one");
-  return docs.empty() ? YAML::Node(YAML::NodeType::Null) : docs[0];
+  if (starts.marks.size() > 1)
+    throw InputError(SourceLocation{path, starts.marks[1].line + 1, ""},
+                     "found " + std::to_string(starts.marks.size()) + " YAML documents: expected one");
+  return starts.marks.empty() ? YAML::Node(YAML::NodeType::Null) : first;
 }
 
 std::string emit(const YAML::Node& root) {

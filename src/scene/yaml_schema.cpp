@@ -1,5 +1,7 @@
 #include "scene/yaml_schema.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <climits>
 #include <cmath>
 #include <sstream>
@@ -34,7 +36,12 @@ const std::string& plain_scalar(const Field& field, std::string_view expected) {
   const YAML::Node& n = field.node();
   if (!n.IsScalar() || is_quoted(n))
     field.fail("expected " + std::string(expected) + ", found " + field.found());
-  return n.Scalar();
+  // yaml-cpp's conversions skip trailing C whitespace such as \f, which YAML keeps in a plain
+  // scalar and the emitter then quotes: the scene as run would not parse again (tests/fuzz).
+  const std::string& s = n.Scalar();
+  if (std::any_of(s.begin(), s.end(), [](unsigned char c) { return std::isspace(c) || std::iscntrl(c); }))
+    field.fail("expected " + std::string(expected) + ", found \"" + s + "\"");
+  return s;
 }
 
 /// The key of one map entry as a string; keys must be scalars.

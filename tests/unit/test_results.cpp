@@ -1,7 +1,9 @@
 // Results files (docs/guide/results.md): layout, read-back, crash safety, probe_line.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -16,6 +18,7 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include "core/error.hpp"
 #include "io/results.hpp"
 
 namespace peristat {
@@ -510,18 +513,22 @@ VectorXd affine_field(const ParticleTable& t) {
   return u;
 }
 
+/// DIR/<name>.h5 holding `table` and one step of its affine field.
+void write_affine_step(const std::string& dir, const std::string& name, const ParticleTable& table) {
+  const VectorXd u = affine_field(table);
+  ResultsWriter writer(dir, name, "name: " + name + "\n", table, "{}");
+  StepRecord r;
+  r.index = 1;
+  r.load_factor = 1.0;
+  r.displacement = &u;
+  writer.write_step(r);
+}
+
 class ProbeTest : public ResultsTest {
  protected:
   void SetUp() override {
     ResultsTest::SetUp();
-    const ParticleTable table = probe_table();
-    const VectorXd u = affine_field(table);
-    ResultsWriter writer(dir(), "probe", "name: probe\n", table, "{}");
-    StepRecord r;
-    r.index = 1;
-    r.load_factor = 1.0;
-    r.displacement = &u;
-    writer.write_step(r);
+    write_affine_step(dir(), "probe", probe_table());
   }
   ResultsReader reader() const { return ResultsReader(path("probe.h5")); }
 };
@@ -590,6 +597,24 @@ TEST_F(ProbeTest, IsDeterministicAndChecksItsArguments) {
                       {path("probe.h5"), "step 2"});
 }
 
+// Found by tests/fuzz (crashes/results/crash-b1f207d2...): a damaged file's positions, or a
+// probe point, far from the particles in units of the spacing were cast to int64 (UB).
+TEST_F(ProbeTest, FarPointsAreNanAndFarParticlesAnInputError) {
+  const ResultsReader results = reader();
+  for (const ProbeSample& s : probe_line(results, 1, Vec2(1e300, -1e300), Vec2(1e20, 2.0), 3)) {
+    EXPECT_TRUE(std::isnan(s.ux) && std::isnan(s.uy)) << s.x << ", " << s.y;
+  }
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_TRUE(std::isnan(probe_line(results, 1, Vec2(nan, 0), Vec2(nan, 1), 2).front().ux));
+
+  ParticleTable far = probe_table();
+  far.spacing = 0.5;
+  far.position[3] = Vec2(1e300, 0.0);
+  write_affine_step(dir(), "far", far);
+  const ResultsReader damaged(path("far.h5"));
+  EXPECT_THROW(probe_line(damaged, 1, Vec2(0, 0), Vec2(1, 1), 3), InputError);
+}
+
 // ---- reader and writer errors --------------------------------------------------------
 
 TEST_F(ResultsTest, ReaderErrorsNameTheFile) {
@@ -625,6 +650,56 @@ TEST_F(ResultsTest, ReaderErrorsNameTheFile) {
   const ResultsReader reader(path("small.h5"));
   expect_error_naming([&] { (void)reader.displacement(7); }, {path("small.h5"), "step 7"});
   expect_error_naming([&] { (void)reader.load_factor(0); }, {path("small.h5"), "step 0"});
+}
+
+/// A file with the layout's four /particles datasets of `n` particles, chunked and never
+/// written (HDF5 reads them as zeros), one step, and `displacement` of step 1 a group.
+void write_unwritten_particles(const std::string& file, hsize_t n) {
+  H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+  const hid_t f = H5Fcreate(file.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t scalar = H5Screate(H5S_SCALAR);
+  const hid_t text = H5Tcopy(H5T_C_S1);
+  H5Tset_size(text, 8);
+  const hid_t scene = H5Acreate2(f, "scene", text, scalar, H5P_DEFAULT, H5P_DEFAULT);
+  H5Awrite(scene, text, "name: x");
+  const hid_t particles = H5Gcreate2(f, "particles", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  for (const char* name : {"position", "volume", "body", "fictitious"}) {
+    const bool pairs = std::string(name) == "position";
+    const hsize_t dims[2] = {n, 2}, chunk[2] = {std::min<hsize_t>(n, 1024), pairs ? 2u : 1u};
+    const hid_t space = H5Screate_simple(pairs ? 2 : 1, dims, nullptr);
+    const hid_t plist = H5Pcreate(H5P_DATASET_CREATE);
+    H5Pset_chunk(plist, pairs ? 2 : 1, chunk);
+    H5Dclose(H5Dcreate2(particles, name, H5T_IEEE_F64LE, space, H5P_DEFAULT, plist, H5P_DEFAULT));
+    H5Pclose(plist);
+    H5Sclose(space);
+  }
+  const hid_t steps = H5Gcreate2(f, "steps", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  const hid_t step = H5Gcreate2(steps, "000001", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+  H5Gclose(H5Gcreate2(step, "displacement", H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT));
+  for (const hid_t g : {step, steps, particles}) H5Gclose(g);
+  H5Aclose(scene);
+  H5Tclose(text);
+  H5Sclose(scalar);
+  H5Fclose(f);
+}
+
+// Found by tests/fuzz: a damaged file is the user's input wherever the reader meets the damage
+// (HDF5's errors after the constructor made probe and compare exit 1, internal error), and
+// a shape is not trusted before the buffer for it is allocated.
+TEST_F(ResultsTest, DamagedFilesAreInputErrors) {
+  fs::create_directories(dir());
+  const std::string huge = path("huge.h5");
+  write_unwritten_particles(huge, hsize_t{1} << 40);  // 8 TiB of positions in a few kB
+  expect_error_naming([&] { ResultsReader r(huge); }, {huge, "particles/position", "is the file damaged?"});
+  EXPECT_THROW(ResultsReader r(huge), InputError);
+
+  const std::string odd = path("odd.h5");
+  write_unwritten_particles(odd, 3);
+  const ResultsReader reader(odd);
+  EXPECT_EQ(reader.particles().size(), 3u);
+  EXPECT_EQ(reader.steps(), (std::vector<int>{1}));
+  EXPECT_THROW((void)reader.displacement(1), InputError);
+  EXPECT_THROW((void)reader.load_factor(1), InputError);
 }
 
 TEST_F(ResultsTest, WriterRejectsInconsistentInput) {

@@ -400,6 +400,17 @@ TEST(SceneErrors, WrongTypes) {
                "expected a finite number");
 }
 
+// A plain scalar keeps a trailing form feed that yaml-cpp's conversion skipped: "1.0e9\f" was
+// read as 1e9, then written quoted into the scene as run, which did not parse again (found by
+// tests/fuzz, crashes/scene/crash-6e0f2868...).
+TEST(SceneErrors, NumbersHoldNoControlCharacters) {
+  expect_error(replace(k_minimal, "E: 1.0e9", "E: 1.0e9\f"), "scene.yaml:4: materials.plate.E",
+               "expected a number, found \"1.0e9\f\"");
+  expect_error(k_minimal + "loading: {steps: 2\v}\n", "scene.yaml:21: loading.steps", "expected an integer");
+  const Scene scene = parse(k_minimal);
+  EXPECT_EQ(parse(scene.text).text, scene.text);  // the scene as run parses again, to itself
+}
+
 TEST(SceneErrors, MissingRequiredKeysPointAtTheParent) {
   expect_error(replace(k_minimal, "    E: 1.0e9\n", ""), "scene.yaml:3: materials.plate.E",
                "missing required key \"E\"");
@@ -554,6 +565,14 @@ TEST(SceneErrors, YamlSyntaxErrorsGiveTheLine) {
   expect_error(replace(k_minimal, "max: [0.02, 0.01]}", "max: [0.02, 0.01]"), "scene.yaml:13",
                "YAML syntax error");
   expect_error(k_minimal + "---\nname: second\n", "scene.yaml:22", "found 2 YAML documents");
+}
+
+// yaml-cpp 0.7 returns empty documents forever at a ',' outside [ ] or { } where a document
+// starts: YAML::LoadAll hung (found by tests/fuzz, crashes/scene/timeout-7b176a32...).
+TEST(SceneErrors, StrayCommaIsASyntaxErrorNotAHang) {
+  expect_error(",name: x\n", "scene.yaml:1", "YAML syntax error: unexpected text at column 1");
+  expect_error("[a],\n", "scene.yaml:1", "YAML syntax error: unexpected text at column 4");
+  expect_error(k_minimal + "---\n,\n", "scene.yaml:22", "YAML syntax error: unexpected text at column 1");
 }
 
 // ---- contact ---------------------------------------------------------------------------
