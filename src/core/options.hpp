@@ -27,7 +27,10 @@ enum class TangentKind {
 /// Newton's method (solver.newton.*, docs/theory/newton.md).
 struct NewtonOptions {
   double rtol = 1e-10;  ///< relative residual ||r_free|| / ||f_int|| (docs/theory/newton.md)
-  double atol = 1e-14;  ///< absolute residual floor [N]
+  /// Absolute residual floor [N]; below 0 (the default): 1e-14 E t dx of the stiffest
+  /// material, resolved by the scene parser (a fixed floor in newtons would stop a soft body's
+  /// solve before it starts).
+  double atol = -1.0;
   double stol = 0.0;    ///< increment tolerance ||du|| / ||u||; 0 = not used
   int max_iterations = 25;
   bool line_search = true;  ///< backtracking on the residual norm

@@ -40,7 +40,14 @@ Material read_material(const Field& field) {
   const Map m = checked_map(field, {"E", "nu", "thickness", "kinematics"});
   Material mat;
   mat.name = schema::leaf(field.key());
-  mat.E = schema::positive(m.require("E", "E, Young's modulus [Pa], a number > 0"));
+  {
+    // Forces are E times strains, volumes and spacings: beyond these bounds they underflow
+    // to denormals (a solve then "converges" at rest) or overflow (extremes campaign).
+    const Field e = m.require("E", "E, Young's modulus [Pa], a number > 0");
+    mat.E = schema::positive(e);
+    if (mat.E < 1e-100 || mat.E > 1e100)
+      schema::out_of_range(e, "1e-100 <= E <= 1e100 Pa (the forces would underflow or overflow double precision)");
+  }
   mat.nu = schema::in_open_range(m.require("nu", "nu, Poisson's ratio, -1 < nu < 0.5"), -1.0, 0.5);
   mat.thickness = schema::positive(m.require("thickness", "thickness [m], a number > 0"));
   if (auto f = m.find("kinematics"))
@@ -418,6 +425,10 @@ void read_krylov(const Field& field, SolverOptions& o) {
                        PreconditionerKind::ic, PreconditionerKind::diagonal, PreconditionerKind::ilut});
 }
 
+/// Default solver.newton.atol per E t dx of the stiffest material: 7e-10 N for the aluminium
+/// cases at dx = 1 mm, far below their rtol 1e-10 x force scale (about 1e-6 N).
+constexpr double kAtolPerForceUnit = 1e-14;
+
 NewtonOptions read_newton(const Field& field) {
   const Map m = checked_map(
       field, {"rtol", "atol", "stol", "max_iterations", "line_search", "line_search_max", "tangent"});
@@ -507,6 +518,12 @@ void read_sections(const Map& top, Scene& scene) {
   if (auto f = top.find("loading")) scene.loading = read_loading(*f);
   if (auto f = top.find("solver")) scene.solver = read_solver(*f);
   if (auto f = top.find("output")) scene.output = read_output(*f);
+  if (scene.solver.newton.atol < 0.0) {  // not given: scaled with the stiffest material
+    double force_unit = 0.0;
+    for (const auto& [name, material] : scene.materials)
+      force_unit = std::max(force_unit, material.E * material.thickness * scene.discretization.spacing);
+    scene.solver.newton.atol = kAtolPerForceUnit * force_unit;
+  }
   if (scene.contact.enabled && scene.contact.velocity_sign && scene.solver.type != SolverKind::adr) {
     throw InputError(scene.contact.friction_law_where,
                      "friction_law: velocity_sign needs solver.type: adr (a static Newton solve has no "
