@@ -15,6 +15,9 @@ namespace {
 /// A nominal step is reached when the load factor is within this fraction of the nominal
 /// increment of its target: room for the round-off of halved and doubled increments.
 constexpr double kReachedTarget = 1e-12;
+/// Attempts (sub-steps and cut-backs) one nominal step may take: a step that keeps failing a
+/// few halvings deep advances by a tiny fraction per two attempts and would never end.
+constexpr int kMaxAttemptsPerStep = 500;
 
 /// Adds one solve's work to the step's report.
 void accumulate(StepReport& step, const SolveReport& r) {
@@ -190,6 +193,16 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
       }
       ++step.cutbacks;
       ++halvings;
+      if (step.substeps + step.cutbacks > kMaxAttemptsPerStep) {
+        char buf[320];
+        std::snprintf(buf, sizeof buf,
+                      "load step %d/%d stopped at load factor %.6g after %d sub-steps and %d cut-backs: the "
+                      "increment keeps failing %d halvings deep (last attempt: %s)",
+                      k, n, lambda, step.substeps, step.cutbacks, halvings, r.reason.c_str());
+        problem.set_load_factor(lambda);
+        run.message = buf;
+        return run;
+      }
       problem.set_load_factor(lambda);
       solver.invalidate_factorization();  // the factor may belong to a diverged iterate
       if (halvings > loading.max_cutbacks || !solver.cutback_helps()) {

@@ -162,6 +162,32 @@ TEST(LoadStepping, ClaimedConvergenceIsCheckedWithTheTrueResidual) {
   EXPECT_NE(r.message.find("residual recomputed"), std::string::npos) << r.message;
 }
 
+// A problem whose solve fails unless the increment is below 1e-3 of the load: with 60
+// cut-backs allowed the step would creep forward by 1e-3 per two attempts; the load stepping
+// stops it after its attempt budget (500) with the reason instead of running for ever.
+class TinyIncrementProblem final : public OneUnknownProblem {
+ public:
+  void commit(const VectorXd& x) override {
+    OneUnknownProblem::commit(x);
+    m_committed = m_lambda;
+  }
+
+ private:
+  bool fails() const override { return m_lambda - m_committed > 1e-3; }
+  double m_committed = 0.0;
+};
+
+TEST(LoadStepping, AStepThatKeepsFailingDeepStops) {
+  TinyIncrementProblem p;
+  Loading loading;
+  loading.steps = 1;
+  loading.max_cutbacks = 60;
+  const Outcome r = run_with(p, loading);
+  EXPECT_FALSE(r.report.completed);
+  EXPECT_NE(r.report.message.find("keeps failing"), std::string::npos) << r.report.message;
+  EXPECT_LE(p.committed.size(), 500u);
+}
+
 // A crack that runs: from load factor 0.5 on, `pending` bonds are over the criterion. The
 // re-solve after a round fails (non-finite residual) when the round broke more than
 // `tolerable` bonds at once, as Newton does when too much of the structure lets go at once.
