@@ -270,8 +270,10 @@ Handle File::open_attribute(hid_t obj, const std::string& name, const std::strin
     check_status(H5Pget_sizes(plist, &address_bytes, nullptr), what);
     element_bytes = 8 + address_bytes;
   }
+  // Divided, not multiplied: a damaged shape can make n_points x element_bytes overflow.
   const hsize_t stored = H5Aget_storage_size(attr);
-  if (stored != static_cast<hsize_t>(n_points) * element_bytes) {
+  if (element_bytes == 0 || stored % element_bytes != 0 ||
+      stored / element_bytes != static_cast<hsize_t>(n_points)) {
     throw std::runtime_error("'" + m_path + "': attribute '" + name + "' holds " + std::to_string(stored) +
                              " bytes for " + std::to_string(n_points) + " values of " +
                              std::to_string(element_bytes) + " bytes (is the file damaged?)");
