@@ -335,7 +335,12 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
     m_force_scale = m_force.norm();
     m_contact_seconds += wall_seconds() - t0;
   }
-  for (const Index c : m_fragment_components) m_force[c] = 0.0;
+  Vec2 reaction = Vec2::Zero();  // bonds inside a fragment cancel: what remains is contact
+  for (const Index c : m_fragment_components) {
+    reaction[c % 2] += m_force[c];
+    m_force[c] = 0.0;
+  }
+  m_fragment_reaction = reaction.norm();
   m_model.constraints.gather(m_force, r);
   if (K) {
     gather_tangent(*K);
@@ -365,6 +370,17 @@ void QuasiStaticProblem::update_fragments() {
   std::sort(roots.begin(), roots.end());
   m_fragments = static_cast<Index>(std::unique(roots.begin(), roots.end()) - roots.begin());
   if (m_contact) m_contact->set_excluded(m_fragment_particles > 0 ? m_fragment : std::vector<char>{});
+}
+
+Index QuasiStaticProblem::fragment_contacts() const {
+  if (!m_contact || m_fragment_particles == 0) return 0;
+  Index n = 0;
+  for (std::size_t c = 0; c < m_fragment_components.size(); c += 2) {
+    const Index i = m_fragment_components[c] / 2;
+    for (auto* e = m_contact->incident_begin(i); e != m_contact->incident_end(i); ++e)
+      if (!m_fragment[e->other] && m_contact->result(e->pair).status != PairStatus::open) ++n;
+  }
+  return n;
 }
 
 void QuasiStaticProblem::decouple_fragments(SparseMatrix& K) const {

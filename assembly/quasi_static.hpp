@@ -121,9 +121,15 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// Fragments: particles whose piece of the body lost every bond to the prescribed
   /// displacements by breaking (a piece the scene declared without support is not one).
   /// They are held where they were and taken out of the system: zero residual, a diagonal
-  /// tangent, inactive contact pairs (docs/theory/failure.md, "Fragments").
+  /// tangent; to the rest of the model a held particle is a fixed obstacle, its contact
+  /// pairs with free particles stay active (docs/theory/failure.md, "Fragments").
   Index fragment_particles() const { return m_fragment_particles; }
   Index fragments() const { return m_fragments; }
+  /// Contact pairs between a held fragment particle and a free one that carry a force at
+  /// the last evaluation, and the magnitude of the net force they put on the held fragments
+  /// [N]: the reaction of the support that holds them, which nothing in the model balances.
+  Index fragment_contacts() const;
+  double fragment_reaction() const { return m_fragment_reaction; }
   /// The energy ledger up to the last accepted state.
   const EnergyLedger& energy_ledger() const { return m_ledger; }
   /// The contact candidates and their state, or null when the scene has no contact.
@@ -196,6 +202,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   std::vector<char> m_initially_unsupported, m_fragment, m_unsupported;
   std::vector<Index> m_component, m_fragment_unknowns, m_fragment_components;
   Index m_fragment_particles = 0, m_fragments = 0;
+  double m_fragment_reaction = 0.0;
 
   // State of the last evaluate.
   VectorXd m_u, m_force;

@@ -96,8 +96,10 @@ std::string compliance_warning(const QuasiStaticProblem& problem, const StepRepo
 }
 
 StepRecorder::StepRecorder(const std::string& dir, const Scene& scene, const QuasiStaticProblem& problem,
-                           const ModelSize& size, const std::string& linear, int threads, int resume_after)
+                           const ModelSize& size, const std::string& linear, int threads, int resume_after,
+                           bool writes)
     : m_scene(scene), m_problem(problem) {
+  if (!writes) return;
   const std::string info = run_info_json(scene, size, linear, threads, problem.state_checks());
   m_writer = resume_after >= 0
                  ? std::make_unique<ResultsWriter>(dir, scene.name, resume_after,
@@ -111,6 +113,7 @@ bool StepRecorder::due(int step) const {
 }
 
 void StepRecorder::record(const StepReport& s, const VectorXd& x) {
+  if (!m_writer) return;
   const double step_contact_seconds = m_problem.contact_seconds() - m_contact_seconds_before;
   m_contact_seconds_before = m_problem.contact_seconds();
   if (std::string warning = compliance_warning(m_problem, s); !warning.empty()) m_writer->add_warning(warning);
@@ -118,11 +121,22 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     char buf[320];
     std::snprintf(buf, sizeof buf,
                   "step %d: %ld particles in %ld fragments have lost every bond to the prescribed displacements: "
-                  "held where they were and taken out of the system (their contact pairs are inactive)",
+                  "held where they were and taken out of the system (to the rest of the model they are fixed "
+                  "obstacles)",
                   s.step, static_cast<long>(m_problem.fragment_particles()), static_cast<long>(m_problem.fragments()));
     std::fprintf(stderr, "WARNING: %s\n", buf);
     m_writer->add_warning(buf);
     m_fragment_particles = m_problem.fragment_particles();
+  }
+  if (!m_fragment_contact_warned && m_problem.fragment_particles() > 0 && m_problem.fragment_contacts() > 0) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "step %d: %ld contact pairs press on held fragments, which act as fixed obstacles: their net "
+                  "reaction of %.3g N is not balanced by the model (counts fragment_contacts, fragment_reaction)",
+                  s.step, static_cast<long>(m_problem.fragment_contacts()), m_problem.fragment_reaction());
+    std::fprintf(stderr, "WARNING: %s\n", buf);
+    m_writer->add_warning(buf);
+    m_fragment_contact_warned = true;
   }
   if (!due(s.step)) return;
   m_problem.expand(x, m_u);
@@ -166,6 +180,10 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     rec.counts["criterion_peak"] = peak.ratio;
     rec.counts["fragments"] = m_problem.fragments();
     rec.counts["fragment_particles"] = m_problem.fragment_particles();
+    if (m_problem.contact()) {
+      rec.counts["fragment_contacts"] = m_problem.fragment_contacts();
+      rec.counts["fragment_reaction"] = m_problem.fragment_reaction();
+    }
     if (peak.bond >= 0) {
       const Model& model = m_problem.model();
       const Index b = peak.bond, i = model.bonds.neighbour[model.bonds.reverse[b]];

@@ -24,9 +24,11 @@ class StepRecorder {
   /// Creates the files in `dir` with the scene, the particles and the run information
   /// (model size, resolved options; `linear` is the linear solver's name, empty for ADR).
   /// With `resume_after` >= 0 the files of a stopped run in `dir` are continued after that
-  /// step instead (ResultsWriter's resume constructor).
+  /// step instead (ResultsWriter's resume constructor). Without `writes` (the ranks other
+  /// than 0 of a distributed run) nothing is written and every call does nothing.
   StepRecorder(const std::string& dir, const Scene& scene, const QuasiStaticProblem& problem,
-               const ModelSize& size, const std::string& linear, int threads, int resume_after = -1);
+               const ModelSize& size, const std::string& linear, int threads, int resume_after = -1,
+               bool writes = true);
 
   /// Whether step k is written (every output.every-th and the last).
   bool due(int step) const;
@@ -34,10 +36,14 @@ class StepRecorder {
   /// The contact counts and forces are those of the problem's last evaluation (the commit's, at x).
   void record(const StepReport& s, const VectorXd& x);
   /// The final status ("completed", "no_convergence", "interrupted") and message.
-  void finish(const std::string& status, const std::string& message) { m_writer->finish(status, message); }
+  void finish(const std::string& status, const std::string& message) {
+    if (m_writer) m_writer->finish(status, message);
+  }
   /// A warning of the run as a whole (summary.json `warnings`).
-  void add_warning(const std::string& text) { m_writer->add_warning(text); }
-  std::string h5_path() const { return m_writer->h5_path(); }
+  void add_warning(const std::string& text) {
+    if (m_writer) m_writer->add_warning(text);
+  }
+  std::string h5_path() const { return m_writer ? m_writer->h5_path() : std::string(); }
 
  private:
   const Scene& m_scene;
@@ -45,6 +51,7 @@ class StepRecorder {
   std::unique_ptr<ResultsWriter> m_writer;
   double m_contact_seconds_before = 0.0;  ///< contact evaluation time up to the previous step
   Index m_fragment_particles = 0;         ///< fragment particles already warned about
+  bool m_fragment_contact_warned = false;  ///< contact on held fragments already warned about
   VectorXd m_u, m_contact_force, m_damage;
 };
 

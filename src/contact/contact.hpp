@@ -200,8 +200,9 @@ class ContactSystem {
   /// faces have slid half a spacing since the last search.
   bool search(const VectorXd& u);
 
-  /// Particles taken out of the system (fragments, per particle 1): their pairs stay open and
-  /// are not checked for crossing.
+  /// Particles held in place and taken out of the system (fragments, per particle 1). A pair
+  /// of two held particles stays open and is not checked for crossing; a pair with one held
+  /// particle acts on the other as a fixed obstacle would (the caller zeroes the held rows).
   void set_excluded(const std::vector<char>& excluded) { m_excluded = excluded; }
 
   /// The committed state (every candidate pair, its friction slip, multiplier and boost, the
@@ -277,7 +278,7 @@ class ContactSystem {
   std::uint64_t m_version = 0;
   int m_searches = 0;
   std::vector<char> m_excluded;  ///< per particle, or empty: none excluded
-  bool excluded(const ContactPair& c) const { return !m_excluded.empty() && (m_excluded[c.i] || m_excluded[c.j]); }
+  bool excluded(const ContactPair& c) const { return !m_excluded.empty() && m_excluded[c.i] && m_excluded[c.j]; }
 };
 
 }  // namespace peristat

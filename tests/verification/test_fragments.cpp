@@ -2,6 +2,7 @@
 // every bond is held where it is and taken out of the system, so that the rest of the body
 // is still solved; before, its zero stiffness made every re-solve fail (exit 3).
 #include <cmath>
+#include <sstream>
 
 #include <gtest/gtest.h>
 
@@ -50,6 +51,88 @@ TEST(Fragments, AParticleWithoutBondsIsHeldAndTheRestIsSolved) {
   VectorXd r;
   problem.evaluate(x, r, nullptr);
   EXPECT_LT(r.norm(), 1e-8 * problem.force_scale());
+}
+
+// A fragment comes back into contact as a fixed obstacle. Two blocks (30 x 20 particles each,
+// dx = 1 mm) touch along y = 20 mm; the upper one is pressed down by 1.2 dx. Before loading,
+// a particle of the lower block on the interface is cut loose (moved 10 dx, which stretches
+// every bond it has past s_c = 0.68 of G_c = 1e6 J/m^2, then put back). Under the press the
+// lower block's interface moves down about 0.6 dx, away from the held particle, while the
+// upper block comes down onto it: the pair between the held particle and the upper
+// particle above it must carry a force, the held particle must push that particle up, and
+// no pair may cross. Before this change the held particle's pairs were inactive and the
+// upper block passed over it without a force.
+TEST(Fragments, AHeldFragmentIsAnObstacleToTheRest) {
+  const double dx = 1e-3, W = 30 * dx, H = 20 * dx, press = 1.2 * dx, mid = 0.5 * W;
+  std::ostringstream y;
+  y.precision(17);
+  y << "name: blocks\n"
+    << "materials:\n  mat: {E: 1.0e9, nu: 0.3, thickness: 1.0e-3, kinematics: small}\n"
+    << "discretization: {spacing: " << dx << ", horizon_factor: 3}\n"
+    << "bodies:\n"
+    << "  lower: {material: mat, rectangle: {min: [0, 0], max: [" << W << ", " << H << "]}}\n"
+    << "  upper: {material: mat, rectangle: {min: [0, " << H << "], max: [" << W << ", " << 2 * H << "]}}\n"
+    << "boundary:\n"
+    << "  - {body: lower, edge: bottom, uy: 0}\n"
+    << "  - {body: lower, region: {min: [" << mid - dx << ", 0], max: [" << mid + dx << ", " << dx << "]}, ux: 0}\n"
+    << "  - {body: upper, edge: top, uy: " << -press << "}\n"
+    << "  - {body: upper, region: {min: [" << mid - dx << ", " << 2 * H - dx << "], max: [" << mid + dx << ", "
+    << 2 * H << "]}, ux: 0}\n"
+    << "contact:\n  enabled: true\n  friction: 0\n  interfaces:\n    - {bodies: [lower, upper]}\n"
+    << "failure: {criterion: stretch, G_c: 1.0e6}\n"
+    << "loading: {steps: 2}\n"
+    << "solver:\n  linear: umfpack\n  newton: {rtol: 1.0e-10}\n";
+  const Scene scene = test::scene_from_yaml(y.str());
+  const Model model = discretise(scene);
+  QuasiStaticProblem problem(model, problem_options(scene));
+  const Particles& p = model.particles;
+  // The lower block's interface particle nearest mid-width (its centre is dx/2 below y = H).
+  Index held = -1, above = -1;
+  for (Index i = 0; i < p.size(); ++i) {
+    if (p.fictitious[i]) continue;
+    if ((p.position[i] - Vec2(mid + 0.5 * dx, H - 0.5 * dx)).norm() < 0.1 * dx) held = i;
+    if ((p.position[i] - Vec2(mid + 0.5 * dx, H + 0.5 * dx)).norm() < 0.1 * dx) above = i;
+  }
+  ASSERT_GE(held, 0);
+  ASSERT_GE(above, 0);
+  const Index fx = model.constraints.free_index[2 * held];
+  VectorXd x = VectorXd::Zero(problem.n_unknowns());
+  x[fx] = 10 * dx;
+  problem.set_load_factor(0.0);
+  while (problem.advance_irreversible_state(x) > 0) problem.commit(x);
+  ASSERT_EQ(problem.failure()->broken(), model.bonds.family_size(held)) << "exactly the moved particle's bonds break";
+  x[fx] = 0.0;  // back where it was, with no bond
+  problem.commit(x);
+  ASSERT_EQ(problem.fragment_particles(), 1);
+
+  std::unique_ptr<LinearSolver> linear;
+  const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear);
+  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, {});
+  ASSERT_TRUE(run.completed) << run.message;
+  EXPECT_EQ(problem.failure()->broken(), model.bonds.family_size(held)) << "the press breaks no other bond";
+  VectorXd r;
+  problem.evaluate(x, r, nullptr);
+  EXPECT_LT(r.norm(), 1e-8 * problem.force_scale());
+  EXPECT_EQ(x[fx], 0.0) << "the fragment is held";
+
+  // The held particle and the one above it: the pair carries a normal force, which pushes the
+  // upper particle up (+y), and the held fragments take the reaction.
+  const ContactSystem& c = *problem.contact();
+  EXPECT_GT(problem.fragment_contacts(), 0);
+  Index pair = -1;
+  for (auto* e = c.incident_begin(held); e != c.incident_end(held); ++e)
+    if (e->other == above) pair = e->pair;
+  ASSERT_GE(pair, 0) << "the interface pair exists";
+  EXPECT_NE(c.result(pair).status, PairStatus::open);
+  VectorXd f;
+  c.contact_force(f);
+  // 1e-6 of the press force's scale is far below the pair force (a fraction of the column
+  // force E eps dx t ~ 30 N) and far above round-off.
+  EXPECT_GT(f[2 * above + 1], 1e-6 * problem.force_scale()) << "the held particle pushes the upper block up";
+  EXPECT_GT(problem.fragment_reaction(), 0.0);
+  VectorXd u;
+  problem.expand(x, u);
+  EXPECT_LT(c.first_crossed(u), 0) << "no pair has crossed";
 }
 
 }  // namespace
