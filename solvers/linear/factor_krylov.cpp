@@ -2,16 +2,11 @@
 
 #include <cmath>
 
+#include "solvers/linear/preconditioner_reuse.hpp"
+
 namespace peristat {
 
 namespace {
-
-/// The factor is renewed once a solve needs more than kRefreshGrowth * n + kRefreshSlack
-/// iterations, n those of the first solve with it. A heuristic: renew when the count has
-/// doubled; the slack keeps a factor whose first solve took only a few iterations from
-/// being renewed over a few more.
-constexpr int kRefreshGrowth = 2;
-constexpr int kRefreshSlack = 5;
 
 /// y = A x for a symmetric A stored by columns: y_i = column i . x, parallel over columns,
 /// deterministic (each y_i is one thread's dot product).
@@ -48,26 +43,11 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   void factorize(const SparseMatrix& A) override {
     m_A = &A;
     m_info = Eigen::Success;
-    if (m_refresh) refresh_factor();
+    if (m_reuse.due()) refresh_factor();
   }
 
   void solve(const VectorXd& b, VectorXd& x) override {
-    if (!m_have_factor) refresh_factor();
-    if (m_info != Eigen::Success) return;
-    run(b, x);
-    // One retry with a fresh factor when an old one no longer converges.
-    if (m_info == Eigen::NoConvergence && !m_fresh) {
-      refresh_factor();
-      if (m_info != Eigen::Success) return;
-      run(b, x);
-    }
-    // Renew the factor at the next factorize() once the iterations have climbed (kRefreshGrowth).
-    if (m_fresh) {
-      m_fresh_iterations = m_iterations;
-      m_fresh = false;
-    } else if (m_iterations > kRefreshGrowth * m_fresh_iterations + kRefreshSlack) {
-      m_refresh = true;
-    }
+    m_reuse.solve(m_have_factor, [&] { refresh_factor(); }, [&] { run(b, x); }, m_info, m_iterations);
   }
 
   Eigen::ComputationInfo info() const override { return m_info; }
@@ -93,8 +73,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
     m_factor->factorize(M);
     m_info = m_factor->info();
     m_have_factor = m_info == Eigen::Success;
-    m_refresh = false;
-    m_fresh = true;
+    m_reuse.built();
   }
 
   void run(const VectorXd& b, VectorXd& x) {
@@ -205,8 +184,9 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   int m_max_iterations;
   const SparseMatrix* m_A = nullptr;
   const SparseMatrix* m_P = nullptr;
-  bool m_analyzed = false, m_have_factor = false, m_refresh = true, m_fresh = false, m_symmetric = true;
-  int m_iterations = 0, m_fresh_iterations = 0;
+  bool m_analyzed = false, m_have_factor = false, m_symmetric = true;
+  PreconditionerReuse m_reuse;
+  int m_iterations = 0;
   double m_error = 0.0;
   Eigen::ComputationInfo m_info = Eigen::Success;
   VectorXd m_r, m_z, m_p, m_q;  // work vectors, reused across solves

@@ -8,6 +8,7 @@
 
 #include "core/error.hpp"
 #include "solvers/linear/factor_krylov.hpp"
+#include "solvers/trilinos/belos_solver.hpp"
 
 namespace peristat {
 
@@ -142,6 +143,8 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
         return std::make_unique<KrylovSolver<Eigen::BiCGSTAB<Full, Eigen::DiagonalPreconditioner<double>>>>(
             "bicgstab+diagonal", false, o);
       throw not_available("ilut or diagonal");
+    case LS::belos:
+      return make_belos_solver(o.belos);
   }
   throw InputError("solver.linear: unknown linear solver");
 }

@@ -5,6 +5,7 @@
 
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <Eigen/SparseCore>
 
@@ -12,6 +13,15 @@
 #include "core/types.hpp"
 
 namespace peristat {
+
+/// What the unknowns are, for solvers that build their own hierarchy or partition (belos
+/// with muelu groups the two directions of a particle and uses the rigid-body modes):
+/// component[k] = 2 p + d for unknown k (particle p, direction d), and every particle's
+/// reference position. Nothing about physics beyond that.
+struct UnknownLayout {
+  std::vector<Index> component;  ///< per unknown: 2 * particle + direction
+  std::vector<double> x, y;      ///< per particle [m]
+};
 
 class LinearSolver {
  public:
@@ -46,9 +56,13 @@ class LinearSolver {
   /// Tells the solver whether the next matrices are symmetric. Solvers that handle both
   /// (factor-preconditioned Krylov: CG or GMRES) pick their method by it.
   virtual void set_symmetric(bool /*symmetric*/) {}
+
+  /// The unknowns' particles and directions; solvers that do not need them ignore it.
+  virtual void set_unknown_layout(const UnknownLayout& /*layout*/) {}
 };
 
-/// Creates the solver named by options.type (cholmod, umfpack, klu, ldlt, cg, bicgstab).
+/// Creates the solver named by options.type (cholmod, umfpack, klu, ldlt, cg, bicgstab,
+/// belos: Trilinos, solvers/trilinos/).
 /// Throws InputError for an unknown name or preconditioner.
 std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& options);
 

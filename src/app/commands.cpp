@@ -26,6 +26,7 @@
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
 #include "solvers/newton.hpp"
+#include "solvers/trilinos/parallel.hpp"
 
 namespace peristat {
 
@@ -116,9 +117,12 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
               estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,
               estimate.available_bytes / 1e6);
-  if (estimate.factor_bytes > 0.0)
+  if (estimate.factor_nonzeros > 0.0)
     std::printf("  factorisation  of %s: about %.3g factor nonzeros, %.1f MB more (estimated)\n",
                 estimate.factor_of.c_str(), estimate.factor_nonzeros, estimate.factor_bytes / 1e6);
+  else if (estimate.factor_bytes > 0.0)
+    std::printf("  solver         %s: %.1f MB more (estimated)\n", estimate.factor_of.c_str(),
+                estimate.factor_bytes / 1e6);
   return exit_success;
 }
 
@@ -126,7 +130,21 @@ int run_command(const RunArguments& args) {
   std::vector<Override> overrides = parse_overrides(args.overrides);
   if (!args.solver.empty()) overrides.push_back({"solver.type", args.solver});
   const Scene scene = parse_scene(args.scene, overrides);
-  if (args.threads > 0) omp_set_num_threads(args.threads);
+  // Under mpirun every rank runs the same model and only the linear solves are distributed
+  // (docs/guide/distributed.md); rank 0 alone writes and prints.
+  const int ranks = parallel::size();
+  const bool root = parallel::rank() == 0;
+  if (ranks > 1 && (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::belos))
+    throw InputError("solver.linear: under mpirun with " + std::to_string(ranks) +
+                     " ranks only Newton with solver.linear=belos distributes the work (this run has " +
+                     std::string(to_string(scene.solver.type)) +
+                     (scene.solver.type == SolverKind::newton ? " with " + std::string(to_string(scene.solver.linear.type))
+                                                              : std::string()) +
+                     "); add --set solver.linear=belos, or run without mpirun");
+  if (args.threads > 0)
+    omp_set_num_threads(args.threads);
+  else if (ranks > 1)  // the ranks share the machine's cores
+    omp_set_num_threads(std::max(1, omp_get_num_procs() / ranks));
   const double t_start = wall_seconds();
   const std::vector<std::string> warnings = preflight(scene, estimate_size(scene));
   for (const std::string& w : warnings) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
@@ -153,12 +171,13 @@ int run_command(const RunArguments& args) {
     problem.set_load_factor(0.0);
   }
 
-  const ProgressPrinter progress(!args.quiet, scene.solver.type, problem);
+  const bool verbose = !args.quiet && root;
+  const ProgressPrinter progress(verbose, scene.solver.type, problem);
   progress.header(scene, size, wall_seconds() - t_start, method);
   StepRecorder recorder(out, scene, problem, size, linear ? linear->name() : "", omp_get_max_threads(),
-                        args.resume ? steps_done : -1);
+                        args.resume ? steps_done : -1, root);
   for (const std::string& w : warnings) recorder.add_warning(w);
-  if (args.resume && !args.quiet)
+  if (args.resume && verbose)
     std::printf("peristat: resuming after load step %d/%d (load factor %.6g) from %s\n", steps_done,
                 scene.loading.steps, problem.load_factor(), checkpoint_path.c_str());
 
@@ -173,11 +192,11 @@ int run_command(const RunArguments& args) {
     checkpoint.put("state/x", {state.data(), state.data() + state.size()});
     checkpoint.put("state/steps_done", step.step);
     problem.save_state(checkpoint);
-    write_checkpoint(checkpoint_path, checkpoint);
+    if (root) write_checkpoint(checkpoint_path, checkpoint);
   };
   return finish_run(
       recorder, [&] { return run_load_steps(problem, *solver, x, scene.loading, callbacks, steps_done); },
-      !args.quiet, t_start);
+      verbose, t_start);
 }
 
 int probe_command(const ProbeArguments& args) {

@@ -84,16 +84,26 @@ SizeEstimate estimate_size(const Scene& scene) {
   if (scene.solver.type == SolverKind::newton) {
     const bool cg = lin.type == LinearSolverKind::cg;
     const PreconditionerKind pc = lin.preconditioner;
-    if (cg && (pc == PreconditionerKind::bond || pc == PreconditionerKind::automatic)) {
+    const bool belos = lin.type == LinearSolverKind::belos;
+    if (belos && lin.belos.preconditioner != BelosPreconditioner::bond_factor) {
+      // MueLu's hierarchy and Ifpack2's incomplete factors are not estimated; the tangent's
+      // copy in Tpetra is (added below).
+      e.factor_of = "the tangent's copy in Tpetra (the preconditioner's own storage not estimated)";
+    } else if ((cg || belos) && (pc == PreconditionerKind::bond || pc == PreconditionerKind::automatic)) {
       e.factor_of = "the bond preconditioner";
       const double nnz = kBondNonzeroShare * e.nonzeros;
       e.factor_nonzeros = factor_fill(n, true) * nnz;
       e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * nnz;
-    } else if ((!cg && lin.type != LinearSolverKind::bicgstab) || (cg && pc == PreconditionerKind::cholmod)) {
+    } else if ((!cg && !belos && lin.type != LinearSolverKind::bicgstab) || (cg && pc == PreconditionerKind::cholmod)) {
       e.factor_of = "the tangent";
       const double lu = lin.type == LinearSolverKind::umfpack || lin.type == LinearSolverKind::klu ? 2.0 : 1.0;
       e.factor_nonzeros = lu * factor_fill(n, false) * e.nonzeros;
       e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * e.nonzeros;
+    }
+    if (belos) {  // the tangent's copy in Tpetra
+      e.factor_bytes += kBytesPerCopiedNonzero * e.nonzeros;
+      if (lin.belos.preconditioner == BelosPreconditioner::bond_factor)
+        e.factor_of = "the bond preconditioner, with the tangent's copy in Tpetra";
     }
   }
   e.available_bytes = available_memory();

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/interrupt.hpp"
+#include "solvers/trilinos/parallel.hpp"
 
 namespace peristat {
 
@@ -36,6 +37,7 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                        {"unknowns", s.unknowns},
                                        {"tangent_nonzeros", s.nonzeros},
                                        {"threads", threads},
+                                       {"ranks", parallel::size()},
                                        {"spacing", scene.discretization.spacing},
                                        {"horizon_factor", scene.discretization.horizon_factor},
                                        {"load_steps", scene.loading.steps},

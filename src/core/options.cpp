@@ -19,11 +19,19 @@ std::string_view to_string(SolverKind kind) {
 
 std::string_view to_string(LinearSolverKind kind) {
   return name_of(kind,
-                 std::array<std::string_view, 6>{"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab"});
+                 std::array<std::string_view, 7>{"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab", "belos"});
 }
 
 std::string_view to_string(PreconditionerKind kind) {
   return name_of(kind, std::array<std::string_view, 6>{"auto", "bond", "cholmod", "ic", "diagonal", "ilut"});
+}
+
+std::string_view to_string(BelosMethod kind) {
+  return name_of(kind, std::array<std::string_view, 3>{"auto", "cg", "gmres"});
+}
+
+std::string_view to_string(BelosPreconditioner kind) {
+  return name_of(kind, std::array<std::string_view, 4>{"muelu", "ifpack2_ilut", "ifpack2_relaxation", "bond_factor"});
 }
 
 std::string_view to_string(ContactEnforcement kind) {

@@ -48,11 +48,32 @@ struct AdrOptions {
 };
 
 /// solver.linear: the linear solver behind Newton.
-enum class LinearSolverKind { cholmod, umfpack, klu, ldlt, cg, bicgstab };
+enum class LinearSolverKind { cholmod, umfpack, klu, ldlt, cg, bicgstab, belos };
 
 /// solver.krylov.preconditioner. `automatic` is the key's value `auto`: bond with cg,
 /// ilut with bicgstab.
 enum class PreconditionerKind { automatic, bond, cholmod, ic, diagonal, ilut };
+
+/// solver.belos.method: Belos's Krylov method. `automatic` (the key's value `auto`): CG while
+/// the tangent is symmetric, GMRES while contact pairs slip.
+enum class BelosMethod { automatic, cg, gmres };
+
+/// solver.belos.preconditioner (docs/guide/distributed.md).
+enum class BelosPreconditioner {
+  muelu,               ///< MueLu smoothed aggregation, 2 unknowns per particle, rigid-body modes
+  ifpack2_ilut,        ///< Ifpack2 ILUT on each rank's block (additive Schwarz)
+  ifpack2_relaxation,  ///< Ifpack2 symmetric Gauss-Seidel on each rank's block
+  bond_factor          ///< CHOLMOD factor of each rank's block of the bond matrix (additive Schwarz)
+};
+
+/// The Trilinos path (solver.linear: belos; solver.belos.*).
+struct BelosOptions {
+  BelosMethod method = BelosMethod::automatic;
+  BelosPreconditioner preconditioner = BelosPreconditioner::bond_factor;
+  double rtol = 1e-10;        ///< relative residual ||b - A x|| / ||b||
+  int max_iterations = 2000;  ///< Krylov iterations per solve
+  int restart = 100;          ///< GMRES basis vectors before a restart
+};
 
 /// Linear solver (key solver.linear) and its iterative settings (solver.krylov.*).
 struct LinearOptions {
@@ -61,6 +82,7 @@ struct LinearOptions {
   int max_iterations = 2000;  ///< Krylov iteration cap
   /// auto | bond | cholmod | ic | diagonal (cg); auto | ilut | diagonal (bicgstab)
   PreconditionerKind preconditioner = PreconditionerKind::automatic;
+  BelosOptions belos;  ///< solver.belos.* (used when type is belos)
 };
 
 /// The `bond` preconditioner matrix the problem assembles (solver.krylov.bond_radius):
@@ -81,6 +103,8 @@ struct Loading {
 std::string_view to_string(SolverKind kind);
 std::string_view to_string(LinearSolverKind kind);
 std::string_view to_string(PreconditionerKind kind);
+std::string_view to_string(BelosMethod kind);
+std::string_view to_string(BelosPreconditioner kind);
 
 // ---- physics ---------------------------------------------------------------------------
 

@@ -465,15 +465,30 @@ AdrOptions read_adr(const Field& field) {
   return o;
 }
 
+BelosOptions read_belos(const Field& field) {
+  const Map m = checked_map(field, {"method", "preconditioner", "rtol", "max_iterations", "restart"});
+  BelosOptions o;
+  if (auto f = m.find("method")) o.method = read_kind(*f, {BelosMethod::automatic, BelosMethod::cg, BelosMethod::gmres});
+  if (auto f = m.find("preconditioner"))
+    o.preconditioner = read_kind(*f, {BelosPreconditioner::muelu, BelosPreconditioner::ifpack2_ilut,
+                                      BelosPreconditioner::ifpack2_relaxation, BelosPreconditioner::bond_factor});
+  if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
+  if (auto f = m.find("max_iterations")) o.max_iterations = schema::int_at_least(*f, 1);
+  if (auto f = m.find("restart")) o.restart = schema::int_at_least(*f, 1);
+  return o;
+}
+
 SolverOptions read_solver(const Field& field) {
-  const Map m = checked_map(field, {"type", "linear", "krylov", "newton", "adr"});
+  const Map m = checked_map(field, {"type", "linear", "krylov", "belos", "newton", "adr"});
   SolverOptions o;
   if (auto f = m.find("type")) o.type = read_kind(*f, {SolverKind::newton, SolverKind::adr});
   if (auto f = m.find("linear"))
     o.linear.type =
         read_kind(*f, {LinearSolverKind::cholmod, LinearSolverKind::umfpack, LinearSolverKind::klu,
-                       LinearSolverKind::ldlt, LinearSolverKind::cg, LinearSolverKind::bicgstab});
+                       LinearSolverKind::ldlt, LinearSolverKind::cg, LinearSolverKind::bicgstab,
+                       LinearSolverKind::belos});
   if (auto f = m.find("krylov")) read_krylov(*f, o);
+  if (auto f = m.find("belos")) o.linear.belos = read_belos(*f);
   if (auto f = m.find("newton")) o.newton = read_newton(*f);
   if (auto f = m.find("adr")) o.adr = read_adr(*f);
   return o;

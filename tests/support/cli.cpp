@@ -55,11 +55,12 @@ double step_number(const std::string& summary, int step, const std::string& key)
   return std::nan("");
 }
 
-CliResult run_cli(const std::string& arguments) {
+namespace {
+
+CliResult run_command(const std::string& command) {
   const auto dir = fresh_directory("cli");
   const auto out = dir / "stdout", err = dir / "stderr";
-  const std::string cmd =
-      std::string(PERISTAT_EXE) + " " + arguments + " > " + out.string() + " 2> " + err.string();
+  const std::string cmd = command + " > " + out.string() + " 2> " + err.string();
   const int status = std::system(cmd.c_str());
   CliResult r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -67,6 +68,15 @@ CliResult run_cli(const std::string& arguments) {
   r.err = read_file(err);
   std::filesystem::remove_all(dir);
   return r;
+}
+
+}  // namespace
+
+CliResult run_cli(const std::string& arguments) { return run_command(std::string(PERISTAT_EXE) + " " + arguments); }
+
+CliResult run_mpi(int ranks, const std::string& arguments) {
+  return run_command("OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 " + std::string(PERISTAT_MPIEXEC) +
+                     " --oversubscribe -n " + std::to_string(ranks) + " " + PERISTAT_EXE + " " + arguments);
 }
 
 }  // namespace peristat::test

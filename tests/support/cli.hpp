@@ -16,6 +16,11 @@ struct CliResult {
 /// Runs PERISTAT_EXE with the arguments (a shell-quoted string) and captures both streams.
 CliResult run_cli(const std::string& arguments);
 
+/// Runs PERISTAT_EXE on `ranks` MPI ranks (mpirun from the MPI that CMake found; allowed as
+/// root, and oversubscribed when the machine has fewer cores) and captures rank 0's streams
+/// and mpirun's own.
+CliResult run_mpi(int ranks, const std::string& arguments);
+
 /// A fresh empty directory under the system temporary directory.
 std::filesystem::path fresh_directory(const std::string& stem);
 

@@ -913,3 +913,31 @@ TEST(SceneOverrides, OverrideCanRepairTheFile) {
 
 }  // namespace
 }  // namespace peristat
+
+namespace peristat {
+namespace {
+
+// solver.belos.* (issue 16): every key through --set, the defaults, and a bad value named
+// with its key.
+TEST(Scene, BelosKeys) {
+  const Scene d = parse(k_minimal, {parse_override("solver.linear=belos")});
+  EXPECT_EQ(d.solver.linear.type, LinearSolverKind::belos);
+  EXPECT_EQ(d.solver.linear.belos.method, BelosMethod::automatic);
+  EXPECT_EQ(d.solver.linear.belos.preconditioner, BelosPreconditioner::bond_factor);
+  const Scene s = parse(k_minimal, {parse_override("solver.linear=belos"), parse_override("solver.belos.method=gmres"),
+                                    parse_override("solver.belos.preconditioner=muelu"),
+                                    parse_override("solver.belos.rtol=1e-8"),
+                                    parse_override("solver.belos.max_iterations=50"),
+                                    parse_override("solver.belos.restart=30")});
+  EXPECT_EQ(s.solver.linear.belos.method, BelosMethod::gmres);
+  EXPECT_EQ(s.solver.linear.belos.preconditioner, BelosPreconditioner::muelu);
+  EXPECT_EQ(s.solver.linear.belos.rtol, 1e-8);
+  EXPECT_EQ(s.solver.linear.belos.max_iterations, 50);
+  EXPECT_EQ(s.solver.linear.belos.restart, 30);
+  const std::string message = error_of(k_minimal, {parse_override("solver.belos.preconditioner=amesos")});
+  EXPECT_NE(message.find("solver.belos.preconditioner"), std::string::npos) << message;
+  EXPECT_NE(message.find("ifpack2_ilut"), std::string::npos) << "the choices are listed: " << message;
+}
+
+}  // namespace
+}  // namespace peristat

@@ -51,6 +51,18 @@ TEST_P(LinearSolvers, AgreeWithCholmod) {
 
 INSTANTIATE_TEST_SUITE_P(Kinematics, LinearSolvers, ::testing::Values("finite", "small"));
 
+// solver.linear: belos in one process (an MPI singleton): every preconditioner, and each
+// Krylov method, reaches cholmod's equilibrium. The same 1e-8 as above.
+TEST(LinearSolvers, BelosAgreesWithCholmod) {
+  const VectorXd ref = solve_with("finite", "  linear: cholmod\n");
+  for (const std::string pc : {"bond_factor", "muelu", "ifpack2_ilut", "ifpack2_relaxation"})
+    for (const std::string method : {"auto", "cg", "gmres"}) {
+      const std::string yaml = "  linear: belos\n  belos: {rtol: 1.0e-12, method: " + method +
+                               ", preconditioner: " + pc + "}\n";
+      expect_same(solve_with("finite", yaml), ref, "belos " + method + "+" + pc);
+    }
+}
+
 // The reused factor is the point of cg+cholmod: fewer factorisations than Newton iterations.
 TEST(LinearSolvers, FactorIsReusedAcrossIterations) {
   int direct = 0, reused = 0;

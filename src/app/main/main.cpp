@@ -8,9 +8,19 @@
 
 #include "app/commands.hpp"
 #include "core/error.hpp"
+#include "solvers/trilinos/parallel.hpp"
 
 int main(int argc, char** argv) {
   using namespace peristat;
+  // Under mpirun: MPI starts now, and the ranks other than 0 print nothing (they run the same
+  // model; docs/guide/distributed.md).
+  const parallel::Session mpi(&argc, &argv);
+  if (parallel::rank() > 0) {
+    std::FILE* out = std::freopen("/dev/null", "w", stdout);
+    std::FILE* err = std::freopen("/dev/null", "w", stderr);
+    (void)out;
+    (void)err;
+  }
   CLI::App app{"peristat: quasi-static state-based peridynamics (Newton on a consistent tangent)"};
   app.require_subcommand(1);
 
@@ -83,6 +93,8 @@ int main(int argc, char** argv) {
     return exit_bad_input;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "peristat: internal error: %s\n", e.what());
+    std::fflush(stderr);
+    parallel::abort_if_distributed(exit_internal_error);
     return exit_internal_error;
   }
   return exit_internal_error;

@@ -1,0 +1,446 @@
+#include "solvers/trilinos/belos_solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <numeric>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/CholmodSupport>
+
+#include <BelosLinearProblem.hpp>
+#include <BelosSolverFactory.hpp>
+#include <BelosTpetraAdapter.hpp>
+#include <Ifpack2_Factory.hpp>
+#include <MueLu_CreateTpetraPreconditioner.hpp>
+#include <Tpetra_Core.hpp>
+#include <Tpetra_CrsMatrix.hpp>
+#include <Tpetra_Import.hpp>
+#include <Tpetra_Map.hpp>
+
+#include "solvers/linear/preconditioner_reuse.hpp"
+#include "solvers/trilinos/parallel.hpp"
+
+namespace peristat {
+
+namespace {
+
+using Teuchos::RCP;
+using Teuchos::rcp;
+using map_t = Tpetra::Map<>;
+using LO = map_t::local_ordinal_type;
+using GO = map_t::global_ordinal_type;
+using NT = map_t::node_type;
+using graph_t = Tpetra::CrsGraph<LO, GO, NT>;
+using crs_t = Tpetra::CrsMatrix<double, LO, GO, NT>;
+using row_t = Tpetra::RowMatrix<double, LO, GO, NT>;
+using mv_t = Tpetra::MultiVector<double, LO, GO, NT>;
+using op_t = Tpetra::Operator<double, LO, GO, NT>;
+using import_t = Tpetra::Import<LO, GO, NT>;
+
+/// The distributed numbering. With a layout, the unknowns of a particle are rows 2 q and
+/// 2 q + 1 of the particle's node q (nodes: the particles that have an unknown, in particle
+/// order); a prescribed direction of a node is a padding row (diagonal only, zero right-hand
+/// side, zero solution). Ranks own contiguous ranges of nodes: strips of the lattice.
+struct Distribution {
+  int per_node = 1;
+  std::vector<GO> row_of;               ///< per unknown: its global row
+  GO n_rows = 0;                        ///< global rows, padding included
+  GO first_row = 0;                     ///< this rank's first row
+  std::vector<Index> unknown_of_local;  ///< per local row: its unknown, or -1 (padding)
+  std::vector<Index> particle_of_local; ///< per local row: its particle (layout only)
+
+  LO local_rows() const { return static_cast<LO>(unknown_of_local.size()); }
+  bool owns(GO row) const { return row >= first_row && row < first_row + local_rows(); }
+};
+
+Distribution distribute(Index n, const UnknownLayout& layout, int rank, int ranks) {
+  Distribution d;
+  d.row_of.resize(n);
+  GO nodes = n;
+  std::vector<Index> particle_of_node;
+  if (static_cast<Index>(layout.component.size()) == n && n > 0) {
+    d.per_node = 2;
+    const Index particles = *std::max_element(layout.component.begin(), layout.component.end()) / 2 + 1;
+    std::vector<Index> node_of(particles, -1);
+    for (Index k = 0; k < n; ++k) node_of[layout.component[k] / 2] = 0;
+    for (Index p = 0; p < particles; ++p)
+      if (node_of[p] == 0) {
+        node_of[p] = static_cast<Index>(particle_of_node.size());
+        particle_of_node.push_back(p);
+      }
+    for (Index k = 0; k < n; ++k) d.row_of[k] = 2 * GO(node_of[layout.component[k] / 2]) + layout.component[k] % 2;
+    nodes = static_cast<GO>(particle_of_node.size());
+  } else {
+    std::iota(d.row_of.begin(), d.row_of.end(), GO(0));
+  }
+  d.n_rows = d.per_node * nodes;
+  const GO first_node = nodes * rank / ranks, end_node = nodes * (rank + 1) / ranks;
+  d.first_row = d.per_node * first_node;
+  d.unknown_of_local.assign(static_cast<std::size_t>(d.per_node * (end_node - first_node)), -1);
+  for (Index k = 0; k < n; ++k)
+    if (d.owns(d.row_of[k])) d.unknown_of_local[d.row_of[k] - d.first_row] = k;
+  if (d.per_node == 2) {
+    d.particle_of_local.resize(d.unknown_of_local.size());
+    for (GO q = first_node; q < end_node; ++q)
+      for (int c = 0; c < 2; ++c) d.particle_of_local[2 * (q - first_node) + c] = particle_of_node[q];
+  }
+  return d;
+}
+
+/// Position of entry (row, col) in A's value array, or -1 when A does not store it.
+Index find_entry(const SparseMatrix& A, Index row, Index col) {
+  const Index* begin = A.innerIndexPtr() + A.outerIndexPtr()[col];
+  const Index* end = A.innerIndexPtr() + A.outerIndexPtr()[col + 1];
+  const Index* it = std::lower_bound(begin, end, row);
+  return it != end && *it == row ? static_cast<Index>(it - A.innerIndexPtr()) : -1;
+}
+
+/// Additive Schwarz with a CHOLMOD factor of each rank's diagonal block of the bond matrix
+/// (the `cg` path's preconditioner, on one rank exactly that factor).
+class BlockFactor final : public op_t {
+ public:
+  explicit BlockFactor(RCP<const map_t> map) : m_map(std::move(map)) {
+    m_factor.cholmod().print = 0;  // failures reach the user through info()
+  }
+
+  /// Factorises this rank's block of P (P's rows and columns in the unknowns' numbering);
+  /// padding rows get `padding` on the diagonal. False when the block is not positive definite.
+  bool factorize(const SparseMatrix& P, const Distribution& d, double padding) {
+    const LO n = d.local_rows();
+    m_triplets.clear();
+    for (LO r = 0; r < n; ++r) {
+      const Index k = d.unknown_of_local[r];
+      if (k < 0) {
+        m_triplets.emplace_back(r, r, padding);
+        continue;
+      }
+      for (SparseMatrix::InnerIterator it(P, k); it; ++it) {
+        const GO row = d.row_of[it.row()];
+        if (d.owns(row)) m_triplets.emplace_back(static_cast<Index>(row - d.first_row), r, it.value());
+      }
+    }
+    m_block.resize(n, n);
+    m_block.setFromTriplets(m_triplets.begin(), m_triplets.end());
+    if (m_pattern_nonzeros != m_block.nonZeros()) {
+      m_factor.analyzePattern(m_block);
+      m_pattern_nonzeros = m_block.nonZeros();
+    }
+    m_factor.factorize(m_block);
+    m_in.resize(n);
+    m_out.resize(n);
+    return m_factor.info() == Eigen::Success;
+  }
+
+  RCP<const map_t> getDomainMap() const override { return m_map; }
+  RCP<const map_t> getRangeMap() const override { return m_map; }
+  void apply(const mv_t& X, mv_t& Y, Teuchos::ETransp /*mode*/, double alpha, double beta) const override {
+    for (std::size_t v = 0; v < X.getNumVectors(); ++v) {
+      const Teuchos::ArrayRCP<const double> x = X.getData(v);
+      const Teuchos::ArrayRCP<double> y = Y.getDataNonConst(v);
+      for (Index i = 0; i < m_in.size(); ++i) m_in[i] = x[i];
+      m_out = m_factor.solve(m_in);
+      for (Index i = 0; i < m_out.size(); ++i) y[i] = beta == 0.0 ? alpha * m_out[i] : alpha * m_out[i] + beta * y[i];
+    }
+  }
+
+ private:
+  RCP<const map_t> m_map;
+  std::vector<Eigen::Triplet<double, Index>> m_triplets;
+  SparseMatrix m_block;
+  Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> m_factor;
+  Index m_pattern_nonzeros = -1;
+  mutable VectorXd m_in, m_out;
+};
+
+class BelosSolver final : public LinearSolver {
+ public:
+  explicit BelosSolver(const BelosOptions& o) : m_options(o) {
+    parallel::ensure_started();
+    m_comm = Tpetra::getDefaultComm();
+  }
+
+  void analyzePattern(const SparseMatrix& A) override {
+    m_info = Eigen::Success;
+    const Index n = static_cast<Index>(A.rows());
+    m_d = distribute(n, m_layout, m_comm->getRank(), m_comm->getSize());
+    const LO local = m_d.local_rows();
+    m_map = rcp(new map_t(static_cast<Tpetra::global_size_t>(m_d.n_rows), static_cast<std::size_t>(local), GO(0), m_comm));
+    m_replicated = rcp(new map_t(static_cast<Tpetra::global_size_t>(m_d.n_rows), GO(0), m_comm, Tpetra::LocallyReplicated));
+    m_import = rcp(new import_t(m_map, m_replicated));
+
+    // Each local row's columns (the pattern is structurally symmetric, so column k of A
+    // holds row k's columns) and where their values are in A (-1: the diagonal A lacks).
+    m_row_start.assign(1, 0);
+    m_gcols.clear();
+    m_source.clear();
+    std::vector<std::size_t> counts(local);
+    for (LO r = 0; r < local; ++r) {
+      const Index k = m_d.unknown_of_local[r];
+      const GO grow = m_d.first_row + r;
+      bool diagonal = false;
+      if (k >= 0) {
+        for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
+          m_gcols.push_back(m_d.row_of[it.row()]);
+          m_source.push_back(find_entry(A, k, static_cast<Index>(it.row())));
+          diagonal = diagonal || it.row() == k;
+        }
+      }
+      if (!diagonal) {
+        m_gcols.push_back(grow);
+        m_source.push_back(-1);
+      }
+      m_row_start.push_back(static_cast<Index>(m_gcols.size()));
+      counts[r] = static_cast<std::size_t>(m_row_start[r + 1] - m_row_start[r]);
+    }
+    RCP<graph_t> graph = rcp(new graph_t(m_map, Teuchos::ArrayView<const std::size_t>(counts)));
+    for (LO r = 0; r < local; ++r)
+      graph->insertGlobalIndices(m_d.first_row + r,
+                                 Teuchos::ArrayView<const GO>(m_gcols.data() + m_row_start[r], counts[r]));
+    graph->fillComplete(m_map, m_map);
+    m_lcols.resize(m_gcols.size());
+    for (std::size_t e = 0; e < m_gcols.size(); ++e) m_lcols[e] = graph->getColMap()->getLocalElement(m_gcols[e]);
+    m_values.resize(m_gcols.size());
+    m_A = rcp(new crs_t(graph));
+    m_filled = false;
+    m_X = rcp(new mv_t(m_map, 1));
+    m_B = rcp(new mv_t(m_map, 1));
+    m_X_all = rcp(new mv_t(m_replicated, 1));
+    m_problem = rcp(new Belos::LinearProblem<double, mv_t, op_t>());
+    m_preconditioner = Teuchos::null;
+    m_muelu = Teuchos::null;
+    m_ifpack2 = Teuchos::null;
+    m_block = Teuchos::null;
+    m_reuse.renew();
+  }
+
+  void factorize(const SparseMatrix& A) override {
+    m_info = Eigen::Success;
+    if (m_A.is_null()) analyzePattern(A);
+    // The padding rows' diagonal: the mean of A's diagonal over the local unknowns (a scale
+    // like the rest, so that neither the preconditioners nor the Krylov norms see a jump).
+    double diagonal_sum = 0.0;
+    Index diagonals = 0;
+    const LO local = m_d.local_rows();
+    const double* a = A.valuePtr();
+    for (LO r = 0; r < local; ++r) {
+      const Index k = m_d.unknown_of_local[r];
+      for (Index e = m_row_start[r]; e < m_row_start[r + 1]; ++e) {
+        m_values[e] = m_source[e] >= 0 ? a[m_source[e]] : 0.0;
+        if (k >= 0 && m_gcols[e] == m_d.first_row + r) {
+          diagonal_sum += std::abs(m_values[e]);
+          ++diagonals;
+        }
+      }
+    }
+    m_padding = diagonals > 0 && diagonal_sum > 0.0 ? diagonal_sum / diagonals : 1.0;
+    if (m_filled) m_A->resumeFill();
+    for (LO r = 0; r < local; ++r) {
+      if (m_d.unknown_of_local[r] < 0) m_values[m_row_start[r]] = m_padding;  // its only entry
+      const auto len = static_cast<std::size_t>(m_row_start[r + 1] - m_row_start[r]);
+      m_A->replaceLocalValues(r, Teuchos::ArrayView<const LO>(m_lcols.data() + m_row_start[r], len),
+                              Teuchos::ArrayView<const double>(m_values.data() + m_row_start[r], len));
+    }
+    m_A->fillComplete(m_map, m_map);
+    m_filled = true;
+    if (m_reuse.due()) build_preconditioner();
+  }
+
+  void solve(const VectorXd& b, VectorXd& x) override {
+    const Index n = static_cast<Index>(b.size());
+    if (x.size() != n) x = VectorXd::Zero(n);
+    m_iterations = 0;
+    m_error = 0.0;
+    if (b.norm() == 0.0) {
+      x.setZero();
+      m_info = Eigen::Success;
+      return;
+    }
+    m_reuse.solve(!m_preconditioner.is_null(), [&] { build_preconditioner(); }, [&] { run(b, x); }, m_info,
+                  m_iterations);
+  }
+
+  Eigen::ComputationInfo info() const override { return m_info; }
+  std::string name() const override {
+    return "belos-" + std::string(to_string(m_options.method)) + "+" + std::string(to_string(m_options.preconditioner));
+  }
+  bool needs_symmetric() const override { return m_options.method == BelosMethod::cg; }
+  int iterations() const override { return m_iterations; }
+  double error() const override { return m_error; }
+  long factorizations() const override { return m_builds; }
+  bool uses_preconditioner_matrix() const override {
+    return m_options.preconditioner == BelosPreconditioner::bond_factor;
+  }
+  void set_preconditioner_matrix(const SparseMatrix& P) override { m_P = &P; }
+  void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
+  void set_unknown_layout(const UnknownLayout& layout) override { m_layout = layout; }
+
+ private:
+  void build_preconditioner() {
+    m_reuse.built();
+    m_info = Eigen::Success;
+    m_preconditioner = Teuchos::null;  // until the new one is built
+    ++m_builds;
+    try {
+      switch (m_options.preconditioner) {
+        case BelosPreconditioner::muelu: {
+          Teuchos::ParameterList p;
+          p.set("verbosity", "none");
+          // Amesos2's KLU2 gives wrong answers on two or more ranks (DEPENDENCIES.md): the
+          // coarsest level is smoothed instead of solved.
+          p.set("coarse: type", "RELAXATION");
+          if (m_d.per_node == 2) {
+            p.set("number of equations", 2);
+            p.sublist("user data").set("Nullspace", rigid_body_modes());
+          }
+          m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_A), p);
+          m_preconditioner = m_muelu;
+          break;
+        }
+        case BelosPreconditioner::ifpack2_ilut:
+        case BelosPreconditioner::ifpack2_relaxation: {
+          if (m_ifpack2.is_null()) {
+            m_ifpack2 = Ifpack2::Factory::create<row_t>("SCHWARZ", RCP<const row_t>(m_A));
+            Teuchos::ParameterList p;
+            p.set("schwarz: overlap level", 0);
+            if (m_options.preconditioner == BelosPreconditioner::ifpack2_ilut) {
+              p.set("schwarz: inner preconditioner name", "ILUT");
+              p.sublist("schwarz: inner preconditioner parameters").set("fact: ilut level-of-fill", 2.0);
+              p.sublist("schwarz: inner preconditioner parameters").set("fact: drop tolerance", 0.0);
+            } else {
+              p.set("schwarz: inner preconditioner name", "RELAXATION");
+              p.sublist("schwarz: inner preconditioner parameters").set("relaxation: type", "Symmetric Gauss-Seidel");
+              p.sublist("schwarz: inner preconditioner parameters").set("relaxation: sweeps", 2);
+            }
+            m_ifpack2->setParameters(p);
+            m_ifpack2->initialize();
+          }
+          m_ifpack2->compute();
+          m_preconditioner = m_ifpack2;
+          break;
+        }
+        case BelosPreconditioner::bond_factor: {
+          if (m_P == nullptr || m_P->rows() != static_cast<Index>(m_d.row_of.size())) {
+            m_info = Eigen::InvalidInput;
+            return;
+          }
+          if (m_block.is_null()) m_block = rcp(new BlockFactor(m_map));
+          if (!m_block->factorize(*m_P, m_d, m_padding)) {
+            m_info = Eigen::NumericalIssue;
+            return;
+          }
+          m_preconditioner = m_block;
+          break;
+        }
+      }
+    } catch (const std::exception&) {  // a Trilinos failure (e.g. a zero pivot): the seam's terms
+      m_info = Eigen::NumericalIssue;
+      m_preconditioner = Teuchos::null;
+    }
+  }
+
+  /// Translations in x and y and the in-plane rotation about the centroid, per local row.
+  RCP<mv_t> rigid_body_modes() const {
+    RCP<mv_t> modes = rcp(new mv_t(m_map, 3));
+    double cx = 0.0, cy = 0.0;
+    for (std::size_t i = 0; i < m_layout.x.size(); ++i) {
+      cx += m_layout.x[i];
+      cy += m_layout.y[i];
+    }
+    cx /= std::max<std::size_t>(m_layout.x.size(), 1);
+    cy /= std::max<std::size_t>(m_layout.y.size(), 1);
+    for (LO r = 0; r < m_d.local_rows(); ++r) {
+      const Index p = m_d.particle_of_local[r];
+      const int dir = static_cast<int>((m_d.first_row + r) % 2);
+      modes->replaceLocalValue(r, 0, dir == 0 ? 1.0 : 0.0);
+      modes->replaceLocalValue(r, 1, dir == 1 ? 1.0 : 0.0);
+      modes->replaceLocalValue(r, 2, dir == 0 ? -(m_layout.y[p] - cy) : m_layout.x[p] - cx);
+    }
+    return modes;
+  }
+
+  void run(const VectorXd& b, VectorXd& x) {
+    const LO local = m_d.local_rows();
+    {
+      const Teuchos::ArrayRCP<double> bl = m_B->getDataNonConst(0), xl = m_X->getDataNonConst(0);
+      for (LO r = 0; r < local; ++r) {
+        const Index k = m_d.unknown_of_local[r];
+        bl[r] = k >= 0 ? b[k] : 0.0;
+        xl[r] = k >= 0 ? x[k] : 0.0;
+      }
+    }
+    const bool cg = m_options.method == BelosMethod::cg || (m_options.method == BelosMethod::automatic && m_symmetric);
+    RCP<Belos::SolverManager<double, mv_t, op_t>>& solver = cg ? m_cg : m_gmres;
+    try {
+      if (solver.is_null()) {
+        RCP<Teuchos::ParameterList> p = rcp(new Teuchos::ParameterList);
+        p->set("Convergence Tolerance", m_options.rtol);
+        p->set("Maximum Iterations", m_options.max_iterations);
+        if (cg) {
+          p->set("Assert Positive Definiteness", false);  // a breakdown is reported, not thrown
+          p->set("Residual Scaling", "Norm of RHS");
+        } else {
+          p->set("Num Blocks", m_options.restart);
+          p->set("Maximum Restarts", m_options.max_iterations / m_options.restart + 1);
+          p->set("Implicit Residual Scaling", "Norm of RHS");
+          p->set("Explicit Residual Scaling", "Norm of RHS");
+        }
+        Belos::SolverFactory<double, mv_t, op_t> factory;
+        solver = factory.create(cg ? "CG" : "GMRES", p);
+      }
+      m_problem->setOperator(m_A);
+      m_problem->setRightPrec(m_preconditioner);
+      m_problem->setProblem(m_X, m_B);
+      solver->setProblem(m_problem);
+      const Belos::ReturnType result = solver->solve();
+      m_iterations = solver->getNumIters();
+      m_error = solver->achievedTol();
+      m_info = result == Belos::Converged ? Eigen::Success : Eigen::NoConvergence;
+    } catch (const std::exception&) {
+      m_info = Eigen::NumericalIssue;
+      return;
+    }
+    // Every rank gets the whole solution: the model above the seam is the same on all ranks.
+    m_X_all->doImport(*m_X, *m_import, Tpetra::INSERT);
+    const Teuchos::ArrayRCP<const double> all = m_X_all->getData(0);
+    for (Index k = 0; k < static_cast<Index>(x.size()); ++k) x[k] = all[m_d.row_of[k]];
+  }
+
+  BelosOptions m_options;
+  RCP<const Teuchos::Comm<int>> m_comm;
+  UnknownLayout m_layout;
+  Distribution m_d;
+  RCP<const map_t> m_map, m_replicated;
+  RCP<import_t> m_import;
+  std::vector<Index> m_row_start, m_source;
+  std::vector<GO> m_gcols;
+  std::vector<LO> m_lcols;
+  std::vector<double> m_values;
+  RCP<crs_t> m_A;
+  bool m_filled = false;
+  double m_padding = 1.0;
+  RCP<mv_t> m_X, m_B, m_X_all;
+  RCP<Belos::LinearProblem<double, mv_t, op_t>> m_problem;
+  RCP<Belos::SolverManager<double, mv_t, op_t>> m_cg, m_gmres;
+  RCP<op_t> m_preconditioner;
+  RCP<MueLu::TpetraOperator<double, LO, GO, NT>> m_muelu;
+  RCP<Ifpack2::Preconditioner<double, LO, GO, NT>> m_ifpack2;
+  RCP<BlockFactor> m_block;
+  const SparseMatrix* m_P = nullptr;
+  bool m_symmetric = true;
+  PreconditionerReuse m_reuse;
+  int m_iterations = 0;
+  double m_error = 0.0;
+  long m_builds = 0;
+  Eigen::ComputationInfo m_info = Eigen::Success;
+};
+
+}  // namespace
+
+std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options) {
+  return std::make_unique<BelosSolver>(options);
+}
+
+}  // namespace peristat

@@ -1,0 +1,18 @@
+// solver.linear: belos. Trilinos's Krylov solvers (Belos) with MueLu or Ifpack2, or a factor
+// of each rank's block of the bond matrix, behind the linear-solver seam: nothing above it
+// knows Trilinos exists. The model and the assembly are the same on every rank; the matrix
+// is distributed by rows (particles in contiguous ranges, both directions of a particle on
+// one rank), solved by all ranks together, and the solution gathered on every rank
+// (docs/guide/distributed.md). Compiled as C++17: MueLu's headers do not build as C++20.
+#pragma once
+
+#include <memory>
+
+#include "solvers/linear/linear_solver.hpp"
+
+namespace peristat {
+
+/// Starts MPI (through Tpetra) when it has not been started.
+std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options);
+
+}  // namespace peristat

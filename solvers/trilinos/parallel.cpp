@@ -1,0 +1,58 @@
+#include "solvers/trilinos/parallel.hpp"
+
+#include <cstdlib>
+
+#include <mpi.h>
+
+#include <Teuchos_CommHelpers.hpp>
+#include <Tpetra_Core.hpp>
+
+namespace peristat::parallel {
+
+namespace {
+
+int g_argc = 0;  // MPI_Init of a plain process sees no arguments
+char** g_argv = nullptr;
+
+void finalize_at_exit() {
+  if (Tpetra::isInitialized()) Tpetra::finalize();
+}
+
+void start(int* argc, char*** argv) {
+  if (Tpetra::isInitialized()) return;
+  Tpetra::initialize(argc, argv);
+  // After main() returns (every solver is gone by then), also when MPI started lazily.
+  std::atexit(finalize_at_exit);
+}
+
+}  // namespace
+
+bool launched_by_mpirun() {
+  return std::getenv("OMPI_COMM_WORLD_SIZE") != nullptr || std::getenv("PMI_SIZE") != nullptr ||
+         std::getenv("PMIX_RANK") != nullptr;
+}
+
+Session::Session(int* argc, char*** argv) {
+  if (launched_by_mpirun()) start(argc, argv);
+}
+
+Session::~Session() { finalize_at_exit(); }
+
+void ensure_started() { start(&g_argc, &g_argv); }
+
+int rank() { return Tpetra::isInitialized() ? Tpetra::getDefaultComm()->getRank() : 0; }
+
+int size() { return Tpetra::isInitialized() ? Tpetra::getDefaultComm()->getSize() : 1; }
+
+double max_over_ranks(double value) {
+  if (!Tpetra::isInitialized()) return value;
+  double result = value;
+  Teuchos::reduceAll(*Tpetra::getDefaultComm(), Teuchos::REDUCE_MAX, value, Teuchos::outArg(result));
+  return result;
+}
+
+void abort_if_distributed(int code) {
+  if (size() > 1) MPI_Abort(MPI_COMM_WORLD, code);
+}
+
+}  // namespace peristat::parallel

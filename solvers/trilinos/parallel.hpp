@@ -1,0 +1,34 @@
+// MPI for the distributed linear algebra, started and ended through Tpetra. peristat runs
+// in one process unless it is launched by mpirun; then main() starts MPI at once, and every
+// rank runs the same model while the linear solves are distributed (solver.linear: belos).
+// In a plain process MPI starts only when a belos solver is made (an MPI singleton).
+#pragma once
+
+namespace peristat::parallel {
+
+/// True when this process was launched by mpirun (Open MPI's or another's environment).
+bool launched_by_mpirun();
+
+/// Starts MPI now if launched by mpirun; ends it (if started) when destroyed. One per
+/// program, in main(), outliving every distributed object.
+class Session {
+ public:
+  Session(int* argc, char*** argv);
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+};
+
+/// Starts MPI when it is not running yet (a plain process: a singleton of one rank).
+void ensure_started();
+/// This process's rank and the number of ranks (0 and 1 before MPI starts).
+int rank();
+int size();
+/// The largest of `value` over the ranks (value itself before MPI starts).
+double max_over_ranks(double value);
+
+/// Ends every rank with `code` when more than one runs (an error that one rank meets alone
+/// would leave the others waiting in a collective operation); returns otherwise.
+void abort_if_distributed(int code);
+
+}  // namespace peristat::parallel
