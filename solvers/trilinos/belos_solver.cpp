@@ -15,11 +15,13 @@
 #include <BelosTpetraAdapter.hpp>
 #include <Ifpack2_Factory.hpp>
 #include <MueLu_CreateTpetraPreconditioner.hpp>
+#include <Teuchos_XMLParameterListHelpers.hpp>
 #include <Tpetra_Core.hpp>
 #include <Tpetra_CrsMatrix.hpp>
 #include <Tpetra_Import.hpp>
 #include <Tpetra_Map.hpp>
 
+#include "core/error.hpp"
 #include "solvers/linear/preconditioner_reuse.hpp"
 #include "solvers/trilinos/parallel.hpp"
 
@@ -89,6 +91,8 @@ Distribution distribute(Index n, const UnknownLayout& layout, int rank, int rank
   }
   return d;
 }
+
+std::string first_line(const std::string& text) { return text.substr(0, text.find('\n')); }
 
 /// Position of entry (row, col) in A's value array, or -1 when A does not store it.
 Index find_entry(const SparseMatrix& A, Index row, Index col) {
@@ -160,6 +164,14 @@ class BelosSolver final : public LinearSolver {
   explicit BelosSolver(const BelosOptions& o) : m_options(o) {
     parallel::ensure_started();
     m_comm = Tpetra::getDefaultComm();
+    if (!o.muelu_parameters.empty()) {
+      try {
+        Teuchos::updateParametersFromXmlFile(o.muelu_parameters, Teuchos::inOutArg(m_muelu_parameters));
+      } catch (const std::exception& e) {
+        throw InputError("solver.belos.muelu_parameters: \"" + o.muelu_parameters +
+                         "\" is not a Teuchos XML parameter list: " + first_line(e.what()));
+      }
+    }
   }
 
   void analyzePattern(const SparseMatrix& A) override {
@@ -172,39 +184,53 @@ class BelosSolver final : public LinearSolver {
     m_import = rcp(new import_t(m_map, m_replicated));
 
     // Each local row's columns (the pattern is structurally symmetric, so column k of A
-    // holds row k's columns) and where their values are in A (-1: the diagonal A lacks).
-    m_row_start.assign(1, 0);
-    m_gcols.clear();
-    m_source.clear();
+    // holds row k's columns; a padding row and a row without a stored diagonal get one).
     std::vector<std::size_t> counts(local);
     for (LO r = 0; r < local; ++r) {
       const Index k = m_d.unknown_of_local[r];
-      const GO grow = m_d.first_row + r;
       bool diagonal = false;
-      if (k >= 0) {
+      if (k >= 0)
         for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
-          m_gcols.push_back(m_d.row_of[it.row()]);
-          m_source.push_back(find_entry(A, k, static_cast<Index>(it.row())));
+          ++counts[r];
           diagonal = diagonal || it.row() == k;
         }
-      }
-      if (!diagonal) {
-        m_gcols.push_back(grow);
-        m_source.push_back(-1);
-      }
-      m_row_start.push_back(static_cast<Index>(m_gcols.size()));
-      counts[r] = static_cast<std::size_t>(m_row_start[r + 1] - m_row_start[r]);
+      if (!diagonal) ++counts[r];
     }
     RCP<graph_t> graph = rcp(new graph_t(m_map, Teuchos::ArrayView<const std::size_t>(counts)));
-    for (LO r = 0; r < local; ++r)
-      graph->insertGlobalIndices(m_d.first_row + r,
-                                 Teuchos::ArrayView<const GO>(m_gcols.data() + m_row_start[r], counts[r]));
+    std::vector<GO> columns;
+    for (LO r = 0; r < local; ++r) {
+      const Index k = m_d.unknown_of_local[r];
+      columns.clear();
+      bool diagonal = false;
+      if (k >= 0)
+        for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
+          columns.push_back(m_d.row_of[it.row()]);
+          diagonal = diagonal || it.row() == k;
+        }
+      if (!diagonal) columns.push_back(m_d.first_row + r);
+      graph->insertGlobalIndices(m_d.first_row + r, Teuchos::ArrayView<const GO>(columns));
+    }
     graph->fillComplete(m_map, m_map);
-    m_lcols.resize(m_gcols.size());
-    for (std::size_t e = 0; e < m_gcols.size(); ++e) m_lcols[e] = graph->getColMap()->getLocalElement(m_gcols[e]);
-    m_values.resize(m_gcols.size());
+    // Where each value of Tpetra's local rows is in A (-1: the diagonal that A lacks, or a
+    // padding row's): factorize() copies A's values straight into the matrix's storage.
+    std::vector<Index> unknown_of_row(static_cast<std::size_t>(m_d.n_rows), -1);
+    for (Index k = 0; k < n; ++k) unknown_of_row[m_d.row_of[k]] = k;
+    const auto lg = graph->getLocalGraphHost();
+    const RCP<const map_t> col_map = graph->getColMap();
+    m_row_start.assign(lg.row_map.data(), lg.row_map.data() + local + 1);
+    m_source.resize(lg.entries.extent(0));
+    m_diagonal.assign(local, -1);
+    for (LO r = 0; r < local; ++r) {
+      const Index k = m_d.unknown_of_local[r];
+      for (Index e = m_row_start[r]; e < m_row_start[r + 1]; ++e) {
+        const GO column = col_map->getGlobalElement(lg.entries(e));
+        const Index j = unknown_of_row[column];
+        m_source[e] = k >= 0 && j >= 0 ? find_entry(A, k, j) : -1;
+        if (column == m_d.first_row + r) m_diagonal[r] = e;
+      }
+    }
     m_A = rcp(new crs_t(graph));
-    m_filled = false;
+    m_A->fillComplete(m_map, m_map);
     m_X = rcp(new mv_t(m_map, 1));
     m_B = rcp(new mv_t(m_map, 1));
     m_X_all = rcp(new mv_t(m_replicated, 1));
@@ -219,32 +245,25 @@ class BelosSolver final : public LinearSolver {
   void factorize(const SparseMatrix& A) override {
     m_info = Eigen::Success;
     if (m_A.is_null()) analyzePattern(A);
-    // The padding rows' diagonal: the mean of A's diagonal over the local unknowns (a scale
-    // like the rest, so that neither the preconditioners nor the Krylov norms see a jump).
+    // The values go straight into the matrix's local storage (one memory space: Debian's
+    // Kokkos is Serial only). The padding rows' diagonal: the mean of A's diagonal over the
+    // local unknowns (a scale like the rest, so that neither the preconditioners nor the
+    // Krylov norms see a jump).
+    const auto values = m_A->getLocalMatrixHost().values;
+    const double* a = A.valuePtr();
+    const LO local = m_d.local_rows();
     double diagonal_sum = 0.0;
     Index diagonals = 0;
-    const LO local = m_d.local_rows();
-    const double* a = A.valuePtr();
     for (LO r = 0; r < local; ++r) {
-      const Index k = m_d.unknown_of_local[r];
-      for (Index e = m_row_start[r]; e < m_row_start[r + 1]; ++e) {
-        m_values[e] = m_source[e] >= 0 ? a[m_source[e]] : 0.0;
-        if (k >= 0 && m_gcols[e] == m_d.first_row + r) {
-          diagonal_sum += std::abs(m_values[e]);
-          ++diagonals;
-        }
+      for (Index e = m_row_start[r]; e < m_row_start[r + 1]; ++e) values(e) = m_source[e] >= 0 ? a[m_source[e]] : 0.0;
+      if (m_d.unknown_of_local[r] >= 0) {
+        diagonal_sum += std::abs(values(m_diagonal[r]));
+        ++diagonals;
       }
     }
     m_padding = diagonals > 0 && diagonal_sum > 0.0 ? diagonal_sum / diagonals : 1.0;
-    if (m_filled) m_A->resumeFill();
-    for (LO r = 0; r < local; ++r) {
-      if (m_d.unknown_of_local[r] < 0) m_values[m_row_start[r]] = m_padding;  // its only entry
-      const auto len = static_cast<std::size_t>(m_row_start[r + 1] - m_row_start[r]);
-      m_A->replaceLocalValues(r, Teuchos::ArrayView<const LO>(m_lcols.data() + m_row_start[r], len),
-                              Teuchos::ArrayView<const double>(m_values.data() + m_row_start[r], len));
-    }
-    m_A->fillComplete(m_map, m_map);
-    m_filled = true;
+    for (LO r = 0; r < local; ++r)
+      if (m_d.unknown_of_local[r] < 0) values(m_diagonal[r]) = m_padding;
     if (m_reuse.due()) build_preconditioner();
   }
 
@@ -291,6 +310,13 @@ class BelosSolver final : public LinearSolver {
           // Amesos2's KLU2 gives wrong answers on two or more ranks (DEPENDENCIES.md): the
           // coarsest level is smoothed instead of solved.
           p.set("coarse: type", "RELAXATION");
+          // Measured on the tension plate (100 x 100, docs/guide/distributed.md): Chebyshev
+          // smoothing costs a third of MueLu's default symmetric Gauss-Seidel on these wide
+          // rows (about 300 entries), and a coarsest level of at most 100 rows keeps the
+          // relaxed coarse solve from limiting convergence (37 iterations per solve against 62).
+          p.set("smoother: type", "CHEBYSHEV");
+          p.set("coarse: max size", 100);
+          p.setParameters(m_muelu_parameters);  // the user's list wins
           if (m_d.per_node == 2) {
             p.set("number of equations", 2);
             p.sublist("user data").set("Nullspace", rigid_body_modes());
@@ -409,17 +435,16 @@ class BelosSolver final : public LinearSolver {
   }
 
   BelosOptions m_options;
+  Teuchos::ParameterList m_muelu_parameters;  ///< solver.belos.muelu_parameters, or empty
   RCP<const Teuchos::Comm<int>> m_comm;
   UnknownLayout m_layout;
   Distribution m_d;
   RCP<const map_t> m_map, m_replicated;
   RCP<import_t> m_import;
-  std::vector<Index> m_row_start, m_source;
-  std::vector<GO> m_gcols;
-  std::vector<LO> m_lcols;
-  std::vector<double> m_values;
+  std::vector<Index> m_row_start;  ///< Tpetra's local row offsets
+  std::vector<Index> m_source;     ///< per local value: its position in A's values, or -1
+  std::vector<Index> m_diagonal;   ///< per local row: the position of its diagonal value
   RCP<crs_t> m_A;
-  bool m_filled = false;
   double m_padding = 1.0;
   RCP<mv_t> m_X, m_B, m_X_all;
   RCP<Belos::LinearProblem<double, mv_t, op_t>> m_problem;

@@ -44,6 +44,16 @@ int rank() { return Tpetra::isInitialized() ? Tpetra::getDefaultComm()->getRank(
 
 int size() { return Tpetra::isInitialized() ? Tpetra::getDefaultComm()->getSize() : 1; }
 
+int ranks_on_this_machine() {
+  if (!Tpetra::isInitialized()) return 1;
+  MPI_Comm shared;
+  MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &shared);
+  int n = 1;
+  MPI_Comm_size(shared, &n);
+  MPI_Comm_free(&shared);
+  return n;
+}
+
 double max_over_ranks(double value) {
   if (!Tpetra::isInitialized()) return value;
   double result = value;

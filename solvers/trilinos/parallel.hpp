@@ -24,6 +24,8 @@ void ensure_started();
 /// This process's rank and the number of ranks (0 and 1 before MPI starts).
 int rank();
 int size();
+/// The ranks that share this machine's memory (1 before MPI starts).
+int ranks_on_this_machine();
 /// The largest of `value` over the ranks (value itself before MPI starts).
 double max_over_ranks(double value);
 

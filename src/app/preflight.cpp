@@ -10,10 +10,18 @@
 #include "core/error.hpp"
 #include "discretisation/model.hpp"
 #include "scene/geometry.hpp"
+#include "solvers/trilinos/parallel.hpp"
 
 namespace peristat {
 
 namespace {
+
+/// ", per rank of the N on it" when ranks share the machine, else "".
+std::string sharing(const SizeEstimate& e) {
+  return e.sharing_ranks > 1
+             ? " per rank of the " + std::to_string(e.sharing_ranks) + " on it (each holds the whole model)"
+             : std::string();
+}
 
 /// MemAvailable of /proc/meminfo [bytes]; 0 when it cannot be read (not Linux).
 double available_memory() {
@@ -106,7 +114,10 @@ SizeEstimate estimate_size(const Scene& scene) {
         e.factor_of = "the bond preconditioner, with the tangent's copy in Tpetra";
     }
   }
-  e.available_bytes = available_memory();
+  // Under mpirun every rank holds the whole model (docs/guide/distributed.md): the ranks on
+  // this machine share its memory.
+  e.sharing_ranks = parallel::ranks_on_this_machine();
+  e.available_bytes = available_memory() / e.sharing_ranks;
   return e;
 }
 
@@ -148,9 +159,9 @@ std::vector<std::string> preflight(const Scene& scene, const SizeEstimate& e) {
       e.memory_bytes + e.factor_bytes > e.available_bytes) {
     std::snprintf(buf, sizeof buf,
                   "the model needs about %s and the factorisation of %s about %s more (%.3g factor nonzeros, "
-                  "estimated), and the machine has %s available: refused before allocating; use a coarser spacing%s",
+                  "estimated), and the machine has %s available%s: refused before allocating; use a coarser spacing%s",
                   format_bytes(e.memory_bytes).c_str(), e.factor_of.c_str(), format_bytes(e.factor_bytes).c_str(),
-                  e.factor_nonzeros, format_bytes(e.available_bytes).c_str(),
+                  e.factor_nonzeros, format_bytes(e.available_bytes).c_str(), sharing(e).c_str(),
                   e.factor_of == "the tangent" ? " or solver.linear=cg (its bond preconditioner factorises a "
                                                  "matrix of about a seventh of the tangent's nonzeros)"
                                                : "");
@@ -159,10 +170,10 @@ std::vector<std::string> preflight(const Scene& scene, const SizeEstimate& e) {
   if (e.available_bytes > 0.0 && e.memory_bytes > e.available_bytes) {
     std::snprintf(buf, sizeof buf,
                   "the model needs about %s (%.3g particles, %.3g tangent nonzeros at %.0f B each, before any "
-                  "factorisation) and the machine has %s available: refused before allocating; use a coarser "
+                  "factorisation) and the machine has %s available%s: refused before allocating; use a coarser "
                   "spacing",
                   format_bytes(e.memory_bytes).c_str(), e.particles + e.fictitious, e.nonzeros, kBytesPerNonzero,
-                  format_bytes(e.available_bytes).c_str());
+                  format_bytes(e.available_bytes).c_str(), sharing(e).c_str());
     throw InputError(d.spacing_where, buf);
   }
   std::vector<std::string> warnings;

@@ -21,7 +21,8 @@ struct SizeEstimate {
   double factor_nonzeros = 0.0;    ///< of the Cholesky factor the linear solver makes (0: none)
   double factor_bytes = 0.0;       ///< the factor and the copy of the matrix the factorisation takes
   std::string factor_of;           ///< what is factorised: "the tangent", "the bond preconditioner" or ""
-  double available_bytes = 0.0;    ///< MemAvailable of /proc/meminfo; 0 when unknown
+  double available_bytes = 0.0;    ///< MemAvailable of /proc/meminfo over the ranks sharing it; 0 when unknown
+  int sharing_ranks = 1;           ///< MPI ranks on this machine, each holding the whole model
 };
 
 /// Bytes per tangent nonzero of the model, problem state and tangent together, measured with

@@ -73,6 +73,9 @@ struct BelosOptions {
   double rtol = 1e-10;        ///< relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;  ///< Krylov iterations per solve
   int restart = 100;          ///< GMRES basis vectors before a restart
+  /// A MueLu XML parameter list that replaces peristat's own (solver.belos.muelu_parameters;
+  /// empty: peristat's). Checked for readability by the parser, parsed by the solver.
+  std::string muelu_parameters;
 };
 
 /// Linear solver (key solver.linear) and its iterative settings (solver.krylov.*).

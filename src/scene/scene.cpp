@@ -466,7 +466,8 @@ AdrOptions read_adr(const Field& field) {
 }
 
 BelosOptions read_belos(const Field& field) {
-  const Map m = checked_map(field, {"method", "preconditioner", "rtol", "max_iterations", "restart"});
+  const Map m =
+      checked_map(field, {"method", "preconditioner", "rtol", "max_iterations", "restart", "muelu_parameters"});
   BelosOptions o;
   if (auto f = m.find("method")) o.method = read_kind(*f, {BelosMethod::automatic, BelosMethod::cg, BelosMethod::gmres});
   if (auto f = m.find("preconditioner"))
@@ -475,6 +476,10 @@ BelosOptions read_belos(const Field& field) {
   if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
   if (auto f = m.find("max_iterations")) o.max_iterations = schema::int_at_least(*f, 1);
   if (auto f = m.find("restart")) o.restart = schema::int_at_least(*f, 1);
+  if (auto f = m.find("muelu_parameters")) {
+    o.muelu_parameters = schema::text(*f);
+    if (!std::ifstream(o.muelu_parameters)) f->fail("cannot read \"" + o.muelu_parameters + "\" (a MueLu XML parameter list)");
+  }
   return o;
 }
 

@@ -8,6 +8,7 @@
 // 1e-17 (Newton converges quadratically past the tolerance).
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <set>
 #include <string>
 
@@ -110,6 +111,22 @@ TEST(Distributed, OtherSolversAreRefusedUnderMpirun) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("solver.linear=belos"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "tension_plate.h5")) << "nothing is written";
+}
+
+TEST(Distributed, AMueLuListThatIsNotXmlIsRefused) {
+  // solver.belos.muelu_parameters: a readable file that Teuchos cannot parse ends the run
+  // with exit 2 and the key before anything is written.
+  const fs::path dir = test::fresh_directory("distributed_muelu_xml");
+  const fs::path xml = dir / "muelu.xml";
+  std::ofstream(xml) << "this is not XML\n";
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+  const test::CliResult r = test::run_cli("run " + scene + " --quiet --out " + (dir / "out").string() +
+                                          " --set discretization.spacing=5e-3 --set solver.linear=belos"
+                                          " --set solver.belos.preconditioner=muelu --set solver.belos.muelu_parameters=" +
+                                          xml.string());
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("solver.belos.muelu_parameters"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "out" / "tension_plate.h5"));
 }
 
 }  // namespace

@@ -941,3 +941,17 @@ TEST(Scene, BelosKeys) {
 
 }  // namespace
 }  // namespace peristat
+
+namespace peristat {
+namespace {
+
+// solver.belos.muelu_parameters names a file the parser can read; a missing one is refused
+// with the key's location, before any solve.
+TEST(Scene, MueLuParametersMustBeReadable) {
+  const std::string message = error_of(k_minimal, {parse_override("solver.belos.muelu_parameters=/nonexistent/muelu.xml")});
+  EXPECT_NE(message.find("solver.belos.muelu_parameters"), std::string::npos) << message;
+  EXPECT_NE(message.find("cannot read"), std::string::npos) << message;
+}
+
+}  // namespace
+}  // namespace peristat
