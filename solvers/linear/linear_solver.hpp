@@ -57,7 +57,9 @@ class LinearSolver {
   /// (factor-preconditioned Krylov: CG or GMRES) pick their method by it.
   virtual void set_symmetric(bool /*symmetric*/) {}
 
-  /// The unknowns' particles and directions; solvers that do not need them ignore it.
+  /// True when the solver wants set_unknown_layout() before analyzePattern().
+  virtual bool needs_unknown_layout() const { return false; }
+  /// The unknowns' particles and directions (see needs_unknown_layout()).
   virtual void set_unknown_layout(const UnknownLayout& /*layout*/) {}
 };
 

@@ -306,6 +306,7 @@ class BelosSolver final : public LinearSolver {
   }
   void set_preconditioner_matrix(const SparseMatrix& P) override { m_P = &P; }
   void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
+  bool needs_unknown_layout() const override { return true; }
   void set_unknown_layout(const UnknownLayout& layout) override { m_layout = layout; }
 
  private:

@@ -4,7 +4,6 @@
 
 #include <mpi.h>
 
-#include <Teuchos_CommHelpers.hpp>
 #include <Tpetra_Core.hpp>
 
 namespace peristat::parallel {
@@ -52,13 +51,6 @@ int ranks_on_this_machine() {
   MPI_Comm_size(shared, &n);
   MPI_Comm_free(&shared);
   return n;
-}
-
-double max_over_ranks(double value) {
-  if (!Tpetra::isInitialized()) return value;
-  double result = value;
-  Teuchos::reduceAll(*Tpetra::getDefaultComm(), Teuchos::REDUCE_MAX, value, Teuchos::outArg(result));
-  return result;
 }
 
 void abort_if_distributed(int code) {

@@ -26,9 +26,6 @@ int rank();
 int size();
 /// The ranks that share this machine's memory (1 before MPI starts).
 int ranks_on_this_machine();
-/// The largest of `value` over the ranks (value itself before MPI starts).
-double max_over_ranks(double value);
-
 /// Ends every rank with `code` when more than one runs (an error that one rank meets alone
 /// would leave the others waiting in a collective operation); returns otherwise.
 void abort_if_distributed(int code);
