@@ -202,6 +202,8 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     // The commit evaluated the pairs at this state (before updating the slip history).
     contact->contact_force(m_contact_force);
     rec.contact_force = &m_contact_force;
+    contact->particle_states(m_contact_state);
+    rec.contact_state = &m_contact_state;
     const ContactCounts& c = contact->counts();
     rec.counts["contact_candidates"] = c.candidates;
     rec.counts["contact_open"] = c.open;

@@ -53,6 +53,7 @@ class StepRecorder {
   Index m_fragment_particles = 0;         ///< fragment particles already warned about
   bool m_fragment_contact_warned = false;  ///< contact on held fragments already warned about
   VectorXd m_u, m_contact_force, m_damage;
+  std::vector<int> m_contact_state;
 };
 
 }  // namespace peristat

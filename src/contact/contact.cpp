@@ -476,6 +476,15 @@ void ContactSystem::contact_force(VectorXd& out) const {
   out = -out;
 }
 
+void ContactSystem::particle_states(std::vector<int>& out) const {
+  out.assign(m_model.particles.size(), 0);
+  for (std::size_t k = 0; k < m_pairs.size(); ++k) {
+    const int s = static_cast<int>(m_result[k].status);  // open 0, stick 1, slip 2
+    out[m_pairs[k].i] = std::max(out[m_pairs[k].i], s);
+    out[m_pairs[k].j] = std::max(out[m_pairs[k].j], s);
+  }
+}
+
 Mat2 ContactSystem::preconditioner_block(Index k) const {
   const PairResult& r = m_result[k];
   if (r.status == PairStatus::open) return Mat2::Zero();

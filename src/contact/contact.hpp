@@ -125,6 +125,9 @@ class ContactSystem {
   void add_internal_force(VectorXd& force) const;
   /// The contact force acting on each particle (2N) [N] of the last evaluation.
   void contact_force(VectorXd& out) const;
+  /// Per particle (N), the state of its pairs at the last evaluation: 0 when no pair of the
+  /// particle is closed, 1 when its closed pairs all stick, 2 when one of them slips.
+  void particle_states(std::vector<int>& out) const;
   /// Accepts u as converged: slip history is updated, pairs added since the last commit stay.
   void commit(const VectorXd& u);
   /// Bonds broken during the run become candidates (paper section 4.4): pair (i, j) with

@@ -45,6 +45,7 @@ struct StepRecord : StepFigures {
   const VectorXd* displacement = nullptr;   ///< 2N, interleaved (ux0, uy0, ux1, ...)
   const VectorXd* damage = nullptr;         ///< N, only where failure is modelled
   const VectorXd* contact_force = nullptr;  ///< 2N, only where contact is modelled
+  const std::vector<int>* contact_state = nullptr;  ///< N (0 no closed pair, 1 stick, 2 slip), with contact
 };
 
 /// Writes the three result files of a run.

@@ -38,6 +38,7 @@ const std::set<std::string>& fixed_step_attributes() {
 struct StepSummary : StepFigures {
   bool has_damage = false;
   bool has_contact_force = false;
+  bool has_contact_state = false;
 };
 
 StepSummary summarise(const StepRecord& step) {
@@ -45,6 +46,7 @@ StepSummary summarise(const StepRecord& step) {
   static_cast<StepFigures&>(s) = step;
   s.has_damage = step.damage != nullptr;
   s.has_contact_force = step.contact_force != nullptr;
+  s.has_contact_state = step.contact_state != nullptr;
   return s;
 }
 
@@ -97,6 +99,11 @@ void check_step(const StepRecord& step, std::size_t n, const std::vector<StepSum
   check_field(step.displacement, 2 * n, "displacement", step.index);
   check_field(step.damage, n, "damage", step.index);
   check_field(step.contact_force, 2 * n, "contact_force", step.index);
+  if (step.contact_state != nullptr && step.contact_state->size() != n) {
+    throw std::invalid_argument("ResultsWriter: step " + std::to_string(step.index) + ": contact_state has " +
+                                std::to_string(step.contact_state->size()) + " entries, expected " +
+                                std::to_string(n));
+  }
   check_attribute_names(step);
 }
 
@@ -134,6 +141,7 @@ void write_step_contents(const h5::File& file, hid_t group, const StepRecord& st
   if (step.contact_force != nullptr) {
     file.write_doubles(group, "contact_force", step.contact_force->data(), {n, 2});
   }
+  if (step.contact_state != nullptr) file.write_ints(group, "contact_state", step.contact_state->data(), {n});
   file.write_doubles(group, "residual_history", step.residual_history.data(),
                      {static_cast<hsize_t>(step.residual_history.size())});
   file.write_attribute(group, "load_factor", step.load_factor);
@@ -159,7 +167,12 @@ nlohmann::ordered_json step_json(const StepSummary& s) {
 }
 
 /// The inverse of step_json (figures only), for a resumed run's earlier steps.
-StepSummary step_from_json(const nlohmann::ordered_json& j, bool has_damage, bool has_contact_force) {
+/// Which fields a kept step group of a resumed run holds.
+struct StepFields {
+  bool damage = false, contact_force = false, contact_state = false;
+};
+
+StepSummary step_from_json(const nlohmann::ordered_json& j, const StepFields& fields) {
   StepSummary s;
   const auto number = [](const nlohmann::ordered_json& v) {
     return v.is_number() ? v.get<double>() : std::numeric_limits<double>::quiet_NaN();
@@ -175,8 +188,9 @@ StepSummary step_from_json(const nlohmann::ordered_json& j, bool has_damage, boo
   for (const char* map : {"counts", "timings"})
     if (j.contains(map) && j[map].is_object())
       for (const auto& [key, v] : j[map].items()) (map[0] == 'c' ? s.counts : s.timings)[key] = number(v);
-  s.has_damage = has_damage;
-  s.has_contact_force = has_contact_force;
+  s.has_damage = fields.damage;
+  s.has_contact_force = fields.contact_force;
+  s.has_contact_state = fields.contact_state;
   return s;
 }
 
@@ -277,8 +291,8 @@ struct ResultsWriter::Impl {
 
   /// Resume: removes the step groups after `last_step`; returns which of the others hold
   /// damage and contact forces (by step index).
-  std::map<int, std::pair<bool, bool>> keep_steps_up_to(int last_step) const {
-    std::map<int, std::pair<bool, bool>> kept;
+  std::map<int, StepFields> keep_steps_up_to(int last_step) const {
+    std::map<int, StepFields> kept;
     edit_copy(h5().string() + ".tmp", [&](h5::File& file) {
       h5::Handle steps_group = file.open_group(file.id(), "steps");
       for (const std::string& group_name : file.link_names(steps_group)) {
@@ -288,7 +302,8 @@ struct ResultsWriter::Impl {
           continue;
         }
         h5::Handle group = file.open_group(steps_group, group_name);
-        kept[index] = {file.link_exists(group, "damage"), file.link_exists(group, "contact_force")};
+        kept[index] = {file.link_exists(group, "damage"), file.link_exists(group, "contact_force"),
+                       file.link_exists(group, "contact_state")};
       }
     });
     return kept;
@@ -298,7 +313,7 @@ struct ResultsWriter::Impl {
     std::vector<io::XdmfStep> xs;
     xs.reserve(steps.size());
     for (const StepSummary& s : steps) {
-      xs.push_back({s.index, s.load_factor, s.has_damage, s.has_contact_force});
+      xs.push_back({s.index, s.load_factor, s.has_damage, s.has_contact_force, s.has_contact_state});
     }
     io::write_file_atomically(xdmf().string(), io::xdmf_document(name + ".h5", n_particles, xs));
   }
@@ -349,7 +364,7 @@ ResultsWriter::ResultsWriter(const std::string& dir, const std::string& name, in
   impl->n_particles = n_particles;
   if (!fs::exists(impl->h5())) throw InputError(impl->h5().string() + ": no results to resume");
   const io::SignalBlocker hold_signals;
-  std::map<int, std::pair<bool, bool>> kept;
+  std::map<int, StepFields> kept;
   try {
     const h5::File file = h5::File::open(impl->h5().string(), false);
     const std::vector<hsize_t> shape = file.shape(file.id(), "particles/volume");
@@ -373,7 +388,7 @@ ResultsWriter::ResultsWriter(const std::string& dir, const std::string& name, in
         const int index = j.value("step", 0);
         const auto it = kept.find(index);
         if (it == kept.end()) continue;
-        impl->steps.push_back(step_from_json(j, it->second.first, it->second.second));
+        impl->steps.push_back(step_from_json(j, it->second));
       }
   }
   for (const auto& [index, fields] : kept) {

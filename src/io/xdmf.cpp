@@ -122,6 +122,7 @@ std::string xdmf_document(const std::string& h5_file_name, std::size_t n_particl
       grid.vector2("displacement", group + "/displacement");
       if (step.has_damage) grid.scalar("damage", group + "/damage", false);
       if (step.has_contact_force) grid.vector2("contact_force", group + "/contact_force");
+      if (step.has_contact_state) grid.scalar("contact_state", group + "/contact_state", true);
       grid.particle_scalars();
       grid.end();
     }

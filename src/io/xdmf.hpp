@@ -13,6 +13,7 @@ struct XdmfStep {
   double time = 0.0;  ///< load factor, shown as time in ParaView
   bool has_damage = false;
   bool has_contact_force = false;
+  bool has_contact_state = false;
 };
 
 /// Xdmf 2 document: a temporal collection with one Polyvertex grid per step, geometry

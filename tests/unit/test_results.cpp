@@ -83,6 +83,7 @@ ParticleTable small_table() {
 /// Fields of step k, distinct per step, entry and component.
 struct StepFields {
   VectorXd displacement, damage, contact_force;
+  std::vector<int> contact_state;
 };
 
 StepFields fields_of_step(int k, std::size_t n) {
@@ -96,6 +97,7 @@ StepFields fields_of_step(int k, std::size_t n) {
     f.contact_force[i] = -1000.0 * k - static_cast<double>(i);
   }
   for (Eigen::Index i = 0; i < m; ++i) f.damage[i] = 0.01 * k * static_cast<double>(i);
+  for (std::size_t i = 0; i < n; ++i) f.contact_state.push_back(static_cast<int>((i + k) % 3));
   return f;
 }
 
@@ -111,6 +113,7 @@ StepRecord record_of_step(int k, const StepFields& f) {
   r.displacement = &f.displacement;
   r.damage = k >= 2 ? &f.damage : nullptr;
   r.contact_force = k == 3 ? &f.contact_force : nullptr;
+  r.contact_state = k == 3 ? &f.contact_state : nullptr;
   r.residual_history = {1.0, 1e-4 * k, 1e-10 * k};
   r.counts = {{"open", 1.0 * k}, {"stick", 2.0 * k}, {"broken_bonds", 10.0 * k}};
   r.timings = {{"assembly", 0.01 * k}, {"solve", 0.02 * k}};
@@ -280,7 +283,10 @@ TEST_F(ResultsTest, HdfLayoutFollowsTheContract) {
     if (k == 3) {
       EXPECT_EQ(file.dims(g + "/contact_force"), (std::vector<hsize_t>{6, 2}));
       EXPECT_EQ(file.doubles(g + "/contact_force")[7], f.contact_force[7]);
+      EXPECT_EQ(file.dims(g + "/contact_state"), (std::vector<hsize_t>{6}));
+      EXPECT_EQ(file.doubles(g + "/contact_state"), (std::vector<double>{0, 1, 2, 0, 1, 2}));
     }
+    EXPECT_EQ(file.exists(g + "/contact_state"), k == 3);
     EXPECT_EQ(file.doubles(g + "/residual_history"), (std::vector<double>{1.0, 1e-4 * k, 1e-10 * k}));
     EXPECT_EQ(file.attribute(g, "load_factor"), 0.25 * k);
     EXPECT_EQ(file.attribute(g, "newton_iterations"), 3 + k);
@@ -384,6 +390,7 @@ TEST_F(ResultsTest, XdmfDescribesEveryStep) {
     EXPECT_EQ(count_of(xdmf, g + "/displacement"), 1u);
     EXPECT_EQ(count_of(xdmf, g + "/damage"), k >= 2 ? 1u : 0u);
     EXPECT_EQ(count_of(xdmf, g + "/contact_force"), k == 3 ? 1u : 0u);
+    EXPECT_EQ(count_of(xdmf, g + "/contact_state"), k == 3 ? 1u : 0u);
   }
   EXPECT_NE(xdmf.find("<Time Value=\"0.75\"/>"), std::string::npos);
   // N x 2 vectors: ParaView's XDMF Reader pads them to 3 components for Warp By Vector.
