@@ -162,6 +162,10 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
   const double nominal = 1.0 / n;
   double lambda = problem.load_factor();
   VectorXd trial, r_check;
+  // The predictor's secant: the accepted state before the last one and its load factor (none
+  // until two states are known: at the start, after a resume, after a cut-back).
+  VectorXd x_before;
+  double lambda_before = -1.0;
   for (int k = steps_done + 1; k <= n; ++k) {
     const double start = wall_seconds();
     const double target = static_cast<double>(k) / n;
@@ -175,8 +179,12 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
       problem.set_load_factor(next);
       if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
       trial = x;
+      if (loading.extrapolate && lambda_before >= 0.0 && lambda > lambda_before)
+        trial += ((next - lambda) / (lambda - lambda_before)) * (x - x_before);
       const SolveReport r = solve_and_check(problem, solver, trial, r_check, cb, step);
       if (r.converged || r.accepted_unconverged) {
+        x_before = x;
+        lambda_before = lambda;
         accept(problem, x, trial, r, step);
         lambda = next;
         ++step.substeps;
@@ -205,6 +213,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
       }
       problem.set_load_factor(lambda);
       solver.invalidate_factorization();  // the factor may belong to a diverged iterate
+      lambda_before = -1.0;  // the retry starts from the converged state, not a prediction
       if (halvings > loading.max_cutbacks || !solver.cutback_helps()) {
         char buf[256];
         std::snprintf(buf, sizeof buf,

@@ -40,6 +40,9 @@ class NewtonSolver final : public StepSolver {
 
  private:
   SolveReport solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report);
+  /// The relative residual the Krylov solve of iteration `it` stops at, from the residual
+  /// norms of this and the previous iterate and the previous forcing term.
+  double forcing_term(int it, double norm, double previous_norm, double previous_eta) const;
   bool reuse_factor() const;
   long factorizations() const;
   void factorize(SolveReport& report);

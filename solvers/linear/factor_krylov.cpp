@@ -1,5 +1,6 @@
 #include "solvers/linear/factor_krylov.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "solvers/linear/preconditioner_reuse.hpp"
@@ -33,7 +34,14 @@ class FactorPreconditionedKrylov final : public LinearSolver {
  public:
   FactorPreconditionedKrylov(std::unique_ptr<LinearSolver> factor, FactorSource source,
                              const LinearOptions& o)
-      : m_factor(std::move(factor)), m_source(source), m_rtol(o.rtol), m_max_iterations(o.max_iterations) {}
+      : m_factor(std::move(factor)),
+        m_source(source),
+        m_rtol(o.rtol),
+        m_rtol_floor(o.rtol),
+        m_max_iterations(o.max_iterations) {}
+
+  bool iterative() const override { return true; }
+  void set_relative_tolerance(double rtol) override { m_rtol = std::max(rtol, m_rtol_floor); }
 
   void analyzePattern(const SparseMatrix& A) override {
     m_A = &A;
@@ -180,7 +188,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
 
   std::unique_ptr<LinearSolver> m_factor;
   FactorSource m_source;
-  double m_rtol;
+  double m_rtol, m_rtol_floor;
   int m_max_iterations;
   const SparseMatrix* m_A = nullptr;
   const SparseMatrix* m_P = nullptr;

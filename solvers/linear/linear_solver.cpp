@@ -6,6 +6,9 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/UmfPackSupport>
 
+#include <algorithm>
+#include <stdexcept>
+
 #include "core/error.hpp"
 #include "solvers/linear/factor_krylov.hpp"
 #include "solvers/trilinos/belos_solver.hpp"
@@ -80,10 +83,12 @@ template <class Solver>
 class KrylovSolver final : public EigenSolverAdapter<Solver> {
  public:
   KrylovSolver(std::string name, bool symmetric, const LinearOptions& options)
-      : EigenSolverAdapter<Solver>(std::move(name), symmetric) {
+      : EigenSolverAdapter<Solver>(std::move(name), symmetric), m_floor(options.rtol) {
     this->m_solver.setTolerance(options.rtol);
     this->m_solver.setMaxIterations(options.max_iterations);
   }
+  bool iterative() const override { return true; }
+  void set_relative_tolerance(double rtol) override { this->m_solver.setTolerance(std::max(rtol, m_floor)); }
   void solve(const VectorXd& b, VectorXd& x) override {
     if (x.size() != b.size()) x = VectorXd::Zero(b.size());
     x = this->m_solver.solveWithGuess(b, x);
@@ -91,6 +96,9 @@ class KrylovSolver final : public EigenSolverAdapter<Solver> {
   }
   int iterations() const override { return static_cast<int>(this->m_solver.iterations()); }
   double error() const override { return this->m_solver.error(); }
+
+ private:
+  double m_floor;  ///< the configured rtol (solver.krylov.rtol)
 };
 
 using Full = SparseMatrix;
@@ -145,6 +153,8 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
       throw not_available("ilut or diagonal");
     case LS::belos:
       return make_belos_solver(o.belos);
+    case LS::automatic:  // a programming error: the program resolves `auto` before building anything
+      throw std::logic_error("make_linear_solver: solver.linear 'auto' was not resolved (choose_linear_solver)");
   }
   throw InputError("solver.linear: unknown linear solver");
 }

@@ -44,6 +44,12 @@ class LinearSolver {
   virtual int iterations() const { return 0; }
   /// Estimated relative residual of the last solve (0 for direct solvers).
   virtual double error() const { return 0.0; }
+  /// True for Krylov solvers, whose solves stop at a relative residual.
+  virtual bool iterative() const { return false; }
+  /// Krylov solvers: the relative residual ||b - A x|| / ||b|| the next solves stop at (an
+  /// inexact Newton method's forcing term), never below the configured tolerance
+  /// (solver.krylov.rtol, solver.belos.rtol), which stays the floor. Direct solvers ignore it.
+  virtual void set_relative_tolerance(double /*rtol*/) {}
   /// Numeric factorisations performed so far (of A, or of the preconditioner's matrix).
   virtual long factorizations() const = 0;
 

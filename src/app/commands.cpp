@@ -103,7 +103,9 @@ void check_same_run(const StateArchive& checkpoint, const std::string& path, con
 }  // namespace
 
 int check_command(const std::string& scene_path, const std::vector<std::string>& overrides) {
-  const Scene scene = parse_scene(scene_path, parse_overrides(overrides));
+  Scene scene = parse_scene(scene_path, parse_overrides(overrides));
+  const std::string linear_choice =
+      resolve_linear_solver(scene, 2.0 * estimate_size(scene).particles, parallel::size());
   const SizeEstimate estimate = estimate_size(scene);
   for (const std::string& w : preflight(scene, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
   const Model model = discretise(scene);
@@ -114,6 +116,7 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   std::printf("  spacing        %g m, horizon %g m (m = %g), %zu bonds per interior family\n", model.spacing,
               model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
   print_size(measure(model, problem));
+  if (!linear_choice.empty()) std::printf("  solver.linear  auto: %s\n", linear_choice.c_str());
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
               estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,
               estimate.available_bytes / 1e6);
@@ -129,11 +132,15 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
 int run_command(const RunArguments& args) {
   std::vector<Override> overrides = parse_overrides(args.overrides);
   if (!args.solver.empty()) overrides.push_back({"solver.type", args.solver});
-  const Scene scene = parse_scene(args.scene, overrides);
+  Scene scene = parse_scene(args.scene, overrides);
   // Under mpirun every rank runs the same model and only the linear solves are distributed
   // (docs/guide/distributed.md); rank 0 alone writes and prints.
   const int ranks = parallel::size();
   const bool root = parallel::rank() == 0;
+  // solver.linear: auto becomes a solver here, from the size estimate, before the preflight
+  // estimates its memory (an explicit choice is kept).
+  const std::string linear_choice = resolve_linear_solver(scene, 2.0 * estimate_size(scene).particles, ranks);
+  if (!linear_choice.empty() && !args.quiet && root) std::printf("peristat: solver.linear auto: %s\n", linear_choice.c_str());
   if (ranks > 1 && (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::belos))
     throw InputError("solver.linear: under mpirun with " + std::to_string(ranks) +
                      " ranks only Newton with solver.linear=belos distributes the work (this run has " +

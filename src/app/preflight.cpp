@@ -1,4 +1,5 @@
 #include "app/preflight.hpp"
+#include "app/setup.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -88,11 +89,15 @@ SizeEstimate estimate_size(const Scene& scene) {
   // the bond preconditioner's (cg's default); LU (UMFPACK, KLU) holds L and U, twice a
   // Cholesky factor; ADR and the incomplete or diagonal preconditioners none to speak of.
   const LinearOptions& lin = scene.solver.linear;
+  // `auto` is estimated as what it will pick (the run resolves it from the same estimate).
+  const LinearSolverKind kind = lin.type == LinearSolverKind::automatic
+                                    ? choose_linear_solver(scene, 2.0 * e.particles, parallel::size()).kind
+                                    : lin.type;
   const double n = e.particles + e.fictitious;
   if (scene.solver.type == SolverKind::newton) {
-    const bool cg = lin.type == LinearSolverKind::cg;
+    const bool cg = kind == LinearSolverKind::cg;
     const PreconditionerKind pc = lin.preconditioner;
-    const bool belos = lin.type == LinearSolverKind::belos;
+    const bool belos = kind == LinearSolverKind::belos;
     if (belos && lin.belos.preconditioner != BelosPreconditioner::bond_factor) {
       // MueLu's hierarchy and Ifpack2's incomplete factors are not estimated; the tangent's
       // copy in Tpetra is (added below).
@@ -102,9 +107,9 @@ SizeEstimate estimate_size(const Scene& scene) {
       const double nnz = kBondNonzeroShare * e.nonzeros;
       e.factor_nonzeros = factor_fill(n, true) * nnz;
       e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * nnz;
-    } else if ((!cg && !belos && lin.type != LinearSolverKind::bicgstab) || (cg && pc == PreconditionerKind::cholmod)) {
+    } else if ((!cg && !belos && kind != LinearSolverKind::bicgstab) || (cg && pc == PreconditionerKind::cholmod)) {
       e.factor_of = "the tangent";
-      const double lu = lin.type == LinearSolverKind::umfpack || lin.type == LinearSolverKind::klu ? 2.0 : 1.0;
+      const double lu = kind == LinearSolverKind::umfpack || kind == LinearSolverKind::klu ? 2.0 : 1.0;
       e.factor_nonzeros = lu * factor_fill(n, false) * e.nonzeros;
       e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * e.nonzeros;
     }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <string>
 
 #include "assembly/quasi_static.hpp"
 #include "scene/scene.hpp"
@@ -10,6 +11,28 @@
 #include "solvers/step_solver.hpp"
 
 namespace peristat {
+
+/// What `solver.linear: auto` picked, and why (printed by run and check, in summary.json).
+struct LinearChoice {
+  LinearSolverKind kind = LinearSolverKind::cg;
+  std::string reason;
+};
+
+/// Models with at most this many unknowns and no friction get a direct factor (CHOLMOD):
+/// whole runs of the tension plate, best of two, 2 cores: 1,249 unknowns 0.19 s against cg's
+/// 0.28 s, 3,196 0.48 against 0.41 s, 4,994 0.59 against 0.57 s, 19,970 3.2 against 2.2 s
+/// (docs/performance.md, "Fast by default"); below the crossover a factor is also exact.
+inline constexpr double kDirectMaxUnknowns = 2500.0;
+
+/// The linear solver `solver.linear: auto` stands for, from the number of unknowns (an
+/// estimate before discretising, or the model's), the scene's physics and the MPI ranks:
+/// belos under mpirun; else CHOLMOD for small models without friction; else cg with the
+/// bond-factor preconditioner (GMRES on it while pairs slip). Measured in docs/performance.md.
+LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks);
+
+/// Replaces `auto` in scene.solver.linear.type by choose_linear_solver()'s pick; returns its
+/// reason, or "" when the scene named a solver (an explicit choice always wins) or runs ADR.
+std::string resolve_linear_solver(Scene& scene, double unknowns, int ranks);
 
 /// What the problem models, from the scene.
 ProblemOptions problem_options(const Scene& scene);

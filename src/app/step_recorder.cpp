@@ -24,6 +24,7 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
     solver["adr_density_factor"] = a.density_factor;
   } else {
     solver["linear"] = linear;
+    if (!scene.solver.linear.auto_choice.empty()) solver["linear_auto"] = scene.solver.linear.auto_choice;
     solver["newton_rtol"] = n.rtol;
     solver["newton_atol"] = n.atol;
     solver["newton_max_iterations"] = n.max_iterations;

@@ -19,7 +19,7 @@ std::string_view to_string(SolverKind kind) {
 
 std::string_view to_string(LinearSolverKind kind) {
   return name_of(kind,
-                 std::array<std::string_view, 7>{"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab", "belos"});
+                 std::array<std::string_view, 8>{"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab", "belos", "auto"});
 }
 
 std::string_view to_string(PreconditionerKind kind) {

@@ -36,6 +36,10 @@ struct NewtonOptions {
   bool line_search = true;  ///< backtracking on the residual norm
   int line_search_max = 8;
   TangentKind tangent = TangentKind::consistent;  ///< initial: factorise once per run
+  /// solver.newton.forcing: true (`adaptive`, the default) lets a Krylov linear solver stop at
+  /// the Eisenstat-Walker forcing term (docs/theory/newton.md, "Inexact Newton"); false
+  /// (`fixed`): every solve to solver.krylov.rtol. Direct solvers are exact either way.
+  bool adaptive_forcing = true;
 };
 
 /// Adaptive Dynamic Relaxation (solver.adr.*, docs/theory/adr.md).
@@ -48,7 +52,10 @@ struct AdrOptions {
 };
 
 /// solver.linear: the linear solver behind Newton.
-enum class LinearSolverKind { cholmod, umfpack, klu, ldlt, cg, bicgstab, belos };
+/// solver.linear. `automatic` is the key's value `auto` (the default): the program picks one
+/// of the others from the model's size, its physics and the ranks (choose_linear_solver in
+/// src/app/setup.hpp) before anything is built.
+enum class LinearSolverKind { cholmod, umfpack, klu, ldlt, cg, bicgstab, belos, automatic };
 
 /// solver.krylov.preconditioner. `automatic` is the key's value `auto`: bond with cg,
 /// ilut with bicgstab.
@@ -80,12 +87,14 @@ struct BelosOptions {
 
 /// Linear solver (key solver.linear) and its iterative settings (solver.krylov.*).
 struct LinearOptions {
-  LinearSolverKind type = LinearSolverKind::cholmod;
+  LinearSolverKind type = LinearSolverKind::automatic;
   double rtol = 1e-10;        ///< Krylov relative residual
   int max_iterations = 2000;  ///< Krylov iteration cap
   /// auto | bond | cholmod | ic | diagonal (cg); auto | ilut | diagonal (bicgstab)
   PreconditionerKind preconditioner = PreconditionerKind::automatic;
   BelosOptions belos;  ///< solver.belos.* (used when type is belos)
+  /// When the scene said `auto`: what it resolved to and why (summary.json run.solver.linear_auto).
+  std::string auto_choice;
 };
 
 /// The `bond` preconditioner matrix the problem assembles (solver.krylov.bond_radius):
@@ -100,6 +109,10 @@ struct Loading {
   int steps = 1;           ///< equal load steps to load factor 1, >= 1
   int max_cutbacks = 6;    ///< halvings of a failing step before giving up, >= 0
   int max_resolves = 100;  ///< re-solves at one load after irreversible changes before the run stops, >= 1
+  /// loading.predictor: the first iterate of a load (sub)step. true (`extrapolate`, the
+  /// default): the unknowns extrapolated linearly in the load factor from the last two
+  /// accepted states; false (`previous`): the last accepted state.
+  bool extrapolate = true;
 };
 
 /// The names the scene uses (for messages and summary.json).

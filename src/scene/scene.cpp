@@ -364,10 +364,11 @@ ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& b
 // ---- loading, solver, output -----------------------------------------------------------
 
 Loading read_loading(const Field& field) {
-  const Map m = checked_map(field, {"steps", "max_cutbacks", "max_resolves"});
+  const Map m = checked_map(field, {"steps", "max_cutbacks", "max_resolves", "predictor"});
   Loading l;
   if (auto f = m.find("steps")) l.steps = schema::int_at_least(*f, 1);
   if (auto f = m.find("max_cutbacks")) l.max_cutbacks = schema::int_at_least(*f, 0);
+  if (auto f = m.find("predictor")) l.extrapolate = schema::choice(*f, {"extrapolate", "previous"}) == "extrapolate";
   if (auto f = m.find("max_resolves")) l.max_resolves = schema::int_at_least(*f, 1);
   return l;
 }
@@ -431,7 +432,7 @@ constexpr double kAtolPerForceUnit = 1e-14;
 
 NewtonOptions read_newton(const Field& field) {
   const Map m = checked_map(
-      field, {"rtol", "atol", "stol", "max_iterations", "line_search", "line_search_max", "tangent"});
+      field, {"rtol", "atol", "stol", "max_iterations", "line_search", "line_search_max", "tangent", "forcing"});
   NewtonOptions o;
   if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
   if (auto f = m.find("atol")) o.atol = schema::at_least(*f, 0.0);
@@ -439,6 +440,7 @@ NewtonOptions read_newton(const Field& field) {
   if (auto f = m.find("max_iterations")) o.max_iterations = schema::int_at_least(*f, 1);
   if (auto f = m.find("line_search")) o.line_search = schema::boolean(*f);
   if (auto f = m.find("line_search_max")) o.line_search_max = schema::int_at_least(*f, 0);
+  if (auto f = m.find("forcing")) o.adaptive_forcing = schema::choice(*f, {"adaptive", "fixed"}) == "adaptive";
   if (auto f = m.find("tangent"))
     o.tangent = schema::choice(*f, {"consistent", "initial"}) == "initial" ? TangentKind::initial
                                                                            : TangentKind::consistent;
@@ -489,9 +491,9 @@ SolverOptions read_solver(const Field& field) {
   if (auto f = m.find("type")) o.type = read_kind(*f, {SolverKind::newton, SolverKind::adr});
   if (auto f = m.find("linear"))
     o.linear.type =
-        read_kind(*f, {LinearSolverKind::cholmod, LinearSolverKind::umfpack, LinearSolverKind::klu,
-                       LinearSolverKind::ldlt, LinearSolverKind::cg, LinearSolverKind::bicgstab,
-                       LinearSolverKind::belos});
+        read_kind(*f, {LinearSolverKind::automatic, LinearSolverKind::cholmod, LinearSolverKind::umfpack,
+                       LinearSolverKind::klu, LinearSolverKind::ldlt, LinearSolverKind::cg,
+                       LinearSolverKind::bicgstab, LinearSolverKind::belos});
   if (auto f = m.find("krylov")) read_krylov(*f, o);
   if (auto f = m.find("belos")) o.linear.belos = read_belos(*f);
   if (auto f = m.find("newton")) o.newton = read_newton(*f);

@@ -53,6 +53,12 @@ TEST(TensionPlateCase, SmokeRunMatchesUniaxialSolution) {
   // The model size is measured before the solver takes the tangent's pattern over.
   const auto nonzeros = nlohmann::json::json_pointer("/run/tangent_nonzeros");
   EXPECT_GT(summary.value(nonzeros, 0LL), 0LL) << summary;
+  // The case ships with solver.linear: auto; at 1,249 unknowns it picks the direct factor,
+  // says so, and records the pick and its reason.
+  EXPECT_NE(r.out.find("solver.linear auto: cholmod"), std::string::npos) << r.out;
+  EXPECT_EQ(summary.value(nlohmann::json::json_pointer("/run/solver/linear"), ""), "cholmod") << summary;
+  EXPECT_EQ(summary.value(nlohmann::json::json_pointer("/run/solver/linear_auto"), "").rfind("cholmod: ", 0), 0u)
+      << summary;
 
   // Mid-height profile over the central 40% of the plate: the uniaxial solution is
   // ux = eps x with eps = 1e-3. Tolerance 2% of the end displacement (1e-4 m): at dx = 4 mm

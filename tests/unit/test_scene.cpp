@@ -258,7 +258,7 @@ TEST(SceneParse, MinimalSceneGetsTheDocumentedDefaults) {
   EXPECT_EQ(s.loading.max_cutbacks, 6);
   const SolverOptions defaults;
   EXPECT_EQ(s.solver.type, SolverKind::newton);
-  EXPECT_EQ(s.solver.linear.type, LinearSolverKind::cholmod);
+  EXPECT_EQ(s.solver.linear.type, LinearSolverKind::automatic);
   EXPECT_EQ(s.solver.linear.rtol, defaults.linear.rtol);
   EXPECT_EQ(s.solver.linear.preconditioner, PreconditionerKind::automatic);
   EXPECT_EQ(s.solver.newton.rtol, defaults.newton.rtol);
@@ -391,7 +391,7 @@ TEST(SceneErrors, WrongTypes) {
   expect_error(k_minimal + "solver:\n  newton: {line_search: maybe}\n",
                "scene.yaml:22: solver.newton.line_search", "expected true or false");
   expect_error(k_minimal + "solver: {linear: superlu}\n", "scene.yaml:21: solver.linear",
-               "expected one of cholmod, umfpack, klu, ldlt, cg, bicgstab");
+               "expected one of auto, cholmod, umfpack, klu, ldlt, cg, bicgstab, belos");
   expect_error(replace(k_minimal, "  spacing: 1.0e-3", "  spacing: 1.0e-3\n  origin: [0, 0, 0]"),
                "scene.yaml:9: discretization.origin", "expected a point [x, y]");
   expect_error(replace(k_minimal, "    uy: 0\n", "    uy: [0, 1]\n"), "scene.yaml:17: boundary.0.uy",
@@ -937,6 +937,26 @@ TEST(Scene, BelosKeys) {
   const std::string message = error_of(k_minimal, {parse_override("solver.belos.preconditioner=amesos")});
   EXPECT_NE(message.find("solver.belos.preconditioner"), std::string::npos) << message;
   EXPECT_NE(message.find("ifpack2_ilut"), std::string::npos) << "the choices are listed: " << message;
+}
+
+// Issue 17's solver levers: solver.linear auto (the default), solver.newton.forcing and
+// loading.predictor, their defaults and their refusals.
+TEST(Scene, AutoSolverForcingAndPredictorKeys) {
+  const Scene d = parse(k_minimal);
+  EXPECT_EQ(d.solver.linear.type, LinearSolverKind::automatic);
+  EXPECT_TRUE(d.solver.newton.adaptive_forcing);
+  EXPECT_TRUE(d.loading.extrapolate);
+  const Scene s = parse(k_minimal, {parse_override("solver.linear=auto"), parse_override("solver.newton.forcing=fixed"),
+                                    parse_override("loading.predictor=previous")});
+  EXPECT_EQ(s.solver.linear.type, LinearSolverKind::automatic);
+  EXPECT_FALSE(s.solver.newton.adaptive_forcing);
+  EXPECT_FALSE(s.loading.extrapolate);
+  std::string message = error_of(k_minimal, {parse_override("solver.newton.forcing=eisenstat")});
+  EXPECT_NE(message.find("solver.newton.forcing"), std::string::npos) << message;
+  EXPECT_NE(message.find("adaptive, fixed"), std::string::npos) << "the choices are listed: " << message;
+  message = error_of(k_minimal, {parse_override("loading.predictor=quadratic")});
+  EXPECT_NE(message.find("loading.predictor"), std::string::npos) << message;
+  EXPECT_NE(message.find("extrapolate, previous"), std::string::npos) << "the choices are listed: " << message;
 }
 
 }  // namespace
