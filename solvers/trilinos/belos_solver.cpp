@@ -298,6 +298,8 @@ class BelosSolver final : public LinearSolver {
     return "belos-" + std::string(to_string(m_options.method)) + "+" + std::string(to_string(m_options.preconditioner));
   }
   bool needs_symmetric() const override { return m_options.method == BelosMethod::cg; }
+  bool iterative() const override { return true; }
+  void set_relative_tolerance(double rtol) override { m_rtol = std::max(rtol, m_options.rtol); }
   int iterations() const override { return m_iterations; }
   double error() const override { return m_error; }
   long factorizations() const override { return m_builds; }
@@ -412,10 +414,18 @@ class BelosSolver final : public LinearSolver {
     }
     const bool cg = m_options.method == BelosMethod::cg || (m_options.method == BelosMethod::automatic && m_symmetric);
     RCP<Belos::SolverManager<double, mv_t, op_t>>& solver = cg ? m_cg : m_gmres;
+    double& applied = cg ? m_cg_rtol : m_gmres_rtol;  // the tolerance the solver holds
     try {
+      if (!solver.is_null() && applied != m_rtol) {  // a new forcing term (Newton's)
+        RCP<Teuchos::ParameterList> p = rcp(new Teuchos::ParameterList(*solver->getCurrentParameters()));
+        p->set("Convergence Tolerance", m_rtol);
+        solver->setParameters(p);
+        applied = m_rtol;
+      }
       if (solver.is_null()) {
         RCP<Teuchos::ParameterList> p = rcp(new Teuchos::ParameterList);
-        p->set("Convergence Tolerance", m_options.rtol);
+        p->set("Convergence Tolerance", m_rtol);
+        applied = m_rtol;
         p->set("Maximum Iterations", m_options.max_iterations);
         if (cg) {
           p->set("Assert Positive Definiteness", false);  // a breakdown is reported, not thrown
@@ -468,6 +478,9 @@ class BelosSolver final : public LinearSolver {
   RCP<BlockFactor> m_block;
   const SparseMatrix* m_P = nullptr;
   bool m_symmetric = true;
+  /// The relative residual of the next solves (solver.belos.rtol, or Newton's looser forcing
+  /// term), and the one the CG and GMRES solver managers were last given.
+  double m_rtol = m_options.rtol, m_cg_rtol = -1.0, m_gmres_rtol = -1.0;
   PreconditionerReuse m_reuse;
   int m_iterations = 0;
   double m_error = 0.0;
