@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -45,7 +46,13 @@ class Problem {
   virtual double force_scale() const = 0;
 
   /// A matrix with the tangent's sparsity pattern and zero values. Each call makes a new one.
+  /// Empty for a matrix-free problem (apply_tangent()).
   virtual SparseMatrix make_tangent() const = 0;
+  /// y = K v with the tangent of the last evaluate() given a K; problems that never assemble
+  /// it implement this (solver.linear: matrix_free).
+  virtual void apply_tangent(const VectorXd& /*v*/, VectorXd& /*y*/) {
+    throw std::logic_error("apply_tangent: this problem assembles its tangent");
+  }
   /// Changes whenever the tangent's pattern does (e.g. contact partners found after a large
   /// slide): matrices from make_tangent() and make_preconditioner(), and any symbolic
   /// factorisation of them, must then be made again.

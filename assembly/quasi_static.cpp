@@ -40,7 +40,8 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
       m_options(options),
       m_contact(make_contact(model, options.contact, m_contact_setup_seconds)),
       m_failure(options.failure.enabled ? std::make_unique<BondFailure>(model, options.failure) : nullptr),
-      m_pattern(build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get())),
+      m_pattern(options.matrix_free ? TangentPattern{}
+                                    : build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get())),
       m_correction(model, options.surface_correction) {
   m_small_kinematics = true;
   for (const BodyInfo& body : model.bodies) {
@@ -272,7 +273,7 @@ void QuasiStaticProblem::commit(const VectorXd& x) {
   const std::uint64_t version = m_contact->version();
   m_contact->commit(m_u);
   if (m_contact->version() != version) {  // new partners: the pattern grows
-    m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get());
+    if (!m_options.matrix_free) m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get());
     m_preconditioner.reset();
   }
 }
@@ -305,7 +306,7 @@ void QuasiStaticProblem::restore_state(const StateArchive& archive, const Vector
   }
   if (m_contact) {
     m_contact->restore(archive);
-    m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get());
+    if (!m_options.matrix_free) m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get());
     m_preconditioner.reset();
   }
   update_fragments();
@@ -342,10 +343,86 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   }
   m_fragment_reaction = reaction.norm();
   m_model.constraints.gather(m_force, r);
-  if (K) {
+  if (K && m_options.matrix_free) {
+    if (m_contact) {
+      m_pair_jacobian.resize(static_cast<std::size_t>(m_contact->size()));
+      for (Index k = 0; k < m_contact->size(); ++k) m_pair_jacobian[k] = m_contact->jacobian(k);
+    }
+    m_fragment_diagonal = m_fragment_unknowns.empty() ? 0.0 : tangent_diagonal_max();
+  } else if (K) {
     gather_tangent(*K);
     decouple_fragments(*K);
   }
+}
+
+void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
+  // K v = gather(H scatter(v)): H the Hessian over every component, its family blocks
+  // V_i sum_b B_b^T k_b B_b + beta_i V_i g_i g_i^T (g_i . w = s_self_i . w_i + sum_b s_b . w_j),
+  // plus J_e (w_q - w_other) for the contact pairs; scatter() puts sign * v on mirror ghosts
+  // (the assembled path's column folds), gather() keeps the unknowns' rows.
+  const Bonds& bonds = m_model.bonds;
+  const Particles& part = m_model.particles;
+  const Index n = part.size();
+  m_v_free = v;
+  for (const Index f : m_fragment_unknowns) m_v_free[f] = 0.0;  // decoupled: no column
+  m_model.constraints.scatter(m_v_free, m_v_full);
+  m_dilatation_rate.resize(static_cast<std::size_t>(n));
+  m_y_full.resize(2 * n);
+  const auto w = [&](Index q) { return Vec2(m_v_full[2 * q], m_v_full[2 * q + 1]); };
+  const auto times = [](const Sym2& k, const Vec2& a) {
+    return Vec2(k[0] * a.x() + k[1] * a.y(), k[1] * a.x() + k[2] * a.y());
+  };
+#pragma omp parallel
+  {
+#pragma omp for schedule(static)
+    for (Index i = 0; i < n; ++i) {
+      double g = m_s_self[i].dot(w(i));
+      for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) g += m_s[b].dot(w(bonds.neighbour[b]));
+      m_dilatation_rate[i] = m_beta_volume[i] * g;
+    }
+#pragma omp for schedule(static)
+    for (Index q = 0; q < n; ++q) {
+      const Vec2 wq = w(q);
+      const double Vq = part.volume[q];
+      Vec2 y_q = m_dilatation_rate[q] * m_s_self[q];
+      for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
+        const Index j = bonds.neighbour[b], r = bonds.reverse[b];
+        const Vec2 dw = wq - w(j);
+        y_q += Vq * times(m_kbond[b], dw) + part.volume[j] * times(m_kbond[r], dw) + m_dilatation_rate[j] * m_s[r];
+      }
+      if (m_contact)
+        for (auto e = m_contact->incident_begin(q); e != m_contact->incident_end(q); ++e)
+          if (e->pair < static_cast<Index>(m_pair_jacobian.size()))  // pairs added since: none yet
+            y_q += m_pair_jacobian[e->pair] * (wq - w(e->other));
+      m_y_full[2 * q] = y_q.x();
+      m_y_full[2 * q + 1] = y_q.y();
+    }
+  }
+  m_model.constraints.gather(m_y_full, y);
+  for (const Index f : m_fragment_unknowns) y[f] = m_fragment_diagonal * v[f];
+}
+
+double QuasiStaticProblem::tangent_diagonal_max() const {
+  const Bonds& bonds = m_model.bonds;
+  const Particles& part = m_model.particles;
+  const std::vector<Index>& free = m_model.constraints.free_index;
+  double largest = 0.0;
+  for (Index q = 0; q < part.size(); ++q) {
+    Vec2 d(m_beta_volume[q] * m_s_self[q].x() * m_s_self[q].x(), m_beta_volume[q] * m_s_self[q].y() * m_s_self[q].y());
+    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
+      const Index j = bonds.neighbour[b], r = bonds.reverse[b];
+      d.x() += part.volume[q] * m_kbond[b][0] + part.volume[j] * m_kbond[r][0] + m_beta_volume[j] * m_s[r].x() * m_s[r].x();
+      d.y() += part.volume[q] * m_kbond[b][2] + part.volume[j] * m_kbond[r][2] + m_beta_volume[j] * m_s[r].y() * m_s[r].y();
+    }
+    if (m_contact)
+      for (auto e = m_contact->incident_begin(q); e != m_contact->incident_end(q); ++e) {
+        d.x() += m_pair_jacobian[e->pair](0, 0);
+        d.y() += m_pair_jacobian[e->pair](1, 1);
+      }
+    for (int c = 0; c < 2; ++c)
+      if (free[2 * q + c] >= 0) largest = std::max(largest, std::abs(d[c]));
+  }
+  return largest;
 }
 
 void QuasiStaticProblem::update_fragments() {

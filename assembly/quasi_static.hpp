@@ -46,6 +46,10 @@ struct ProblemOptions {
   FailureOptions failure;                         ///< failure.enabled = false: no failure checks
   BondPreconditionerOptions bond_preconditioner;  ///< used when a solver asks for a preconditioner
   SurfaceCorrectionMethod surface_correction = SurfaceCorrectionMethod::moments;  ///< discretization.surface_correction
+  /// solver.linear: matrix_free. The tangent is never assembled: no pattern is built,
+  /// make_tangent() gives an empty matrix, evaluate() with K prepares apply_tangent() instead
+  /// of writing K (ADR needs the assembled tangent and never sets this).
+  bool matrix_free = false;
 };
 
 class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
@@ -58,7 +62,16 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   double load_factor() const override { return m_lambda; }
   void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override;
   double force_scale() const override { return m_force_scale; }
-  SparseMatrix make_tangent() const override { return m_pattern.make_matrix(m_model.constraints); }
+  SparseMatrix make_tangent() const override {
+    return m_options.matrix_free ? SparseMatrix() : m_pattern.make_matrix(m_model.constraints);
+  }
+  /// True when the tangent is never assembled (ProblemOptions::matrix_free).
+  bool matrix_free() const { return m_options.matrix_free; }
+  /// y = K v with K the tangent of the last evaluate() that asked for one, computed from the
+  /// families' factored Hessians (bond stiffnesses and dilatation vectors, docs/theory/osb.md
+  /// "Assembly") and the contact pairs' Jacobians without forming K: O(bonds) per product,
+  /// the same K the assembled path writes (test Tangent.MatrixFreeActionEqualsTheAssembledTangent).
+  void apply_tangent(const VectorXd& v, VectorXd& y) override;
   /// The contact candidates' version: a partner search that adds pairs grows the pattern.
   std::uint64_t structure_version() const override { return m_contact ? m_contact->version() : 0; }
   /// False while a pair slips with friction (the Jacobian of eq 14 is not symmetric).
@@ -166,6 +179,9 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void update_fragments();
   /// Fragment unknowns of K: rows and columns zero, the diagonal the largest of K's.
   void decouple_fragments(SparseMatrix& K) const;
+  /// Matrix-free: the largest diagonal entry of K over the unknowns (the fragments' diagonal),
+  /// from the factored Hessians (mirror ghosts' folds not included: it only sets a scale).
+  double tangent_diagonal_max() const;
   /// Why damage decreased at the state of the bonds' weights, or "".
   std::string check_damage();
 
@@ -213,6 +229,13 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   std::vector<Sym2> m_kbond;                  ///< per bond
   std::vector<Vec2> m_s_self;                 ///< per particle: -sum_b s_b
   std::vector<double> m_beta_volume;          ///< per particle: beta_i V_i
+  // Matrix-free products: scratch (allocated once) and the fragments' diagonal.
+  VectorXd m_v_free, m_v_full, m_y_full;
+  std::vector<double> m_dilatation_rate;  ///< per particle: beta_i V_i g_i . v
+  /// The contact pairs' Jacobians of the last evaluate() with a tangent: a residual-only
+  /// evaluate() recomputes the pairs without them, and the product must stay the tangent's.
+  std::vector<Mat2> m_pair_jacobian;
+  double m_fragment_diagonal = 0.0;
 };
 
 }  // namespace peristat

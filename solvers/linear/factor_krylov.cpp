@@ -33,9 +33,10 @@ void general_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) {
 class FactorPreconditionedKrylov final : public LinearSolver {
  public:
   FactorPreconditionedKrylov(std::unique_ptr<LinearSolver> factor, FactorSource source,
-                             const LinearOptions& o)
+                             const LinearOptions& o, bool matrix_free)
       : m_factor(std::move(factor)),
         m_source(source),
+        m_matrix_free(matrix_free),
         m_rtol(o.rtol),
         m_rtol_floor(o.rtol),
         m_max_iterations(o.max_iterations) {}
@@ -60,8 +61,11 @@ class FactorPreconditionedKrylov final : public LinearSolver {
 
   Eigen::ComputationInfo info() const override { return m_info; }
   std::string name() const override {
+    if (m_matrix_free) return "matrix-free+bond-cholmod";
     return m_source == FactorSource::preconditioner_matrix ? "cg+bond-cholmod" : "cg+cholmod";
   }
+  bool needs_operator() const override { return m_matrix_free; }
+  void set_operator(Operator apply) override { m_apply = std::move(apply); }
   /// CG on symmetric matrices, GMRES with the same factor otherwise.
   bool needs_symmetric() const override { return false; }
   void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
@@ -110,7 +114,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
     if (m_basis.cols() != m + 1 || m_basis.rows() != n) m_basis.resize(n, m + 1);
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m + 1, m);  // (m+1) x m Hessenberg, small
     VectorXd cs(m), sn(m), g(m + 1);
-    general_product(*m_A, x, m_q);
+    product(x, m_q);
     m_r = b - m_q;
     double beta = m_r.norm();
     m_error = beta / bnorm;
@@ -122,7 +126,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       int k = 0;
       for (; k < m && m_iterations < m_max_iterations; ++k) {
         m_factor->solve(m_basis.col(k), m_z);
-        general_product(*m_A, m_z, m_q);
+        product(m_z, m_q);
         for (int i = 0; i <= k; ++i) {
           H(i, k) = m_basis.col(i).dot(m_q);
           m_q -= H(i, k) * m_basis.col(i);
@@ -153,7 +157,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       m_q = m_basis.leftCols(k) * y;
       m_factor->solve(m_q, m_z);
       x += m_z;
-      general_product(*m_A, x, m_q);
+      product(x, m_q);
       m_r = b - m_q;
       beta = m_r.norm();
       m_error = beta / bnorm;  // the true residual decides
@@ -164,14 +168,14 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   // Preconditioned CG (Saad, Iterative Methods, alg. 9.1); stops at ||r|| <= rtol ||b||.
   void run_cg(const VectorXd& b, VectorXd& x) {
     const double bnorm = b.norm();
-    symmetric_product(*m_A, x, m_q);
+    product(x, m_q);
     m_r = b - m_q;
     m_factor->solve(m_r, m_z);
     m_p = m_z;
     double rz = m_r.dot(m_z);
     m_error = m_r.norm() / bnorm;
     while (m_error > m_rtol && m_iterations < m_max_iterations) {
-      symmetric_product(*m_A, m_p, m_q);
+      product(m_p, m_q);
       const double alpha = rz / m_p.dot(m_q);
       x += alpha * m_p;
       m_r -= alpha * m_q;
@@ -186,8 +190,21 @@ class FactorPreconditionedKrylov final : public LinearSolver {
     m_info = m_error <= m_rtol && std::isfinite(m_error) ? Eigen::Success : Eigen::NoConvergence;
   }
 
+  /// y = A x: the operator (matrix-free), else A's columns (a dot product per column when
+  /// A is symmetric, deterministic; a scatter otherwise).
+  void product(const VectorXd& x, VectorXd& y) {
+    if (m_matrix_free)
+      m_apply(x, y);
+    else if (m_symmetric)
+      symmetric_product(*m_A, x, y);
+    else
+      general_product(*m_A, x, y);
+  }
+
   std::unique_ptr<LinearSolver> m_factor;
   FactorSource m_source;
+  bool m_matrix_free;
+  Operator m_apply;
   double m_rtol, m_rtol_floor;
   int m_max_iterations;
   const SparseMatrix* m_A = nullptr;
@@ -205,8 +222,9 @@ class FactorPreconditionedKrylov final : public LinearSolver {
 
 std::unique_ptr<LinearSolver> make_factor_preconditioned_krylov(std::unique_ptr<LinearSolver> factor,
                                                                 FactorSource source,
-                                                                const LinearOptions& options) {
-  return std::make_unique<FactorPreconditionedKrylov>(std::move(factor), source, options);
+                                                                const LinearOptions& options,
+                                                                bool matrix_free) {
+  return std::make_unique<FactorPreconditionedKrylov>(std::move(factor), source, options, matrix_free);
 }
 
 }  // namespace peristat

@@ -16,9 +16,12 @@ enum class FactorSource {
   preconditioner_matrix  ///< factor the P given by set_preconditioner_matrix()
 };
 
-/// `factor` is a direct solver for symmetric matrices (CHOLMOD in practice).
+/// `factor` is a direct solver for symmetric matrices (CHOLMOD in practice). With
+/// `matrix_free` the system matrix is applied through LinearSolver::set_operator() (source
+/// must be preconditioner_matrix).
 std::unique_ptr<LinearSolver> make_factor_preconditioned_krylov(std::unique_ptr<LinearSolver> factor,
                                                                 FactorSource source,
-                                                                const LinearOptions& options);
+                                                                const LinearOptions& options,
+                                                                bool matrix_free = false);
 
 }  // namespace peristat

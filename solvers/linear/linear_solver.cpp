@@ -153,6 +153,11 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
       throw not_available("ilut or diagonal");
     case LS::belos:
       return make_belos_solver(o.belos);
+    case LS::matrix_free:
+      if (pc != PC::bond) throw not_available("bond (the only preconditioner that needs no assembled tangent)");
+      return make_factor_preconditioned_krylov(
+          std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true),
+          FactorSource::preconditioner_matrix, o, true);
     case LS::automatic:  // a programming error: the program resolves `auto` before building anything
       throw std::logic_error("make_linear_solver: solver.linear 'auto' was not resolved (choose_linear_solver)");
   }

@@ -3,6 +3,7 @@
 // (Trilinos) will be one more implementation. Nothing here knows about physics.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -62,6 +63,13 @@ class LinearSolver {
   /// Tells the solver whether the next matrices are symmetric. Solvers that handle both
   /// (factor-preconditioned Krylov: CG or GMRES) pick their method by it.
   virtual void set_symmetric(bool /*symmetric*/) {}
+
+  /// y = A v, for solvers that never see A's entries.
+  using Operator = std::function<void(const VectorXd& v, VectorXd& y)>;
+  /// True when the solver applies the system matrix through set_operator() (matrix_free):
+  /// the matrices passed to analyzePattern() and factorize() are then empty placeholders.
+  virtual bool needs_operator() const { return false; }
+  virtual void set_operator(Operator /*apply*/) {}
 
   /// True when the solver wants set_unknown_layout() before analyzePattern().
   virtual bool needs_unknown_layout() const { return false; }

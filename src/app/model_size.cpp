@@ -25,7 +25,10 @@ void print_size(const ModelSize& s) {
   std::printf("  particles      %d (%d fictitious)\n", s.particles, s.fictitious);
   std::printf("  bonds          %d (%d cut by pre-cracks)\n", s.bonds, s.cut_bonds);
   std::printf("  unknowns       %d (%d prescribed components)\n", s.unknowns, s.prescribed);
-  std::printf("  tangent        %lld nonzeros\n", s.nonzeros);
+  if (s.nonzeros > 0)
+    std::printf("  tangent        %lld nonzeros\n", s.nonzeros);
+  else
+    std::printf("  tangent        not assembled (solver.linear matrix_free: its action is computed)\n");
   if (s.correction == SurfaceCorrectionMethod::moments) {
     const SurfaceCorrectionStats& c = s.correction_stats;
     std::printf("  surface        moments correction: %ld cut families, influence factors %.3g .. %.3g, %ld at a "

@@ -94,8 +94,12 @@ SizeEstimate estimate_size(const Scene& scene) {
                                     ? choose_linear_solver(scene, 2.0 * e.particles, parallel::size()).kind
                                     : lin.type;
   const double n = e.particles + e.fictitious;
+  if (scene.solver.type == SolverKind::newton && kind == LinearSolverKind::matrix_free) {
+    // No tangent and no pattern: the model and the families' tangent data only.
+    e.memory_bytes = kMatrixFreeBytesPerNonzero * e.nonzeros;
+  }
   if (scene.solver.type == SolverKind::newton) {
-    const bool cg = kind == LinearSolverKind::cg;
+    const bool cg = kind == LinearSolverKind::cg || kind == LinearSolverKind::matrix_free;
     const PreconditionerKind pc = lin.preconditioner;
     const bool belos = kind == LinearSolverKind::belos;
     if (belos && lin.belos.preconditioner != BelosPreconditioner::bond_factor) {
@@ -173,12 +177,21 @@ std::vector<std::string> preflight(const Scene& scene, const SizeEstimate& e) {
     throw InputError(d.spacing_where, buf);
   }
   if (e.available_bytes > 0.0 && e.memory_bytes > e.available_bytes) {
+    // Without an assembled tangent the model may fit: say so, with its size.
+    const bool matrix_free = scene.solver.linear.type == LinearSolverKind::matrix_free;
+    const double free_bytes = kMatrixFreeBytesPerNonzero * e.nonzeros;
+    const std::string hint =
+        !matrix_free && scene.solver.type == SolverKind::newton && free_bytes < e.available_bytes
+            ? " or solver.linear=matrix_free (no assembled tangent: about " + format_bytes(free_bytes) +
+                  " before the bond preconditioner's factor)"
+            : "";
     std::snprintf(buf, sizeof buf,
-                  "the model needs about %s (%.3g particles, %.3g tangent nonzeros at %.0f B each, before any "
+                  "the model needs about %s (%.3g particles, %.3g tangent nonzeros at %.1f B each, before any "
                   "factorisation) and the machine has %s available%s: refused before allocating; use a coarser "
-                  "spacing",
-                  format_bytes(e.memory_bytes).c_str(), e.particles + e.fictitious, e.nonzeros, kBytesPerNonzero,
-                  format_bytes(e.available_bytes).c_str(), sharing(e).c_str());
+                  "spacing%s",
+                  format_bytes(e.memory_bytes).c_str(), e.particles + e.fictitious, e.nonzeros,
+                  e.memory_bytes / std::max(e.nonzeros, 1.0), format_bytes(e.available_bytes).c_str(),
+                  sharing(e).c_str(), hint.c_str());
     throw InputError(d.spacing_where, buf);
   }
   std::vector<std::string> warnings;

@@ -28,6 +28,10 @@ struct SizeEstimate {
 /// Bytes per tangent nonzero of the model, problem state and tangent together, measured with
 /// `check` on the paper cases and the tension plate (24.4-24.9 B, 2026-11-24).
 inline constexpr double kBytesPerNonzero = 25.0;
+/// The same without the tangent and its pattern (solver.linear: matrix_free): 10.4 B per
+/// nonzero the tangent would have, measured with `check` on the tension plate (61.3 MB at
+/// 5.89 M, 2026-11-25).
+inline constexpr double kMatrixFreeBytesPerNonzero = 10.5;
 /// The Cholesky factor's nonzeros per nonzero of the matrix factorised, by CHOLMOD's default
 /// ordering on square plates of N particles (m = 3; peristat_bench factor, 2026-11-25): the
 /// tangent 1.97, 3.08, 4.34 at N = 2,500, 10,000, 40,000, i.e. 0.59 log2 N - 4.7; the bond

@@ -1,6 +1,7 @@
 #include "app/setup.hpp"
 
 #include <cstdio>
+#include <stdexcept>
 
 #include "solvers/adr.hpp"
 #include "solvers/newton.hpp"
@@ -8,7 +9,8 @@
 namespace peristat {
 
 ProblemOptions problem_options(const Scene& scene) {
-  return {scene.contact, scene.failure, scene.solver.bond_preconditioner, scene.discretization.surface_correction};
+  return {scene.contact, scene.failure, scene.solver.bond_preconditioner, scene.discretization.surface_correction,
+          scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::matrix_free};
 }
 
 namespace {
@@ -38,18 +40,20 @@ LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks
     return {LinearSolverKind::belos, buf};
   }
   if (scene.contact.enabled && scene.contact.friction > 0.0)
-    return {LinearSolverKind::cg,
+    return {LinearSolverKind::matrix_free,
             "friction: slipping pairs make the tangent unsymmetric, where GMRES on the bond factor beats "
-            "UMFPACK (case 4.3 at 5,000 unknowns: 1.0 s against 2.7 s)"};
+            "UMFPACK (case 4.3 at 5,000 unknowns: 1.0 s against 2.7 s), and the tangent's action beats "
+            "assembling it (case 4.1: 7.3 s against 10.8 s)"};
   if (unknowns <= kDirectMaxUnknowns) {
     std::snprintf(buf, sizeof buf, "about %.0f unknowns <= %.0f: a direct factor is as fast and needs no Krylov tolerance",
                   unknowns, kDirectMaxUnknowns);
     return {LinearSolverKind::cholmod, buf};
   }
   std::snprintf(buf, sizeof buf,
-                "about %.0f unknowns > %.0f: CG on the bond factor is faster and smaller than a factor of the tangent",
+                "about %.0f unknowns > %.0f: CG on the bond factor with the tangent's action is faster and "
+                "smaller than a factor of the tangent or an assembled tangent",
                 unknowns, kDirectMaxUnknowns);
-  return {LinearSolverKind::cg, buf};
+  return {LinearSolverKind::matrix_free, buf};
 }
 
 std::string resolve_linear_solver(Scene& scene, double unknowns, int ranks) {
@@ -65,9 +69,17 @@ std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProb
   if (scene.solver.type == SolverKind::adr)
     return std::make_unique<AdrSolver>(problem, scene.solver.adr, problem.pseudo_velocity_input());
   LinearOptions options = scene.solver.linear;
-  if (options.type == LinearSolverKind::automatic)  // callers that did not resolve it (tests)
+  if (options.type == LinearSolverKind::automatic) {  // callers that did not resolve it (tests)
     options.type = choose_linear_solver(scene, static_cast<double>(problem.n_unknowns()), 1).kind;
+    // The problem was built before the choice: with its tangent assembled, the same method on it.
+    if (options.type == LinearSolverKind::matrix_free && !problem.matrix_free()) options.type = LinearSolverKind::cg;
+  }
+  if ((options.type == LinearSolverKind::matrix_free) != problem.matrix_free())
+    throw std::logic_error("make_step_solver: solver.linear matrix_free needs a problem built with "
+                           "ProblemOptions::matrix_free (problem_options() of the same scene)");
   linear = make_linear_solver(options);
+  if (linear->needs_operator())
+    linear->set_operator([&problem](const VectorXd& v, VectorXd& y) { problem.apply_tangent(v, y); });
   if (linear->needs_unknown_layout()) linear->set_unknown_layout(unknown_layout(problem.model(), problem.n_unknowns()));
   return std::make_unique<NewtonSolver>(problem, *linear, scene.solver.newton);
 }

@@ -26,8 +26,9 @@ inline constexpr double kDirectMaxUnknowns = 2500.0;
 
 /// The linear solver `solver.linear: auto` stands for, from the number of unknowns (an
 /// estimate before discretising, or the model's), the scene's physics and the MPI ranks:
-/// belos under mpirun; else CHOLMOD for small models without friction; else cg with the
-/// bond-factor preconditioner (GMRES on it while pairs slip). Measured in docs/performance.md.
+/// belos under mpirun; else CHOLMOD for small models without friction; else matrix_free
+/// (CG on the bond factor, GMRES while pairs slip, with the tangent's action: faster and
+/// smaller than the assembled cg path on every case measured). docs/performance.md.
 LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks);
 
 /// Replaces `auto` in scene.solver.linear.type by choose_linear_solver()'s pick; returns its

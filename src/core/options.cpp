@@ -19,7 +19,8 @@ std::string_view to_string(SolverKind kind) {
 
 std::string_view to_string(LinearSolverKind kind) {
   return name_of(kind,
-                 std::array<std::string_view, 8>{"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab", "belos", "auto"});
+                 std::array<std::string_view, 9>{"cholmod", "umfpack", "klu", "ldlt", "cg", "bicgstab", "belos",
+                                                  "matrix_free", "auto"});
 }
 
 std::string_view to_string(PreconditionerKind kind) {

@@ -55,7 +55,9 @@ struct AdrOptions {
 /// solver.linear. `automatic` is the key's value `auto` (the default): the program picks one
 /// of the others from the model's size, its physics and the ranks (choose_linear_solver in
 /// src/app/setup.hpp) before anything is built.
-enum class LinearSolverKind { cholmod, umfpack, klu, ldlt, cg, bicgstab, belos, automatic };
+/// `matrix_free`: CG/GMRES on the exact tangent action, never assembled, preconditioned by the
+/// bond factor (docs/theory/newton.md, "Matrix-free").
+enum class LinearSolverKind { cholmod, umfpack, klu, ldlt, cg, bicgstab, belos, matrix_free, automatic };
 
 /// solver.krylov.preconditioner. `automatic` is the key's value `auto`: bond with cg,
 /// ilut with bicgstab.

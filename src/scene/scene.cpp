@@ -493,7 +493,7 @@ SolverOptions read_solver(const Field& field) {
     o.linear.type =
         read_kind(*f, {LinearSolverKind::automatic, LinearSolverKind::cholmod, LinearSolverKind::umfpack,
                        LinearSolverKind::klu, LinearSolverKind::ldlt, LinearSolverKind::cg,
-                       LinearSolverKind::bicgstab, LinearSolverKind::belos});
+                       LinearSolverKind::bicgstab, LinearSolverKind::belos, LinearSolverKind::matrix_free});
   if (auto f = m.find("krylov")) read_krylov(*f, o);
   if (auto f = m.find("belos")) o.linear.belos = read_belos(*f);
   if (auto f = m.find("newton")) o.newton = read_newton(*f);

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 
+#include "app/preflight.hpp"
 #include "app/setup.hpp"
 #include "core/clock.hpp"
 #include "support/scenes.hpp"
@@ -21,6 +22,8 @@ std::unique_ptr<Solved> solve_case(const std::string& name, const std::vector<st
 std::unique_ptr<Solved> solve_parsed(Scene scene) {
   auto s = std::make_unique<Solved>();
   s->scene = std::move(scene);
+  // solver.linear: auto resolved as `peristat run` does, before the problem is built.
+  resolve_linear_solver(s->scene, 2.0 * estimate_size(s->scene).particles, 1);
   s->model = discretise(s->scene);
   s->problem = std::make_unique<QuasiStaticProblem>(s->model, problem_options(s->scene));
   std::unique_ptr<LinearSolver> linear;

@@ -1,0 +1,159 @@
+// The matrix-free tangent action (solver.linear: matrix_free, issue 17): apply_tangent(v)
+// must be the assembled tangent times v, on every kind of scene the assembled tangent is
+// proved on (tests/derivative/test_tangent.cpp, test_contact_tangent.cpp), and the
+// directional derivative of the residual.
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "app/setup.hpp"
+#include "assembly/quasi_static.hpp"
+#include "support/scenes.hpp"
+
+namespace peristat {
+namespace {
+
+VectorXd random_vector(Index n, double scale, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> d(-1.0, 1.0);
+  VectorXd v(n);
+  for (Index i = 0; i < n; ++i) v[i] = scale * d(gen);
+  return v;
+}
+
+struct Pair {
+  Scene scene;
+  Model model;
+  std::unique_ptr<QuasiStaticProblem> assembled, matrix_free;
+};
+
+/// The same scene as an assembled and as a matrix-free problem.
+std::unique_ptr<Pair> both(const std::string& yaml) {
+  auto p = std::make_unique<Pair>();
+  p->scene = test::scene_from_yaml(yaml);
+  p->model = discretise(p->scene);
+  ProblemOptions options = problem_options(p->scene);
+  options.matrix_free = false;
+  p->assembled = std::make_unique<QuasiStaticProblem>(p->model, options);
+  options.matrix_free = true;
+  p->matrix_free = std::make_unique<QuasiStaticProblem>(p->model, options);
+  p->assembled->set_load_factor(1.0);
+  p->matrix_free->set_load_factor(1.0);
+  return p;
+}
+
+/// Evaluates both problems at x with a tangent, then compares K v with apply_tangent(v) for
+/// random v. 1e-12 relative: the two sum the same terms in another order (round-off only).
+/// Returns K for further checks.
+SparseMatrix expect_action_is_the_tangent(Pair& p, const VectorXd& x) {
+  SparseMatrix K = p.assembled->make_tangent();
+  EXPECT_GT(K.nonZeros(), 0);
+  SparseMatrix placeholder = p.matrix_free->make_tangent();
+  EXPECT_EQ(placeholder.rows(), 0) << "a matrix-free problem hands out no matrix";
+  EXPECT_EQ(p.matrix_free->pattern().nonzeros, 0) << "and builds no pattern";
+  VectorXd r_assembled, r_free;
+  p.assembled->evaluate(x, r_assembled, &K);
+  p.matrix_free->evaluate(x, r_free, &placeholder);
+  EXPECT_EQ((r_assembled - r_free).norm(), 0.0) << "the residual is the same computation";
+  for (unsigned seed : {1u, 2u, 3u}) {
+    const VectorXd v = random_vector(x.size(), 1.0, seed);
+    VectorXd y;
+    p.matrix_free->apply_tangent(v, y);
+    const VectorXd Kv = K * v;
+    EXPECT_LT((y - Kv).norm(), 1e-12 * Kv.norm()) << "seed " << seed;
+  }
+  return K;
+}
+
+std::string cracked_plate(const std::string& kinematics) {
+  test::PlateSpec spec;
+  spec.nx = 14;
+  spec.ny = 10;
+  spec.kinematics = kinematics;
+  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n  - {body: plate, edge: right, ux: 2.0e-5}\n";
+  spec.cracks = "  - {from: [0.004, 0.0031], to: [0.0095, 0.0072]}\n";
+  return test::plate_yaml(spec);
+}
+
+TEST(MatrixFree, ActionEqualsTheAssembledTangentOnACrackedPlate) {
+  for (const char* kinematics : {"finite", "small"}) {
+    SCOPED_TRACE(kinematics);
+    auto p = both(cracked_plate(kinematics));
+    const double dx = p->scene.discretization.spacing;
+    expect_action_is_the_tangent(*p, random_vector(p->assembled->n_unknowns(), 0.05 * dx, 7u));
+  }
+}
+
+// Mirror grips: the ghosts' columns fold into their sources' (scatter with the signs).
+TEST(MatrixFree, ActionEqualsTheAssembledTangentWithMirrorGrips) {
+  test::PlateSpec spec;
+  spec.nx = 18;
+  spec.ny = 10;
+  spec.boundary = "  - {body: plate, edge: left, mirror: true, ux: 0}\n"
+                  "  - {body: plate, edge: right, mirror: true, ux: 2.0e-5}\n"
+                  "  - {body: plate, region: {min: [0, 0.004], max: [0.001, 0.006]}, uy: 0}\n";
+  auto p = both(test::plate_yaml(spec));
+  ASSERT_TRUE(p->model.constraints.has_images());
+  const double dx = p->scene.discretization.spacing;
+  expect_action_is_the_tangent(*p, random_vector(p->assembled->n_unknowns(), 0.05 * dx, 31u));
+}
+
+// Contact with friction, both stick and slip (the unsymmetric tangent), compressed across a
+// cut: the pairs' Jacobians enter the action. Then a residual-only evaluation at another
+// state (Newton's first iteration of a step, docs/theory/newton.md "Predictor") must leave the
+// action at the tangent of the last state that asked for one, as the assembled matrix is.
+TEST(MatrixFree, ActionEqualsTheAssembledTangentWithFrictionalContact) {
+  const double dx = 1e-3;
+  test::PlateSpec spec;
+  spec.nx = 12;
+  spec.ny = 8;
+  spec.dx = dx;
+  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
+  spec.cracks = "  - {from: [0.0061, -0.001], to: [0.0061, 0.009]}\n";
+  auto p = both(test::plate_yaml(spec) + "contact:\n  friction: 0.2\n  radius_factor: 1.2\n");
+  std::mt19937 gen(11);
+  std::uniform_real_distribution<double> d(-1.0, 1.0);
+  const Index n = p->assembled->n_unknowns();
+  VectorXd x(n);
+  for (Index q = 0; q < p->model.particles.size(); ++q)
+    for (int c = 0; c < 2; ++c)
+      if (const Index k = p->model.constraints.free_index[2 * q + c]; k >= 0)
+        x[k] = (c == 0 ? -0.08 * p->model.particles.position[q].x() : 0.0) + 0.02 * dx * d(gen);
+  const SparseMatrix K = expect_action_is_the_tangent(*p, x);
+  const ContactCounts counts = p->matrix_free->contact()->counts();
+  EXPECT_GT(counts.stick, 0);
+  EXPECT_GT(counts.slip, 0);
+  EXPECT_FALSE(p->matrix_free->tangent_symmetric());
+
+  VectorXd r;
+  p->matrix_free->evaluate(x + random_vector(n, 0.01 * dx, 5u), r, nullptr);
+  const VectorXd v = random_vector(n, 1.0, 9u);
+  VectorXd y;
+  p->matrix_free->apply_tangent(v, y);
+  EXPECT_LT((y - K * v).norm(), 1e-12 * (K * v).norm()) << "the action moved with a residual-only evaluation";
+}
+
+// The action is the directional derivative of the residual: central differences of r along
+// v with h = 1e-7 dx (truncation and round-off about 1e-9 relative; tolerance 1e-6).
+TEST(MatrixFree, ActionIsTheDirectionalDerivativeOfTheResidual) {
+  auto p = both(cracked_plate("finite"));
+  QuasiStaticProblem& problem = *p->matrix_free;
+  const double dx = p->scene.discretization.spacing;
+  const Index n = problem.n_unknowns();
+  const VectorXd x = random_vector(n, 0.05 * dx, 7u);
+  for (unsigned seed : {3u, 4u}) {
+    const VectorXd v = random_vector(n, 1.0, seed);
+    SparseMatrix placeholder = problem.make_tangent();
+    VectorXd r, plus, minus, y;
+    problem.evaluate(x, r, &placeholder);
+    problem.apply_tangent(v, y);
+    const double h = 1e-7 * dx;
+    problem.evaluate(x + h * v, plus, nullptr);
+    problem.evaluate(x - h * v, minus, nullptr);
+    const VectorXd difference = (plus - minus) / (2.0 * h);
+    EXPECT_LT((y - difference).norm(), 1e-6 * difference.norm()) << "seed " << seed;
+  }
+}
+
+}  // namespace
+}  // namespace peristat

@@ -1,0 +1,67 @@
+// solver.linear: matrix_free (issue 17) against the assembled path (cg: the same Krylov
+// methods and bond factor on the assembled tangent): the same answers on the cases, to the
+// Newton tolerance, and the same bonds broken where bonds break.
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include "support/solve.hpp"
+
+namespace peristat {
+namespace {
+
+struct Runs {
+  std::unique_ptr<test::Solved> assembled, matrix_free;
+};
+
+Runs run_both(const std::string& name, std::vector<std::string> overrides) {
+  Runs r;
+  overrides.push_back("solver.linear=cg");
+  r.assembled = test::solve_case(name, overrides);
+  overrides.back() = "solver.linear=matrix_free";
+  r.matrix_free = test::solve_case(name, overrides);
+  return r;
+}
+
+/// Both runs complete; their final displacements agree to `tolerance` (relative L2). Both
+/// stop at a true residual of rtol 1e-10 of the force scale, so they may differ by about
+/// that much; 1e-9 leaves room for the conditioning of the contact cases.
+void expect_same_answer(const Runs& r, const char* what, double tolerance = 1e-9) {
+  ASSERT_TRUE(r.assembled->run.completed) << r.assembled->run.message;
+  ASSERT_TRUE(r.matrix_free->run.completed) << r.matrix_free->run.message;
+  ASSERT_EQ(r.matrix_free->problem->pattern().nonzeros, 0) << "the matrix-free run assembled no tangent";
+  const double difference = (r.matrix_free->u - r.assembled->u).norm() / r.assembled->u.norm();
+  std::printf("%s: Newton iterations %ld assembled, %ld matrix-free; relative L2 %.2e\n", what,
+              r.assembled->iterations(), r.matrix_free->iterations(), difference);
+  EXPECT_LT(difference, tolerance) << what;
+}
+
+TEST(MatrixFree, TensionPlateMatchesTheAssembledPath) {
+  expect_same_answer(run_both("tension_plate", {"discretization.spacing=2e-3"}), "tension plate, dx = 2 mm");
+}
+
+// Contact with friction, stick and slip (GMRES on the unsymmetric action).
+TEST(MatrixFree, PrecrackedPlateMatchesTheAssembledPath) {
+  expect_same_answer(run_both("paper_4_3_precracked_plate", {"discretization.spacing=0.02"}), "case 4.3, dx = 0.02 m");
+}
+
+// Crack growth: bonds break in the later steps; both runs must break the same bonds at the
+// same steps (equal damage everywhere), which a wrong action would change.
+TEST(MatrixFree, CrackGrowthBreaksTheSameBonds) {
+  const Runs r = run_both("paper_4_4_crack_growth", {"discretization.spacing=0.05"});
+  expect_same_answer(r, "case 4.4, dx = 0.05 m", 1e-8);
+  ASSERT_EQ(r.assembled->steps.size(), r.matrix_free->steps.size());
+  long broken = 0;
+  for (std::size_t k = 0; k < r.assembled->steps.size(); ++k) {
+    EXPECT_EQ(r.assembled->steps[k].bonds_broken, r.matrix_free->steps[k].bonds_broken) << "step " << k + 1;
+    broken += r.assembled->steps[k].bonds_broken;
+  }
+  EXPECT_GT(broken, 0) << "the case must break bonds to test this";
+  VectorXd a, b;
+  r.assembled->problem->failure()->damage(a);
+  r.matrix_free->problem->failure()->damage(b);
+  EXPECT_EQ((a - b).cwiseAbs().maxCoeff(), 0.0) << "the same bonds broken";
+}
+
+}  // namespace
+}  // namespace peristat
