@@ -8,18 +8,13 @@
 
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
+#include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
 
 namespace peristat {
 namespace {
 
-VectorXd random_vector(Index n, double scale, unsigned seed) {
-  std::mt19937 gen(seed);
-  std::uniform_real_distribution<double> d(-1.0, 1.0);
-  VectorXd v(n);
-  for (Index i = 0; i < n; ++i) v[i] = scale * d(gen);
-  return v;
-}
+using test::random_vector;
 
 struct Pair {
   Scene scene;

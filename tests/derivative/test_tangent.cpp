@@ -36,13 +36,7 @@ std::unique_ptr<Fixture> cracked_plate(const std::string& kinematics, const std:
   return f;
 }
 
-VectorXd random_vector(Index n, double scale, unsigned seed) {
-  std::mt19937 gen(seed);
-  std::uniform_real_distribution<double> d(-1.0, 1.0);
-  VectorXd v(n);
-  for (Index i = 0; i < n; ++i) v[i] = scale * d(gen);
-  return v;
-}
+using test::random_vector;
 
 // Column-by-column central differences of the residual against the assembled tangent.
 // Tolerance 1e-6 of the largest entry: the central-difference truncation error with

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <random>
 
 namespace peristat::test {
 
@@ -57,6 +58,14 @@ std::ostream& operator<<(std::ostream& os, const FiniteDifferenceCheck& c) {
     os << "\n  J(" << e.row << "," << e.col << ") = " << e.analytic << ", central difference " << e.difference
        << ", error " << e.error;
   return os;
+}
+
+VectorXd random_vector(Index n, double scale, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> d(-1.0, 1.0);
+  VectorXd v(n);
+  for (Index i = 0; i < n; ++i) v[i] = scale * d(gen);
+  return v;
 }
 
 }  // namespace peristat::test

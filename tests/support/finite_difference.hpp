@@ -42,6 +42,10 @@ FiniteDifferenceCheck check_jacobian(const VectorFunction& f, const VectorXd& x,
 /// differences of the residual (the problem's state is left at x - h e_n).
 FiniteDifferenceCheck check_tangent(Problem& problem, const VectorXd& x, double h);
 
+/// n entries uniform in [-scale, scale], reproducible from `seed` (states and directions of
+/// the derivative checks).
+VectorXd random_vector(Index n, double scale, unsigned seed);
+
 /// Prints the scale and the worst entries, for failure messages: EXPECT_LT(c.worst, tol) << c.
 std::ostream& operator<<(std::ostream& os, const FiniteDifferenceCheck& c);
 
