@@ -1,5 +1,6 @@
 #include "app/preflight.hpp"
 #include "app/setup.hpp"
+#include "assembly/pattern.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -108,7 +109,15 @@ SizeEstimate estimate_size(const Scene& scene) {
       e.factor_of = "the tangent's copy in Tpetra (the preconditioner's own storage not estimated)";
     } else if ((cg || belos) && (pc == PreconditionerKind::bond || pc == PreconditionerKind::automatic)) {
       e.factor_of = "the bond preconditioner";
-      const double nnz = kBondNonzeroShare * e.nonzeros;
+      // kBondNonzeroShare is for the default radius (20 lattice neighbours); another radius
+      // scales it by its own neighbour count (1.42 dx: 8).
+      const double r2 = scene.solver.bond_preconditioner.bond_radius * scene.solver.bond_preconditioner.bond_radius;
+      const int reach = static_cast<int>(std::floor(scene.solver.bond_preconditioner.bond_radius));
+      int neighbours = 0;
+      for (int i = -reach; i <= reach; ++i)
+        for (int j = -reach; j <= reach; ++j)
+          if ((i != 0 || j != 0) && i * i + j * j <= r2 * (1.0 + kBondRadiusMargin)) ++neighbours;
+      const double nnz = kBondNonzeroShare * e.nonzeros * (1.0 + neighbours) / 21.0;
       e.factor_nonzeros = factor_fill(n, true) * nnz;
       e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * nnz;
     } else if ((!cg && !belos && kind != LinearSolverKind::bicgstab) || (cg && pc == PreconditionerKind::cholmod)) {

@@ -60,6 +60,20 @@ std::string resolve_linear_solver(Scene& scene, double unknowns, int ranks) {
   if (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::automatic) return {};
   LinearChoice choice = choose_linear_solver(scene, unknowns, ranks);
   scene.solver.linear.type = choice.kind;
+  BondPreconditionerOptions& bond = scene.solver.bond_preconditioner;
+  if (choice.kind == LinearSolverKind::matrix_free && !bond.radius_given) {
+    // The bond factor dominates time and memory on large plates; a shorter radius makes it
+    // sparser for a few more iterations (docs/performance.md, "Matrix-free": 700 x 700 at
+    // 2.25 / 2.0 / 1.42: 112 / 91 / 93 s, 7.1 / 5.6 / 4.4 GB; 300 x 300: 11.9 / 9.7 / 10.8 s;
+    // the contact cases at paper resolution are fastest at 2.25).
+    const double radius = unknowns > kShortBondsAbove ? 1.42 : unknowns > kMediumBondsAbove ? 2.0 : bond.bond_radius;
+    if (radius != bond.bond_radius) {
+      char buf[120];
+      std::snprintf(buf, sizeof buf, "; bond preconditioner radius %.3g dx for this size", radius);
+      choice.reason += buf;
+      bond.bond_radius = radius;
+    }
+  }
   scene.solver.linear.auto_choice = std::string(to_string(choice.kind)) + ": " + choice.reason;
   return scene.solver.linear.auto_choice;
 }

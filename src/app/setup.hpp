@@ -23,6 +23,12 @@ struct LinearChoice {
 /// 0.28 s, 3,196 0.48 against 0.41 s, 4,994 0.59 against 0.57 s, 19,970 3.2 against 2.2 s
 /// (docs/performance.md, "Fast by default"); below the crossover a factor is also exact.
 inline constexpr double kDirectMaxUnknowns = 2500.0;
+/// With matrix_free, `auto` shortens the bond preconditioner's radius (unless the scene sets
+/// solver.krylov.bond_radius) to 2.0 dx above kMediumBondsAbove unknowns and 1.42 dx (the 8
+/// nearest neighbours) above kShortBondsAbove: measured on the tension plate at 300 x 300
+/// and 700 x 700 and on the contact cases (docs/performance.md, "Matrix-free").
+inline constexpr double kMediumBondsAbove = 100000.0;
+inline constexpr double kShortBondsAbove = 500000.0;
 
 /// The linear solver `solver.linear: auto` stands for, from the number of unknowns (an
 /// estimate before discretising, or the model's), the scene's physics and the MPI ranks:

@@ -104,6 +104,7 @@ struct LinearOptions {
 /// neighbours; docs/theory/newton.md, "Bond preconditioner").
 struct BondPreconditionerOptions {
   double bond_radius = 2.25;
+  bool radius_given = false;  ///< the scene set it (solver.linear: auto then leaves it alone)
 };
 
 /// Load stepping (loading.*).

@@ -163,6 +163,29 @@ TEST(LinearAuto, PicksBySizeFrictionAndRanks) {
   EXPECT_EQ(small.solver.linear.auto_choice, why);
 }
 
+// With matrix_free, auto shortens the bond preconditioner's radius on large models (its
+// factor dominates time and memory there), unless the scene set one; the preflight prices
+// the shorter radius's sparser factor.
+TEST(LinearAuto, ShortensTheBondRadiusOnLargeModels) {
+  const auto radius_for = [](const std::vector<std::string>& sets) {
+    Scene scene = case_scene("tension_plate/scene.yaml", sets);
+    resolve_linear_solver(scene, 2.0 * estimate_size(scene).particles, 1);
+    EXPECT_EQ(scene.solver.linear.type, LinearSolverKind::matrix_free);
+    return scene.solver.bond_preconditioner.bond_radius;
+  };
+  EXPECT_EQ(radius_for({}), 2.25) << "100 x 100: 20,000 unknowns keep the default";
+  EXPECT_EQ(radius_for({"discretization.spacing=3.333333333333e-4"}), 2.0) << "300 x 300";
+  EXPECT_EQ(radius_for({"discretization.spacing=1e-4"}), 1.42) << "1000 x 1000";
+  EXPECT_EQ(radius_for({"discretization.spacing=1e-4", "solver.krylov.bond_radius=2.25"}), 2.25)
+      << "an explicit radius is kept";
+  Scene wide = case_scene("tension_plate/scene.yaml", {"discretization.spacing=1e-4", "solver.krylov.bond_radius=2.25"});
+  Scene narrow = case_scene("tension_plate/scene.yaml", {"discretization.spacing=1e-4"});
+  resolve_linear_solver(wide, 2.0 * estimate_size(wide).particles, 1);
+  resolve_linear_solver(narrow, 2.0 * estimate_size(narrow).particles, 1);
+  // 8 against 20 neighbours: (1 + 8) / (1 + 20) of the factor.
+  EXPECT_NEAR(estimate_size(narrow).factor_nonzeros / estimate_size(wide).factor_nonzeros, 9.0 / 21.0, 1e-9);
+}
+
 // An explicit solver.linear always wins, and ADR needs no linear solver.
 TEST(LinearAuto, ExplicitChoiceAndAdrAreLeftAlone) {
   Scene umfpack = case_scene("tension_plate/scene.yaml", {"solver.linear=umfpack"});
