@@ -70,7 +70,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// y = K v with K the tangent of the last evaluate() that asked for one, computed from the
   /// families' factored Hessians (bond stiffnesses and dilatation vectors, docs/theory/osb.md
   /// "Assembly") and the contact pairs' Jacobians without forming K: O(bonds) per product,
-  /// the same K the assembled path writes (test Tangent.MatrixFreeActionEqualsTheAssembledTangent).
+  /// the same K the assembled path writes (tests MatrixFree.ActionEqualsTheAssembledTangent*).
   void apply_tangent(const VectorXd& v, VectorXd& y) override;
   /// The contact candidates' version: a partner search that adds pairs grows the pattern.
   std::uint64_t structure_version() const override { return m_contact ? m_contact->version() : 0; }

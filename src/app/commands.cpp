@@ -105,7 +105,7 @@ void check_same_run(const StateArchive& checkpoint, const std::string& path, con
 int check_command(const std::string& scene_path, const std::vector<std::string>& overrides) {
   Scene scene = parse_scene(scene_path, parse_overrides(overrides));
   const std::string linear_choice =
-      resolve_linear_solver(scene, 2.0 * estimate_size(scene).particles, parallel::size());
+      resolve_linear_solver(scene, parallel::size());
   const SizeEstimate estimate = estimate_size(scene);
   for (const std::string& w : preflight(scene, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
   const Model model = discretise(scene);
@@ -139,7 +139,7 @@ int run_command(const RunArguments& args) {
   const bool root = parallel::rank() == 0;
   // solver.linear: auto becomes a solver here, from the size estimate, before the preflight
   // estimates its memory (an explicit choice is kept).
-  const std::string linear_choice = resolve_linear_solver(scene, 2.0 * estimate_size(scene).particles, ranks);
+  const std::string linear_choice = resolve_linear_solver(scene, ranks);
   if (!linear_choice.empty() && !args.quiet && root) std::printf("peristat: solver.linear auto: %s\n", linear_choice.c_str());
   if (ranks > 1 && (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::belos))
     throw InputError("solver.linear: under mpirun with " + std::to_string(ranks) +

@@ -92,7 +92,7 @@ SizeEstimate estimate_size(const Scene& scene) {
   const LinearOptions& lin = scene.solver.linear;
   // `auto` is estimated as what it will pick (the run resolves it from the same estimate).
   const LinearSolverKind kind = lin.type == LinearSolverKind::automatic
-                                    ? choose_linear_solver(scene, 2.0 * e.particles, parallel::size()).kind
+                                    ? choose_linear_solver(scene, estimated_unknowns(e), parallel::size()).kind
                                     : lin.type;
   const double n = e.particles + e.fictitious;
   if (scene.solver.type == SolverKind::newton && kind == LinearSolverKind::matrix_free) {

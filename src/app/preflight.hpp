@@ -47,6 +47,10 @@ inline constexpr double kMaxFamily = 2000.0;
 
 SizeEstimate estimate_size(const Scene& scene);
 
+/// The unknowns `solver.linear: auto` decides by before discretising: two per real particle
+/// (the fictitious layers' components are prescribed).
+inline double estimated_unknowns(const SizeEstimate& e) { return 2.0 * e.particles; }
+
 /// Throws InputError (exit 2) when the scene cannot be run: a family over kMaxFamily bonds,
 /// a horizon longer than a body's longest side, or an estimated memory over what the machine
 /// has available. Returns warnings to print (horizon_factor below 2).

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "app/preflight.hpp"
 #include "solvers/adr.hpp"
 #include "solvers/newton.hpp"
 
@@ -56,8 +57,9 @@ LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks
   return {LinearSolverKind::matrix_free, buf};
 }
 
-std::string resolve_linear_solver(Scene& scene, double unknowns, int ranks) {
+std::string resolve_linear_solver(Scene& scene, int ranks) {
   if (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::automatic) return {};
+  const double unknowns = estimated_unknowns(estimate_size(scene));
   LinearChoice choice = choose_linear_solver(scene, unknowns, ranks);
   scene.solver.linear.type = choice.kind;
   BondPreconditionerOptions& bond = scene.solver.bond_preconditioner;

@@ -37,9 +37,10 @@ inline constexpr double kShortBondsAbove = 500000.0;
 /// smaller than the assembled cg path on every case measured). docs/performance.md.
 LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks);
 
-/// Replaces `auto` in scene.solver.linear.type by choose_linear_solver()'s pick; returns its
-/// reason, or "" when the scene named a solver (an explicit choice always wins) or runs ADR.
-std::string resolve_linear_solver(Scene& scene, double unknowns, int ranks);
+/// Replaces `auto` in scene.solver.linear.type by choose_linear_solver()'s pick for the
+/// estimated unknowns (estimate_size, before discretising); returns its reason, or "" when the
+/// scene named a solver (an explicit choice always wins) or runs ADR.
+std::string resolve_linear_solver(Scene& scene, int ranks);
 
 /// What the problem models, from the scene.
 ProblemOptions problem_options(const Scene& scene);

@@ -2,7 +2,6 @@
 
 #include <Eigen/Dense>
 
-#include "app/preflight.hpp"
 #include "app/setup.hpp"
 #include "core/clock.hpp"
 #include "support/scenes.hpp"
@@ -23,7 +22,7 @@ std::unique_ptr<Solved> solve_parsed(Scene scene) {
   auto s = std::make_unique<Solved>();
   s->scene = std::move(scene);
   // solver.linear: auto resolved as `peristat run` does, before the problem is built.
-  resolve_linear_solver(s->scene, 2.0 * estimate_size(s->scene).particles, 1);
+  resolve_linear_solver(s->scene, 1);
   s->model = discretise(s->scene);
   s->problem = std::make_unique<QuasiStaticProblem>(s->model, problem_options(s->scene));
   std::unique_ptr<LinearSolver> linear;

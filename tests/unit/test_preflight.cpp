@@ -21,7 +21,7 @@ void expect_close(const std::string& scene_file, const std::string& linear) {
   SCOPED_TRACE(linear);
   Scene scene = parse_scene(std::string(PERISTAT_SOURCE_DIR) + "/cases/" + scene_file,
                             {parse_override("solver.linear=" + linear)});
-  resolve_linear_solver(scene, 2.0 * estimate_size(scene).particles, 1);  // as `peristat run` does
+  resolve_linear_solver(scene, 1);  // as `peristat run` does
   const SizeEstimate e = estimate_size(scene);
   const Model model = discretise(scene);
   const QuasiStaticProblem problem(model, problem_options(scene));
@@ -157,7 +157,7 @@ TEST(LinearAuto, PicksBySizeFrictionAndRanks) {
   // Under mpirun only belos distributes the solves.
   EXPECT_EQ(choose_linear_solver(small, small_unknowns, 2).kind, LinearSolverKind::belos);
   // resolve_linear_solver writes the pick and its reason into the scene.
-  const std::string why = resolve_linear_solver(small, small_unknowns, 1);
+  const std::string why = resolve_linear_solver(small, 1);
   EXPECT_EQ(small.solver.linear.type, LinearSolverKind::cholmod);
   EXPECT_EQ(why.rfind("cholmod: ", 0), 0u) << why;
   EXPECT_EQ(small.solver.linear.auto_choice, why);
@@ -169,7 +169,7 @@ TEST(LinearAuto, PicksBySizeFrictionAndRanks) {
 TEST(LinearAuto, ShortensTheBondRadiusOnLargeModels) {
   const auto radius_for = [](const std::vector<std::string>& sets) {
     Scene scene = case_scene("tension_plate/scene.yaml", sets);
-    resolve_linear_solver(scene, 2.0 * estimate_size(scene).particles, 1);
+    resolve_linear_solver(scene, 1);
     EXPECT_EQ(scene.solver.linear.type, LinearSolverKind::matrix_free);
     return scene.solver.bond_preconditioner.bond_radius;
   };
@@ -180,8 +180,8 @@ TEST(LinearAuto, ShortensTheBondRadiusOnLargeModels) {
       << "an explicit radius is kept";
   Scene wide = case_scene("tension_plate/scene.yaml", {"discretization.spacing=1e-4", "solver.krylov.bond_radius=2.25"});
   Scene narrow = case_scene("tension_plate/scene.yaml", {"discretization.spacing=1e-4"});
-  resolve_linear_solver(wide, 2.0 * estimate_size(wide).particles, 1);
-  resolve_linear_solver(narrow, 2.0 * estimate_size(narrow).particles, 1);
+  resolve_linear_solver(wide, 1);
+  resolve_linear_solver(narrow, 1);
   // 8 against 20 neighbours: (1 + 8) / (1 + 20) of the factor.
   EXPECT_NEAR(estimate_size(narrow).factor_nonzeros / estimate_size(wide).factor_nonzeros, 9.0 / 21.0, 1e-9);
 }
@@ -189,10 +189,10 @@ TEST(LinearAuto, ShortensTheBondRadiusOnLargeModels) {
 // An explicit solver.linear always wins, and ADR needs no linear solver.
 TEST(LinearAuto, ExplicitChoiceAndAdrAreLeftAlone) {
   Scene umfpack = case_scene("tension_plate/scene.yaml", {"solver.linear=umfpack"});
-  EXPECT_EQ(resolve_linear_solver(umfpack, 1e6, 1), "");
+  EXPECT_EQ(resolve_linear_solver(umfpack, 1), "");
   EXPECT_EQ(umfpack.solver.linear.type, LinearSolverKind::umfpack);
   Scene adr = case_scene("tension_plate/scene.yaml", {"solver.type=adr"});
-  EXPECT_EQ(resolve_linear_solver(adr, 1e6, 1), "");
+  EXPECT_EQ(resolve_linear_solver(adr, 1), "");
   EXPECT_EQ(adr.solver.linear.type, LinearSolverKind::automatic);
 }
 
@@ -202,7 +202,7 @@ TEST(LinearAuto, PreflightEstimatesThePick) {
   for (const char* spacing : {"discretization.spacing=4e-3", "discretization.spacing=1e-3"}) {
     const Scene automatic = case_scene("tension_plate/scene.yaml", {spacing});
     Scene resolved = automatic;
-    resolve_linear_solver(resolved, 2.0 * estimate_size(automatic).particles, 1);
+    resolve_linear_solver(resolved, 1);
     const SizeEstimate a = estimate_size(automatic), b = estimate_size(resolved);
     EXPECT_GT(a.factor_bytes, 0.0) << spacing;
     EXPECT_EQ(a.factor_bytes, b.factor_bytes) << spacing;
