@@ -1,6 +1,7 @@
 #include "assembly/quasi_static.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -51,11 +52,16 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   const Index n = model.particles.size();
   const Bonds& bonds = model.bonds;
   const std::size_t nbonds = bonds.neighbour.size();
-  m_eta.assign(nbonds, Vec2::Zero());
+  // The bonds' relative displacements: kept for the failure criterion only; the families
+  // use a per-thread scratch of the largest family's size.
+  if (m_failure) m_eta.assign(nbonds, Vec2::Zero());
+  for (Index i = 0; i < n; ++i) m_largest_family = std::max(m_largest_family, bonds.family_size(i));
+  m_eta_scratch.assign(static_cast<std::size_t>(omp_get_max_threads()) * m_largest_family, Vec2::Zero());
   m_direction.assign(nbonds, Vec2::Zero());
   m_s.assign(nbonds, Vec2::Zero());
   m_t.assign(nbonds, 0.0);
   m_kbond.assign(nbonds, Sym2{});
+  if (options.matrix_free) m_weight_ratio.assign(nbonds, 0.0);
   m_s_self.assign(n, Vec2::Zero());
   m_beta_volume.assign(n, 0.0);
   m_u = VectorXd::Zero(2 * n);
@@ -344,6 +350,7 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   m_fragment_reaction = reaction.norm();
   m_model.constraints.gather(m_force, r);
   if (K && m_options.matrix_free) {
+    pair_stiffness();
     if (m_contact) {
       m_pair_jacobian.resize(static_cast<std::size_t>(m_contact->size()));
       for (Index k = 0; k < m_contact->size(); ++k) m_pair_jacobian[k] = m_contact->jacobian(k);
@@ -383,12 +390,10 @@ void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
 #pragma omp for schedule(static)
     for (Index q = 0; q < n; ++q) {
       const Vec2 wq = w(q);
-      const double Vq = part.volume[q];
       Vec2 y_q = m_dilatation_rate[q] * m_s_self[q];
       for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
-        const Index j = bonds.neighbour[b], r = bonds.reverse[b];
-        const Vec2 dw = wq - w(j);
-        y_q += Vq * times(m_kbond[b], dw) + part.volume[j] * times(m_kbond[r], dw) + m_dilatation_rate[j] * m_s[r];
+        const Index j = bonds.neighbour[b];
+        y_q += times(m_kbond[b], wq - w(j)) - (m_dilatation_rate[j] * m_weight_ratio[b]) * m_s[b];  // pair_stiffness()
       }
       if (m_contact)
         for (auto e = m_contact->incident_begin(q); e != m_contact->incident_end(q); ++e)
@@ -402,6 +407,34 @@ void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
   for (const Index f : m_fragment_unknowns) y[f] = m_fragment_diagonal * v[f];
 }
 
+void QuasiStaticProblem::pair_stiffness() {
+  const Bonds& bonds = m_model.bonds;
+  const Particles& part = m_model.particles;
+  const Index n = part.size();
+  const std::span<const double> weight = m_correction.weights();  // the kernel's: s_b = w_b |xi| M_b
+  bool lone_zero = false;
+  // Each pair {b, r} once, by the family of its lower bond index: no two iterations write
+  // the same bond.
+#pragma omp parallel for schedule(static) reduction(|| : lone_zero)
+  for (Index q = 0; q < n; ++q)
+    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
+      const Index r = bonds.reverse[b];
+      if (r < b) continue;
+      const double Vq = part.volume[q], Vj = part.volume[bonds.neighbour[b]];
+      const Sym2 &kb = m_kbond[b], &kr = m_kbond[r];
+      const Sym2 k{Vq * kb[0] + Vj * kr[0], Vq * kb[1] + Vj * kr[1], Vq * kb[2] + Vj * kr[2]};
+      m_kbond[b] = m_kbond[r] = k;
+      // A bond's two directions are broken together and the surface correction scales by
+      // factors >= 0.2, so w_b and w_r are zero together (a lone zero would lose s_r here).
+      const double wb = weight[b], wr = weight[r];
+      if ((wb == 0.0) != (wr == 0.0)) lone_zero = true;
+      m_weight_ratio[b] = wb != 0.0 ? wr / wb : 0.0;
+      m_weight_ratio[r] = wr != 0.0 ? wb / wr : 0.0;
+    }
+  if (lone_zero)
+    throw std::logic_error("pair_stiffness: a bond with one zero and one non-zero direction weight");
+}
+
 double QuasiStaticProblem::tangent_diagonal_max() const {
   const Bonds& bonds = m_model.bonds;
   const Particles& part = m_model.particles;
@@ -409,10 +442,11 @@ double QuasiStaticProblem::tangent_diagonal_max() const {
   double largest = 0.0;
   for (Index q = 0; q < part.size(); ++q) {
     Vec2 d(m_beta_volume[q] * m_s_self[q].x() * m_s_self[q].x(), m_beta_volume[q] * m_s_self[q].y() * m_s_self[q].y());
-    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
-      const Index j = bonds.neighbour[b], r = bonds.reverse[b];
-      d.x() += part.volume[q] * m_kbond[b][0] + part.volume[j] * m_kbond[r][0] + m_beta_volume[j] * m_s[r].x() * m_s[r].x();
-      d.y() += part.volume[q] * m_kbond[b][2] + part.volume[j] * m_kbond[r][2] + m_beta_volume[j] * m_s[r].y() * m_s[r].y();
+    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {  // pair_stiffness()'s data
+      const Vec2 sr = -m_weight_ratio[b] * m_s[b];
+      const double bVj = m_beta_volume[bonds.neighbour[b]];
+      d.x() += m_kbond[b][0] + bVj * sr.x() * sr.x();
+      d.y() += m_kbond[b][2] + bVj * sr.y() * sr.y();
     }
     if (m_contact)
       for (auto e = m_contact->incident_begin(q); e != m_contact->incident_end(q); ++e) {
@@ -471,12 +505,12 @@ void QuasiStaticProblem::decouple_fragments(SparseMatrix& K) const {
   }
 }
 
-void QuasiStaticProblem::family_displacements(Index i) {
+void QuasiStaticProblem::family_displacements(Index i, Vec2* eta) const {
   const Bonds& bonds = m_model.bonds;
   const Vec2 ui(m_u[2 * i], m_u[2 * i + 1]);
   for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
     const Index j = bonds.neighbour[b];
-    m_eta[b] = Vec2(m_u[2 * j], m_u[2 * j + 1]) - ui;
+    eta[b - bonds.start[i]] = Vec2(m_u[2 * j], m_u[2 * j + 1]) - ui;
   }
 }
 
@@ -485,22 +519,28 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
   const Particles& p = m_model.particles;
   const Index n = p.size();
   double energy = 0.0;
-#pragma omp parallel for schedule(static) reduction(+ : energy)
-  for (Index i = 0; i < n; ++i) {
-    const Index b0 = bonds.start[i], nb = bonds.family_size(i);
-    family_displacements(i);
-    const FamilyOutputs out{std::span(m_t).subspan(b0, nb), std::span(m_direction).subspan(b0, nb),
-                            std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
-    const FamilyResult res = m_kernels[p.body[i]]->evaluate(
-        m_correction.weighted_volume()[i], std::span(bonds.xi).subspan(b0, nb),
-        m_correction.weights().subspan(b0, nb),
-        std::span(m_eta).subspan(b0, nb), out, want_tangent);
-    energy += p.volume[i] * res.energy_density;
-    if (want_tangent) {
-      Vec2 s = Vec2::Zero();
-      for (Index b = b0; b < b0 + nb; ++b) s -= m_s[b];
-      m_s_self[i] = s;
-      m_beta_volume[i] = res.beta * p.volume[i];
+  const std::size_t scratch = static_cast<std::size_t>(omp_get_max_threads()) * m_largest_family;
+  if (m_eta_scratch.size() < scratch) m_eta_scratch.resize(scratch);  // more threads than at the start
+#pragma omp parallel reduction(+ : energy)
+  {
+    Vec2* eta = m_eta_scratch.data() + static_cast<std::size_t>(omp_get_thread_num()) * m_largest_family;
+#pragma omp for schedule(static)
+    for (Index i = 0; i < n; ++i) {
+      const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+      family_displacements(i, eta);
+      const FamilyOutputs out{std::span(m_t).subspan(b0, nb), std::span(m_direction).subspan(b0, nb),
+                              std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
+      const FamilyResult res = m_kernels[p.body[i]]->evaluate(
+          m_correction.weighted_volume()[i], std::span(bonds.xi).subspan(b0, nb),
+          m_correction.weights().subspan(b0, nb), std::span<const Vec2>(eta, static_cast<std::size_t>(nb)), out,
+          want_tangent);
+      energy += p.volume[i] * res.energy_density;
+      if (want_tangent) {
+        Vec2 s = Vec2::Zero();
+        for (Index b = b0; b < b0 + nb; ++b) s -= m_s[b];
+        m_s_self[i] = s;
+        m_beta_volume[i] = res.beta * p.volume[i];
+      }
     }
   }
   m_energy = energy;
@@ -622,7 +662,7 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
   expand(x, m_u);
   const Index n = m_model.particles.size();
 #pragma omp parallel for schedule(static)
-  for (Index i = 0; i < n; ++i) family_displacements(i);
+  for (Index i = 0; i < n; ++i) family_displacements(i, m_eta.data() + m_model.bonds.start[i]);
   const std::vector<std::pair<Index, Index>>& broken = m_failure->break_over_criterion(m_eta, at_most);
   check_mirror_zone(broken);
   collect_changed_families(broken);
@@ -679,8 +719,8 @@ void QuasiStaticProblem::collect_changed_families(const std::vector<std::pair<In
 std::size_t QuasiStaticProblem::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   std::size_t total =
-      m_correction.memory_bytes() + bytes(m_changed_families) + bytes(m_eta) + bytes(m_direction) + bytes(m_s) + bytes(m_t) +
-      bytes(m_kbond) + bytes(m_s_self) + bytes(m_beta_volume) +
+      m_correction.memory_bytes() + bytes(m_changed_families) + bytes(m_eta) + bytes(m_eta_scratch) + bytes(m_direction) + bytes(m_s) + bytes(m_t) +
+      bytes(m_kbond) + bytes(m_weight_ratio) + bytes(m_s_self) + bytes(m_beta_volume) +
       static_cast<std::size_t>(m_u.size() + m_force.size() + m_velocity.size()) * sizeof(double) +
       m_pattern.memory_bytes();
   if (m_failure) total += m_failure->memory_bytes();

@@ -161,8 +161,9 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   std::size_t memory_bytes() const;
 
  private:
-  /// m_eta of particle i's bonds from m_u.
-  void family_displacements(Index i);
+  /// The relative displacements eta_b = u_j - u_i of particle i's bonds from m_u, into
+  /// eta[0 .. family size).
+  void family_displacements(Index i, Vec2* eta) const;
   void compute_families(bool want_tangent);
   void gather_forces();
   void gather_tangent(SparseMatrix& K) const;
@@ -182,6 +183,9 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// Matrix-free: the largest diagonal entry of K over the unknowns (the fragments' diagonal),
   /// from the factored Hessians (mirror ghosts' folds not included: it only sets a scale).
   double tangent_diagonal_max() const;
+  /// matrix_free: turns m_kbond into the pairs' stiffnesses and fills m_weight_ratio, so that
+  /// apply_tangent() reads every bond's data in order instead of its reverse's.
+  void pair_stiffness();
   /// Why damage decreased at the state of the bonds' weights, or "".
   std::string check_damage();
 
@@ -224,9 +228,17 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   VectorXd m_u, m_force;
   VectorXd m_velocity;  ///< full pseudo-velocity (velocity-sign friction only)
   double m_force_scale = 0.0, m_energy = 0.0;
-  std::vector<Vec2> m_eta, m_direction, m_s;  ///< per bond
+  std::vector<Vec2> m_eta;                    ///< per bond, with failure: for its criterion
+  std::vector<Vec2> m_eta_scratch;            ///< per thread: one family's eta
+  Index m_largest_family = 0;
+  std::vector<Vec2> m_direction, m_s;         ///< per bond
   std::vector<double> m_t;                    ///< per bond
-  std::vector<Sym2> m_kbond;                  ///< per bond
+  /// per bond: the family's bond stiffness k_b; with matrix_free, after an evaluate() with a
+  /// tangent, the pair's V_i k_b + V_j k_r instead (pair_stiffness(), the same for b and r)
+  std::vector<Sym2> m_kbond;
+  /// per bond, matrix_free: w_r / w_b (0 for a broken bond), so that the reverse bond's s is
+  /// -ratio s_b (M_r = -M_b and |xi_r| = |xi_b| exactly): 8 B instead of a second vector
+  std::vector<double> m_weight_ratio;
   std::vector<Vec2> m_s_self;                 ///< per particle: -sum_b s_b
   std::vector<double> m_beta_volume;          ///< per particle: beta_i V_i
   // Matrix-free products: scratch (allocated once) and the fragments' diagonal.

@@ -23,6 +23,7 @@ constexpr int kMaxAttemptsPerStep = 500;
 void accumulate(StepReport& step, const SolveReport& r) {
   step.newton_iterations += r.iterations;
   step.linear_iterations += r.linear_iterations;
+  step.predictor_solves += r.predictor_solves;
   step.factorizations += r.factorizations;
   step.active_set_changes += r.active_set_changes;
   step.seconds_evaluate += r.seconds_evaluate;
@@ -181,6 +182,8 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
       trial = x;
       if (loading.extrapolate && lambda_before >= 0.0 && lambda > lambda_before)
         trial += ((next - lambda) / (lambda - lambda_before)) * (x - x_before);
+      else if (loading.extrapolate)
+        accumulate(step, solver.predict(trial, lambda));  // no secant: the solver's tangent
       const SolveReport r = solve_and_check(problem, solver, trial, r_check, cb, step);
       if (r.converged || r.accepted_unconverged) {
         x_before = x;

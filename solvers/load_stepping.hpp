@@ -24,6 +24,7 @@ struct StepReport {
   int cutbacks = 0;
   int newton_iterations = 0;  ///< summed over sub-steps and re-solves (ADR: pseudo-time steps)
   int linear_iterations = 0;
+  int predictor_solves = 0;  ///< Euler predictor solves (first sub-step, after cut-backs)
   int factorizations = 0;
   int active_set_changes = 0;     ///< Newton iterations that changed the contact active set
   int unconverged = 0;            ///< sub-steps kept unconverged (ADR `on_budget: accept`)

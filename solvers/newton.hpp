@@ -33,6 +33,12 @@ class NewtonSolver final : public StepSolver {
   void prepare(const VectorXd& x) override;
   /// True when a factor usable for the first iteration of the next solve exists.
   bool prepared() const override { return m_have_factor && m_structure == m_problem.structure_version(); }
+  /// The Euler predictor x + dx, K(x) dx = -(r(x; from) + dr/dlambda (to - from)), with the
+  /// factor of the converged state x and dr/dlambda by central differences at a thousandth
+  /// of the increment: the linearised response to the prescribed increment, in place of the
+  /// residual of the state whose prescribed components have jumped (docs/theory/newton.md,
+  /// "Predictor"). Keeps x when there is no factor or the solve fails.
+  SolveReport predict(VectorXd& x, double from) override;
   /// Forget the factorisation (after a failed solve, or when the pattern changed).
   void invalidate_factorization() override { m_have_factor = false; }
   /// max(rtol * force_scale, atol), the convergence test of every iterate.

@@ -26,6 +26,7 @@ struct SolveReport {
   std::vector<double> increments;  ///< Newton: alpha ||dx|| / max(||x||, tiny) of each accepted update
   int factorizations = 0;
   int linear_iterations = 0;  ///< Krylov iterations, summed
+  int predictor_solves = 0;   ///< linear solves of the Euler predictor (StepSolver::predict)
   /// Iterations after which the problem's discrete state (contact active set) differed
   /// from that of the previous iterate.
   int active_set_changes = 0;
@@ -48,6 +49,11 @@ class StepSolver {
   virtual void prepare(const VectorXd& /*x*/) {}
   /// False when prepare() must be called before the next solve.
   virtual bool prepared() const { return true; }
+  /// The first iterate of a load (sub)step when the last accepted states give no secant: x
+  /// holds the converged state at load factor `from` on entry, the problem is at the new load
+  /// factor. Newton replaces x by its Euler (tangent) predictor; the default keeps x. Returns
+  /// the work done (linear iterations, seconds), which counts towards the step.
+  virtual SolveReport predict(VectorXd& /*x*/, double /*from*/) { return {}; }
   /// Forget state tied to a failed attempt.
   virtual void invalidate_factorization() {}
   /// Whether a smaller load increment can rescue a failed solve. ADR fails by running out

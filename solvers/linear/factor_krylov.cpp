@@ -61,9 +61,12 @@ class FactorPreconditionedKrylov final : public LinearSolver {
 
   Eigen::ComputationInfo info() const override { return m_info; }
   std::string name() const override {
-    if (m_matrix_free) return "matrix-free+bond-cholmod";
-    return m_source == FactorSource::preconditioner_matrix ? "cg+bond-cholmod" : "cg+cholmod";
+    const std::string factor = m_factor->name();
+    if (m_matrix_free) return "matrix-free+bond-" + factor;
+    return m_source == FactorSource::preconditioner_matrix ? "cg+bond-" + factor : "cg+" + factor;
   }
+  bool needs_unknown_layout() const override { return m_factor->needs_unknown_layout(); }
+  void set_unknown_layout(const UnknownLayout& layout) override { m_factor->set_unknown_layout(layout); }
   bool needs_operator() const override { return m_matrix_free; }
   void set_operator(Operator apply) override { m_apply = std::move(apply); }
   /// CG on symmetric matrices, GMRES with the same factor otherwise.

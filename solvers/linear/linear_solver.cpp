@@ -112,6 +112,7 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
   const LS t = o.type;
   const PC pc = o.preconditioner != PC::automatic ? o.preconditioner
                 : t == LS::bicgstab               ? PC::ilut
+                : t == LS::matrix_free            ? PC::bond_amg
                                                   : PC::bond;
   auto not_available = [&](const char* expected) {
     return InputError("solver.krylov.preconditioner: '" + std::string(to_string(pc)) +
@@ -127,6 +128,8 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
     case LS::ldlt:
       return std::make_unique<DirectSolver<Eigen::SimplicialLDLT<Full, Eigen::Lower>>>("ldlt", true);
     case LS::cg:
+      if (pc == PC::bond_amg)
+        return make_factor_preconditioned_krylov(make_muelu_cycle(), FactorSource::preconditioner_matrix, o);
       if (pc == PC::bond || pc == PC::cholmod) {
         auto factor =
             std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true);
@@ -142,7 +145,7 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
         return std::make_unique<
             KrylovSolver<Eigen::ConjugateGradient<Full, kBoth, Eigen::DiagonalPreconditioner<double>>>>(
             "cg+diagonal", true, o);
-      throw not_available("bond, cholmod, ic or diagonal");
+      throw not_available("bond, bond_amg, cholmod, ic or diagonal");
     case LS::bicgstab:
       if (pc == PC::ilut)
         return std::make_unique<KrylovSolver<Eigen::BiCGSTAB<Full, Eigen::IncompleteLUT<double, Index>>>>(
@@ -154,9 +157,12 @@ std::unique_ptr<LinearSolver> make_linear_solver(const LinearOptions& o) {
     case LS::belos:
       return make_belos_solver(o.belos);
     case LS::matrix_free:
-      if (pc != PC::bond) throw not_available("bond (the only preconditioner that needs no assembled tangent)");
+      if (pc != PC::bond && pc != PC::bond_amg)
+        throw not_available("bond or bond_amg (the preconditioners that need no assembled tangent)");
       return make_factor_preconditioned_krylov(
-          std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true),
+          pc == PC::bond_amg
+              ? make_muelu_cycle()
+              : std::make_unique<DirectSolver<Eigen::CholmodSupernodalLLT<Full, Eigen::Lower>>>("cholmod", true),
           FactorSource::preconditioner_matrix, o, true);
     case LS::automatic:  // a programming error: the program resolves `auto` before building anything
       throw std::logic_error("make_linear_solver: solver.linear 'auto' was not resolved (choose_linear_solver)");

@@ -15,6 +15,7 @@
 #include <BelosTpetraAdapter.hpp>
 #include <Ifpack2_Factory.hpp>
 #include <MueLu_CreateTpetraPreconditioner.hpp>
+#include <Teuchos_DefaultMpiComm.hpp>
 #include <Teuchos_XMLParameterListHelpers.hpp>
 #include <Tpetra_Core.hpp>
 #include <Tpetra_CrsMatrix.hpp>
@@ -102,6 +103,129 @@ Index find_entry(const SparseMatrix& A, Index row, Index col) {
   return it != end && *it == row ? static_cast<Index>(it - A.innerIndexPtr()) : -1;
 }
 
+/// A symmetric-pattern Eigen matrix copied into a Tpetra CrsMatrix distributed by
+/// distribute(): the graph once per pattern (analyze), the values at every factorisation
+/// (fill). Each local row's columns come from column k of A (the pattern is structurally
+/// symmetric); a padding row and a row without a stored diagonal get one. Local indices from
+/// the start: the column map lists this rank's rows, then the other ranks' rows that its rows
+/// touch, sorted. No global-index copy of the pattern is ever made (at 700 x 700 it would be
+/// 2.4 GB).
+class TpetraCopy {
+ public:
+  void analyze(const SparseMatrix& A, const UnknownLayout& layout, const RCP<const Teuchos::Comm<int>>& comm) {
+    const Index n = static_cast<Index>(A.rows());
+    d = distribute(n, layout, comm->getRank(), comm->getSize());
+    const LO local = d.local_rows();
+    map = rcp(new map_t(static_cast<Tpetra::global_size_t>(d.n_rows), static_cast<std::size_t>(local), GO(0), comm));
+    std::vector<GO> remote;
+    for (LO r = 0; r < local; ++r)
+      if (const Index k = d.unknown_of_local[r]; k >= 0)
+        for (SparseMatrix::InnerIterator it(A, k); it; ++it)
+          if (!d.owns(d.row_of[it.row()])) remote.push_back(d.row_of[it.row()]);
+    std::sort(remote.begin(), remote.end());
+    remote.erase(std::unique(remote.begin(), remote.end()), remote.end());
+    auto local_column = [&](GO column) -> LO {
+      if (d.owns(column)) return static_cast<LO>(column - d.first_row);
+      return local + static_cast<LO>(std::lower_bound(remote.begin(), remote.end(), column) - remote.begin());
+    };
+    std::vector<GO> columns_of_map(static_cast<std::size_t>(local) + remote.size());
+    std::iota(columns_of_map.begin(), columns_of_map.begin() + local, d.first_row);
+    std::copy(remote.begin(), remote.end(), columns_of_map.begin() + local);
+    const RCP<const map_t> col_map = rcp(new map_t(Teuchos::OrdinalTraits<Tpetra::global_size_t>::invalid(),
+                                                   Teuchos::ArrayView<const GO>(columns_of_map), GO(0), comm));
+    Teuchos::ArrayRCP<std::size_t> row_pointers = Teuchos::arcp<std::size_t>(local + 1);
+    row_pointers[0] = 0;
+    for (LO r = 0; r < local; ++r) {
+      const Index k = d.unknown_of_local[r];
+      std::size_t count = 1;  // the diagonal, stored or not
+      if (k >= 0)
+        for (SparseMatrix::InnerIterator it(A, k); it; ++it) count += it.row() != k;
+      row_pointers[r + 1] = row_pointers[r] + count;
+    }
+    const std::size_t nonzeros = row_pointers[local];
+    Teuchos::ArrayRCP<LO> column_indices = Teuchos::arcp<LO>(static_cast<Teuchos_Ordinal>(nonzeros));
+    m_source.assign(nonzeros, -1);
+    m_diagonal.resize(local);
+    std::vector<std::pair<LO, Index>> row;  // (local column, position in A) of one row
+    for (LO r = 0; r < local; ++r) {
+      const Index k = d.unknown_of_local[r];
+      row.clear();
+      row.emplace_back(r, -1);
+      if (k >= 0)
+        for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
+          const Index j = static_cast<Index>(it.row());
+          const Index at = find_entry(A, k, j);
+          if (j == k)
+            row.front().second = at;
+          else
+            row.emplace_back(local_column(d.row_of[j]), at);
+        }
+      std::sort(row.begin(), row.end());  // Tpetra wants each row's local indices sorted
+      for (std::size_t e = 0; e < row.size(); ++e) {
+        column_indices[row_pointers[r] + e] = row[e].first;
+        m_source[row_pointers[r] + e] = row[e].second;
+        if (row[e].first == r) m_diagonal[r] = static_cast<Index>(row_pointers[r] + e);
+      }
+    }
+    m_row_start.assign(row_pointers.begin(), row_pointers.end());
+    RCP<graph_t> graph = rcp(new graph_t(map, col_map, row_pointers, column_indices));
+    graph->expertStaticFillComplete(map, map);
+    matrix = rcp(new crs_t(graph));
+    matrix->fillComplete(map, map);
+  }
+
+  /// A's values into the matrix's local storage (one memory space: Debian's Kokkos is Serial
+  /// only). The padding rows' diagonal: the mean of A's diagonal over the local unknowns (a
+  /// scale like the rest, so that neither the preconditioners nor the Krylov norms see a jump).
+  void fill(const SparseMatrix& A) {
+    const auto values = matrix->getLocalMatrixHost().values;
+    const double* a = A.valuePtr();
+    const LO local = d.local_rows();
+    double diagonal_sum = 0.0;
+    Index diagonals = 0;
+    for (LO r = 0; r < local; ++r) {
+      for (Index e = m_row_start[r]; e < m_row_start[r + 1]; ++e) values(e) = m_source[e] >= 0 ? a[m_source[e]] : 0.0;
+      if (d.unknown_of_local[r] >= 0) {
+        diagonal_sum += std::abs(values(m_diagonal[r]));
+        ++diagonals;
+      }
+    }
+    padding = diagonals > 0 && diagonal_sum > 0.0 ? diagonal_sum / diagonals : 1.0;
+    for (LO r = 0; r < local; ++r)
+      if (d.unknown_of_local[r] < 0) values(m_diagonal[r]) = padding;
+  }
+
+  /// Translations in x and y and the in-plane rotation about the centroid, per local row.
+  RCP<mv_t> rigid_body_modes(const UnknownLayout& layout) const {
+    RCP<mv_t> modes = rcp(new mv_t(map, 3));
+    double cx = 0.0, cy = 0.0;
+    for (std::size_t i = 0; i < layout.x.size(); ++i) {
+      cx += layout.x[i];
+      cy += layout.y[i];
+    }
+    cx /= std::max<std::size_t>(layout.x.size(), 1);
+    cy /= std::max<std::size_t>(layout.y.size(), 1);
+    for (LO r = 0; r < d.local_rows(); ++r) {
+      const Index p = d.particle_of_local[r];
+      const int dir = static_cast<int>((d.first_row + r) % 2);
+      modes->replaceLocalValue(r, 0, dir == 0 ? 1.0 : 0.0);
+      modes->replaceLocalValue(r, 1, dir == 1 ? 1.0 : 0.0);
+      modes->replaceLocalValue(r, 2, dir == 0 ? -(layout.y[p] - cy) : layout.x[p] - cx);
+    }
+    return modes;
+  }
+
+  Distribution d;
+  RCP<const map_t> map;
+  RCP<crs_t> matrix;
+  double padding = 1.0;  ///< the padding rows' diagonal of the last fill()
+
+ private:
+  std::vector<Index> m_row_start;  ///< Tpetra's local row offsets
+  std::vector<Index> m_source;     ///< per local value: its position in A's values, or -1
+  std::vector<Index> m_diagonal;   ///< per local row: the position of its diagonal value
+};
+
 /// Additive Schwarz with a CHOLMOD factor of each rank's diagonal block of the bond matrix
 /// (the `cg` path's preconditioner, on one rank exactly that factor).
 class BlockFactor final : public op_t {
@@ -159,6 +283,95 @@ class BlockFactor final : public op_t {
   mutable VectorXd m_in, m_out;
 };
 
+/// One V-cycle of MueLu's smoothed aggregation on a matrix P, as the preconditioner "solve"
+/// of factor-preconditioned Krylov (solver.krylov.preconditioner: bond_amg): the bond matrix
+/// approximated instead of factorised. In this process only (a serial communicator), the
+/// unknowns grouped by particle with the rigid-body modes as near-null space. A fixed linear
+/// operator, symmetric positive definite for a symmetric positive definite P (Chebyshev
+/// smoothing, the same before and after, and a relaxed coarsest level), so CG may use it.
+class MueLuCycle final : public LinearSolver {
+ public:
+  MueLuCycle() {
+    parallel::ensure_started();
+    // This process's own communicator: under mpirun every rank runs the same Krylov iteration
+    // on its whole copy of the model (matrix_free is not distributed). Teuchos's SerialComm
+    // crashes MueLu 13.2's hierarchy set-up; an MPI communicator of one process does not.
+    m_comm = rcp(new Teuchos::MpiComm<int>(Teuchos::opaqueWrapper(MPI_COMM_SELF)));
+  }
+
+  void analyzePattern(const SparseMatrix& P) override {
+    m_info = Eigen::Success;
+    m_copy.analyze(P, m_layout, m_comm);
+    m_in = rcp(new mv_t(m_copy.map, 1));
+    m_out = rcp(new mv_t(m_copy.map, 1));
+    m_muelu = Teuchos::null;
+  }
+
+  void factorize(const SparseMatrix& P) override {
+    m_info = Eigen::Success;
+    if (m_copy.matrix.is_null()) analyzePattern(P);
+    m_copy.fill(P);
+    ++m_builds;
+    try {
+      // The old hierarchy goes before the new one is built: at a million particles the two
+      // together were the run's peak (9.1 against 8.1 GB). Rebuilding in place ("reuse: type"
+      // RP with ReuseTpetraPreconditioner) saved set-up time at 300 x 300 but held 0.3 GB more
+      // and threw at 1000 x 1000.
+      m_muelu = Teuchos::null;
+      Teuchos::ParameterList p;
+      p.set("verbosity", "none");
+      // As belos's muelu (its measurements): Chebyshev smoothing, a relaxed coarsest level.
+      p.set("smoother: type", "CHEBYSHEV");
+      p.set("coarse: type", "RELAXATION");
+      p.set("coarse: max size", 100);
+      // R = P^T applied, not stored: 20 MB of 862 MB at 300 x 300, the same iterations.
+      p.set("transpose: use implicit", true);
+      if (m_copy.d.per_node == 2) {
+        p.set("number of equations", 2);
+        p.sublist("user data").set("Nullspace", m_copy.rigid_body_modes(m_layout));
+      }
+      m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_copy.matrix), p);
+    } catch (const std::exception&) {  // a Trilinos failure (e.g. a zero pivot): the seam's terms
+      m_muelu = Teuchos::null;
+      m_info = Eigen::NumericalIssue;
+    }
+  }
+
+  void solve(const VectorXd& b, VectorXd& x) override {
+    if (m_muelu.is_null()) {  // no hierarchy (a failed set-up): the caller sees info()
+      m_info = Eigen::NumericalIssue;
+      return;
+    }
+    const Distribution& d = m_copy.d;
+    const LO local = d.local_rows();
+    {
+      const Teuchos::ArrayRCP<double> in = m_in->getDataNonConst(0);
+      for (LO r = 0; r < local; ++r) in[r] = d.unknown_of_local[r] >= 0 ? b[d.unknown_of_local[r]] : 0.0;
+    }
+    m_muelu->apply(*m_in, *m_out);
+    x.resize(b.size());
+    const Teuchos::ArrayRCP<const double> out = m_out->getData(0);
+    for (LO r = 0; r < local; ++r)
+      if (d.unknown_of_local[r] >= 0) x[d.unknown_of_local[r]] = out[r];
+  }
+
+  Eigen::ComputationInfo info() const override { return m_info; }
+  std::string name() const override { return "muelu"; }
+  bool needs_symmetric() const override { return true; }
+  long factorizations() const override { return m_builds; }
+  bool needs_unknown_layout() const override { return true; }
+  void set_unknown_layout(const UnknownLayout& layout) override { m_layout = layout; }
+
+ private:
+  RCP<const Teuchos::Comm<int>> m_comm;
+  UnknownLayout m_layout;
+  TpetraCopy m_copy;
+  RCP<mv_t> m_in, m_out;
+  RCP<MueLu::TpetraOperator<double, LO, GO, NT>> m_muelu;
+  long m_builds = 0;
+  Eigen::ComputationInfo m_info = Eigen::Success;
+};
+
 class BelosSolver final : public LinearSolver {
  public:
   explicit BelosSolver(const BelosOptions& o) : m_options(o) {
@@ -176,75 +389,12 @@ class BelosSolver final : public LinearSolver {
 
   void analyzePattern(const SparseMatrix& A) override {
     m_info = Eigen::Success;
-    const Index n = static_cast<Index>(A.rows());
-    m_d = distribute(n, m_layout, m_comm->getRank(), m_comm->getSize());
-    const LO local = m_d.local_rows();
-    m_map = rcp(new map_t(static_cast<Tpetra::global_size_t>(m_d.n_rows), static_cast<std::size_t>(local), GO(0), m_comm));
-    m_replicated = rcp(new map_t(static_cast<Tpetra::global_size_t>(m_d.n_rows), GO(0), m_comm, Tpetra::LocallyReplicated));
-    m_import = rcp(new import_t(m_map, m_replicated));
-
-    // Each local row's columns (the pattern is structurally symmetric, so column k of A
-    // holds row k's columns; a padding row and a row without a stored diagonal get one),
-    // in local indices from the start: the column map lists this rank's rows, then the
-    // other ranks' rows that its rows touch, sorted. No global-index copy of the pattern is
-    // ever made (at 700 x 700 it would be 2.4 GB).
-    std::vector<GO> remote;
-    for (LO r = 0; r < local; ++r)
-      if (const Index k = m_d.unknown_of_local[r]; k >= 0)
-        for (SparseMatrix::InnerIterator it(A, k); it; ++it)
-          if (!m_d.owns(m_d.row_of[it.row()])) remote.push_back(m_d.row_of[it.row()]);
-    std::sort(remote.begin(), remote.end());
-    remote.erase(std::unique(remote.begin(), remote.end()), remote.end());
-    auto local_column = [&](GO column) -> LO {
-      if (m_d.owns(column)) return static_cast<LO>(column - m_d.first_row);
-      return local + static_cast<LO>(std::lower_bound(remote.begin(), remote.end(), column) - remote.begin());
-    };
-    std::vector<GO> columns_of_map(static_cast<std::size_t>(local) + remote.size());
-    std::iota(columns_of_map.begin(), columns_of_map.begin() + local, m_d.first_row);
-    std::copy(remote.begin(), remote.end(), columns_of_map.begin() + local);
-    const RCP<const map_t> col_map = rcp(new map_t(Teuchos::OrdinalTraits<Tpetra::global_size_t>::invalid(),
-                                                   Teuchos::ArrayView<const GO>(columns_of_map), GO(0), m_comm));
-    Teuchos::ArrayRCP<std::size_t> row_pointers = Teuchos::arcp<std::size_t>(local + 1);
-    row_pointers[0] = 0;
-    for (LO r = 0; r < local; ++r) {
-      const Index k = m_d.unknown_of_local[r];
-      std::size_t count = 1;  // the diagonal, stored or not
-      if (k >= 0)
-        for (SparseMatrix::InnerIterator it(A, k); it; ++it) count += it.row() != k;
-      row_pointers[r + 1] = row_pointers[r] + count;
-    }
-    const std::size_t nonzeros = row_pointers[local];
-    Teuchos::ArrayRCP<LO> column_indices = Teuchos::arcp<LO>(static_cast<Teuchos_Ordinal>(nonzeros));
-    m_source.assign(nonzeros, -1);
-    m_diagonal.resize(local);
-    std::vector<std::pair<LO, Index>> row;  // (local column, position in A) of one row
-    for (LO r = 0; r < local; ++r) {
-      const Index k = m_d.unknown_of_local[r];
-      row.clear();
-      row.emplace_back(r, -1);
-      if (k >= 0)
-        for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
-          const Index j = static_cast<Index>(it.row());
-          const Index at = find_entry(A, k, j);
-          if (j == k)
-            row.front().second = at;
-          else
-            row.emplace_back(local_column(m_d.row_of[j]), at);
-        }
-      std::sort(row.begin(), row.end());  // Tpetra wants each row's local indices sorted
-      for (std::size_t e = 0; e < row.size(); ++e) {
-        column_indices[row_pointers[r] + e] = row[e].first;
-        m_source[row_pointers[r] + e] = row[e].second;
-        if (row[e].first == r) m_diagonal[r] = static_cast<Index>(row_pointers[r] + e);
-      }
-    }
-    m_row_start.assign(row_pointers.begin(), row_pointers.end());
-    RCP<graph_t> graph = rcp(new graph_t(m_map, col_map, row_pointers, column_indices));
-    graph->expertStaticFillComplete(m_map, m_map);
-    m_A = rcp(new crs_t(graph));
-    m_A->fillComplete(m_map, m_map);
-    m_X = rcp(new mv_t(m_map, 1));
-    m_B = rcp(new mv_t(m_map, 1));
+    m_copy.analyze(A, m_layout, m_comm);
+    m_replicated =
+        rcp(new map_t(static_cast<Tpetra::global_size_t>(m_copy.d.n_rows), GO(0), m_comm, Tpetra::LocallyReplicated));
+    m_import = rcp(new import_t(m_copy.map, m_replicated));
+    m_X = rcp(new mv_t(m_copy.map, 1));
+    m_B = rcp(new mv_t(m_copy.map, 1));
     m_X_all = rcp(new mv_t(m_replicated, 1));
     m_problem = rcp(new Belos::LinearProblem<double, mv_t, op_t>());
     m_preconditioner = Teuchos::null;
@@ -256,26 +406,8 @@ class BelosSolver final : public LinearSolver {
 
   void factorize(const SparseMatrix& A) override {
     m_info = Eigen::Success;
-    if (m_A.is_null()) analyzePattern(A);
-    // The values go straight into the matrix's local storage (one memory space: Debian's
-    // Kokkos is Serial only). The padding rows' diagonal: the mean of A's diagonal over the
-    // local unknowns (a scale like the rest, so that neither the preconditioners nor the
-    // Krylov norms see a jump).
-    const auto values = m_A->getLocalMatrixHost().values;
-    const double* a = A.valuePtr();
-    const LO local = m_d.local_rows();
-    double diagonal_sum = 0.0;
-    Index diagonals = 0;
-    for (LO r = 0; r < local; ++r) {
-      for (Index e = m_row_start[r]; e < m_row_start[r + 1]; ++e) values(e) = m_source[e] >= 0 ? a[m_source[e]] : 0.0;
-      if (m_d.unknown_of_local[r] >= 0) {
-        diagonal_sum += std::abs(values(m_diagonal[r]));
-        ++diagonals;
-      }
-    }
-    m_padding = diagonals > 0 && diagonal_sum > 0.0 ? diagonal_sum / diagonals : 1.0;
-    for (LO r = 0; r < local; ++r)
-      if (m_d.unknown_of_local[r] < 0) values(m_diagonal[r]) = m_padding;
+    if (m_copy.matrix.is_null()) analyzePattern(A);
+    m_copy.fill(A);
     if (m_reuse.due()) build_preconditioner();
   }
 
@@ -332,18 +464,18 @@ class BelosSolver final : public LinearSolver {
           p.set("smoother: type", "CHEBYSHEV");
           p.set("coarse: max size", 100);
           p.setParameters(m_muelu_parameters);  // the user's list wins
-          if (m_d.per_node == 2) {
+          if (m_copy.d.per_node == 2) {
             p.set("number of equations", 2);
-            p.sublist("user data").set("Nullspace", rigid_body_modes());
+            p.sublist("user data").set("Nullspace", m_copy.rigid_body_modes(m_layout));
           }
-          m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_A), p);
+          m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_copy.matrix), p);
           m_preconditioner = m_muelu;
           break;
         }
         case BelosPreconditioner::ifpack2_ilut:
         case BelosPreconditioner::ifpack2_relaxation: {
           if (m_ifpack2.is_null()) {
-            m_ifpack2 = Ifpack2::Factory::create<row_t>("SCHWARZ", RCP<const row_t>(m_A));
+            m_ifpack2 = Ifpack2::Factory::create<row_t>("SCHWARZ", RCP<const row_t>(m_copy.matrix));
             Teuchos::ParameterList p;
             p.set("schwarz: overlap level", 0);
             if (m_options.preconditioner == BelosPreconditioner::ifpack2_ilut) {
@@ -363,12 +495,12 @@ class BelosSolver final : public LinearSolver {
           break;
         }
         case BelosPreconditioner::bond_factor: {
-          if (m_P == nullptr || m_P->rows() != static_cast<Index>(m_d.row_of.size())) {
+          if (m_P == nullptr || m_P->rows() != static_cast<Index>(m_copy.d.row_of.size())) {
             m_info = Eigen::InvalidInput;
             return;
           }
-          if (m_block.is_null()) m_block = rcp(new BlockFactor(m_map));
-          if (!m_block->factorize(*m_P, m_d, m_padding)) {
+          if (m_block.is_null()) m_block = rcp(new BlockFactor(m_copy.map));
+          if (!m_block->factorize(*m_P, m_copy.d, m_copy.padding)) {
             m_info = Eigen::NumericalIssue;
             return;
           }
@@ -382,32 +514,13 @@ class BelosSolver final : public LinearSolver {
     }
   }
 
-  /// Translations in x and y and the in-plane rotation about the centroid, per local row.
-  RCP<mv_t> rigid_body_modes() const {
-    RCP<mv_t> modes = rcp(new mv_t(m_map, 3));
-    double cx = 0.0, cy = 0.0;
-    for (std::size_t i = 0; i < m_layout.x.size(); ++i) {
-      cx += m_layout.x[i];
-      cy += m_layout.y[i];
-    }
-    cx /= std::max<std::size_t>(m_layout.x.size(), 1);
-    cy /= std::max<std::size_t>(m_layout.y.size(), 1);
-    for (LO r = 0; r < m_d.local_rows(); ++r) {
-      const Index p = m_d.particle_of_local[r];
-      const int dir = static_cast<int>((m_d.first_row + r) % 2);
-      modes->replaceLocalValue(r, 0, dir == 0 ? 1.0 : 0.0);
-      modes->replaceLocalValue(r, 1, dir == 1 ? 1.0 : 0.0);
-      modes->replaceLocalValue(r, 2, dir == 0 ? -(m_layout.y[p] - cy) : m_layout.x[p] - cx);
-    }
-    return modes;
-  }
-
   void run(const VectorXd& b, VectorXd& x) {
-    const LO local = m_d.local_rows();
+    const Distribution& d = m_copy.d;
+    const LO local = d.local_rows();
     {
       const Teuchos::ArrayRCP<double> bl = m_B->getDataNonConst(0), xl = m_X->getDataNonConst(0);
       for (LO r = 0; r < local; ++r) {
-        const Index k = m_d.unknown_of_local[r];
+        const Index k = d.unknown_of_local[r];
         bl[r] = k >= 0 ? b[k] : 0.0;
         xl[r] = k >= 0 ? x[k] : 0.0;
       }
@@ -439,7 +552,7 @@ class BelosSolver final : public LinearSolver {
         Belos::SolverFactory<double, mv_t, op_t> factory;
         solver = factory.create(cg ? "CG" : "GMRES", p);
       }
-      m_problem->setOperator(m_A);
+      m_problem->setOperator(m_copy.matrix);
       m_problem->setRightPrec(m_preconditioner);
       m_problem->setProblem(m_X, m_B);
       solver->setProblem(m_problem);
@@ -454,21 +567,16 @@ class BelosSolver final : public LinearSolver {
     // Every rank gets the whole solution: the model above the seam is the same on all ranks.
     m_X_all->doImport(*m_X, *m_import, Tpetra::INSERT);
     const Teuchos::ArrayRCP<const double> all = m_X_all->getData(0);
-    for (Index k = 0; k < static_cast<Index>(x.size()); ++k) x[k] = all[m_d.row_of[k]];
+    for (Index k = 0; k < static_cast<Index>(x.size()); ++k) x[k] = all[d.row_of[k]];
   }
 
   BelosOptions m_options;
   Teuchos::ParameterList m_muelu_parameters;  ///< solver.belos.muelu_parameters, or empty
   RCP<const Teuchos::Comm<int>> m_comm;
   UnknownLayout m_layout;
-  Distribution m_d;
-  RCP<const map_t> m_map, m_replicated;
+  TpetraCopy m_copy;
+  RCP<const map_t> m_replicated;
   RCP<import_t> m_import;
-  std::vector<Index> m_row_start;  ///< Tpetra's local row offsets
-  std::vector<Index> m_source;     ///< per local value: its position in A's values, or -1
-  std::vector<Index> m_diagonal;   ///< per local row: the position of its diagonal value
-  RCP<crs_t> m_A;
-  double m_padding = 1.0;
   RCP<mv_t> m_X, m_B, m_X_all;
   RCP<Belos::LinearProblem<double, mv_t, op_t>> m_problem;
   RCP<Belos::SolverManager<double, mv_t, op_t>> m_cg, m_gmres;
@@ -493,5 +601,7 @@ class BelosSolver final : public LinearSolver {
 std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options) {
   return std::make_unique<BelosSolver>(options);
 }
+
+std::unique_ptr<LinearSolver> make_muelu_cycle() { return std::make_unique<MueLuCycle>(); }
 
 }  // namespace peristat

@@ -15,4 +15,8 @@ namespace peristat {
 /// Starts MPI (through Tpetra) when it has not been started.
 std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options);
 
+/// One MueLu V-cycle of the matrix it factorises (smoothed aggregation, in this process), as
+/// the preconditioner of factor-preconditioned Krylov (solver.krylov.preconditioner: bond_amg).
+std::unique_ptr<LinearSolver> make_muelu_cycle();
+
 }  // namespace peristat

@@ -97,7 +97,7 @@ SizeEstimate estimate_size(const Scene& scene) {
   const double n = e.particles + e.fictitious;
   if (scene.solver.type == SolverKind::newton && kind == LinearSolverKind::matrix_free) {
     // No tangent and no pattern: the model and the families' tangent data only.
-    e.memory_bytes = kMatrixFreeBytesPerNonzero * e.nonzeros;
+    e.memory_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
   }
   if (scene.solver.type == SolverKind::newton) {
     const bool cg = kind == LinearSolverKind::cg || kind == LinearSolverKind::matrix_free;
@@ -107,8 +107,8 @@ SizeEstimate estimate_size(const Scene& scene) {
       // MueLu's hierarchy and Ifpack2's incomplete factors are not estimated; the tangent's
       // copy in Tpetra is (added below).
       e.factor_of = "the tangent's copy in Tpetra (the preconditioner's own storage not estimated)";
-    } else if ((cg || belos) && (pc == PreconditionerKind::bond || pc == PreconditionerKind::automatic)) {
-      e.factor_of = "the bond preconditioner";
+    } else if ((cg || belos) && (pc == PreconditionerKind::bond || pc == PreconditionerKind::bond_amg ||
+                                 pc == PreconditionerKind::automatic)) {
       // kBondNonzeroShare is for the default radius (20 lattice neighbours); another radius
       // scales it by its own neighbour count (1.42 dx: 8).
       const double r2 = scene.solver.bond_preconditioner.bond_radius * scene.solver.bond_preconditioner.bond_radius;
@@ -118,8 +118,16 @@ SizeEstimate estimate_size(const Scene& scene) {
         for (int j = -reach; j <= reach; ++j)
           if ((i != 0 || j != 0) && i * i + j * j <= r2 * (1.0 + kBondRadiusMargin)) ++neighbours;
       const double nnz = kBondNonzeroShare * e.nonzeros * (1.0 + neighbours) / 21.0;
-      e.factor_nonzeros = factor_fill(n, true) * nnz;
-      e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * nnz;
+      const bool amg = pc == PreconditionerKind::bond_amg ||
+                       (pc == PreconditionerKind::automatic && kind == LinearSolverKind::matrix_free);
+      if (amg) {
+        e.factor_of = "the bond matrix, its copy in Tpetra and MueLu's hierarchy";
+        e.factor_bytes = kBytesPerAmgNonzero * nnz;
+      } else {
+        e.factor_of = "the bond preconditioner";
+        e.factor_nonzeros = factor_fill(n, true) * nnz;
+        e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * nnz;
+      }
     } else if ((!cg && !belos && kind != LinearSolverKind::bicgstab) || (cg && pc == PreconditionerKind::cholmod)) {
       e.factor_of = "the tangent";
       const double lu = kind == LinearSolverKind::umfpack || kind == LinearSolverKind::klu ? 2.0 : 1.0;
@@ -188,7 +196,7 @@ std::vector<std::string> preflight(const Scene& scene, const SizeEstimate& e) {
   if (e.available_bytes > 0.0 && e.memory_bytes > e.available_bytes) {
     // Without an assembled tangent the model may fit: say so, with its size.
     const bool matrix_free = scene.solver.linear.type == LinearSolverKind::matrix_free;
-    const double free_bytes = kMatrixFreeBytesPerNonzero * e.nonzeros;
+    const double free_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
     const std::string hint =
         !matrix_free && scene.solver.type == SolverKind::newton && free_bytes < e.available_bytes
             ? " or solver.linear=matrix_free (no assembled tangent: about " + format_bytes(free_bytes) +

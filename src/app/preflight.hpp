@@ -28,10 +28,17 @@ struct SizeEstimate {
 /// Bytes per tangent nonzero of the model, problem state and tangent together, measured with
 /// `check` on the paper cases and the tension plate (24.4-24.9 B, 2026-11-24).
 inline constexpr double kBytesPerNonzero = 25.0;
-/// The same without the tangent and its pattern (solver.linear: matrix_free): 10.4 B per
-/// nonzero the tangent would have, measured with `check` on the tension plate (61.3 MB at
-/// 5.89 M, 2026-11-25).
-inline constexpr double kMatrixFreeBytesPerNonzero = 10.5;
+/// The same without the tangent and its pattern (solver.linear: matrix_free), per nonzero the
+/// tangent would have: 9.75-9.93 B measured with `check` on the tension plate and cases 4.1
+/// and 4.3 (2026-11-25, after the pair stiffnesses and the per-thread bond displacements) ...
+inline constexpr double kMatrixFreeBytesPerNonzero = 9.9;
+/// ... and with a failure criterion 2.6 B more (the bonds' displacements and the failure
+/// state: case 4.4, 12.45 B).
+inline constexpr double kMatrixFreeFailureBytesPerNonzero = 2.6;
+/// Matrix-free bytes per tangent nonzero of a scene.
+inline double matrix_free_bytes_per_nonzero(bool failure) {
+  return kMatrixFreeBytesPerNonzero + (failure ? kMatrixFreeFailureBytesPerNonzero : 0.0);
+}
 /// The Cholesky factor's nonzeros per nonzero of the matrix factorised, by CHOLMOD's default
 /// ordering on square plates of N particles (m = 3; peristat_bench factor, 2026-11-25): the
 /// tangent 1.97, 3.08, 4.34 at N = 2,500, 10,000, 40,000, i.e. 0.59 log2 N - 4.7; the bond
@@ -41,6 +48,10 @@ double factor_fill(double particles, bool bond_preconditioner);
 /// CHOLMOD copies: with kBytesPerNonzero they give the measured peak memory of the factorisation
 /// within 12% (2,500 to 40,000 particles; 2.06 GB measured, 1.98 GB estimated at 40,000).
 inline constexpr double kBytesPerFactorNonzero = 10.0;
+/// Bytes per bond-matrix nonzero of solver.krylov.preconditioner bond_amg: the matrix, its
+/// copy in Tpetra and MueLu's hierarchy, measured at 1000 x 1000 (2.4 GB beyond the model for
+/// 3.6e7 nonzeros at radius 1.42, 2026-11-25).
+inline constexpr double kBytesPerAmgNonzero = 65.0;
 inline constexpr double kBytesPerCopiedNonzero = 12.0;
 /// Largest family accepted (bonds of an interior particle): horizon_factor up to about 24.
 inline constexpr double kMaxFamily = 2000.0;

@@ -14,9 +14,6 @@ ProblemOptions problem_options(const Scene& scene) {
           scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::matrix_free};
 }
 
-namespace {
-
-/// Each unknown's particle and direction, and the particles' positions (LinearSolver's hint).
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
   const std::vector<Index>& free = model.constraints.free_index;
   UnknownLayout layout;
@@ -32,8 +29,6 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
   return layout;
 }
 
-}  // namespace
-
 LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks) {
   char buf[200];
   if (ranks > 1) {
@@ -42,17 +37,17 @@ LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks
   }
   if (scene.contact.enabled && scene.contact.friction > 0.0)
     return {LinearSolverKind::matrix_free,
-            "friction: slipping pairs make the tangent unsymmetric, where GMRES on the bond factor beats "
-            "UMFPACK (case 4.3 at 5,000 unknowns: 1.0 s against 2.7 s), and the tangent's action beats "
-            "assembling it (case 4.1: 7.3 s against 10.8 s)"};
+            "friction: slipping pairs make the tangent unsymmetric, where GMRES beats UMFPACK (case 4.3 at "
+            "5,000 unknowns: 1.0 s against 2.7 s), the tangent's action beats assembling it (case 4.1: 7.3 s "
+            "against 10.8 s) and a MueLu V-cycle of the bond matrix beats its factor (4.3 s)"};
   if (unknowns <= kDirectMaxUnknowns) {
     std::snprintf(buf, sizeof buf, "about %.0f unknowns <= %.0f: a direct factor is as fast and needs no Krylov tolerance",
                   unknowns, kDirectMaxUnknowns);
     return {LinearSolverKind::cholmod, buf};
   }
   std::snprintf(buf, sizeof buf,
-                "about %.0f unknowns > %.0f: CG on the bond factor with the tangent's action is faster and "
-                "smaller than a factor of the tangent or an assembled tangent",
+                "about %.0f unknowns > %.0f: CG with the tangent's action, preconditioned by a MueLu V-cycle "
+                "of the bond matrix, is faster and smaller than a factor of the tangent or an assembled tangent",
                 unknowns, kDirectMaxUnknowns);
   return {LinearSolverKind::matrix_free, buf};
 }
@@ -64,10 +59,11 @@ std::string resolve_linear_solver(Scene& scene, int ranks) {
   scene.solver.linear.type = choice.kind;
   BondPreconditionerOptions& bond = scene.solver.bond_preconditioner;
   if (choice.kind == LinearSolverKind::matrix_free && !bond.radius_given) {
-    // The bond factor dominates time and memory on large plates; a shorter radius makes it
-    // sparser for a few more iterations (docs/performance.md, "Matrix-free": 700 x 700 at
-    // 2.25 / 2.0 / 1.42: 112 / 91 / 93 s, 7.1 / 5.6 / 4.4 GB; 300 x 300: 11.9 / 9.7 / 10.8 s;
-    // the contact cases at paper resolution are fastest at 2.25).
+    // The bond matrix's preconditioner dominates memory on large plates; a shorter radius
+    // makes it sparser for a few more iterations (docs/performance.md, "Matrix-free": with the
+    // bond factor, 700 x 700 at 2.25 / 2.0 / 1.42: 112 / 91 / 93 s, 7.1 / 5.6 / 4.4 GB; with
+    // its MueLu V-cycle, 300 x 300 at 1.42 / 2.0 / 2.25 / 3.0: 3.8 / 3.6 / 4.2 / 5.3 s, and
+    // 1000 x 1000 needs 1.42 to stay under 8 GB; the contact cases differ by 10% at most).
     const double radius = unknowns > kShortBondsAbove ? 1.42 : unknowns > kMediumBondsAbove ? 2.0 : bond.bond_radius;
     if (radius != bond.bond_radius) {
       char buf[120];

@@ -45,6 +45,9 @@ std::string resolve_linear_solver(Scene& scene, int ranks);
 /// What the problem models, from the scene.
 ProblemOptions problem_options(const Scene& scene);
 
+/// Each unknown's particle and direction, and the particles' positions (LinearSolver's hint).
+UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
+
 /// The step solver the scene asks for (Newton or ADR); `linear` receives Newton's linear
 /// solver (it must outlive the step solver) and stays empty for ADR.
 std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProblem& problem,

@@ -155,7 +155,8 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   rec.counts = {{"substeps", s.substeps},
                 {"cutbacks", s.cutbacks},
                 {"factorizations", s.factorizations},
-                {"linear_iterations", s.linear_iterations}};
+                {"linear_iterations", s.linear_iterations},
+                {"predictor_solves", s.predictor_solves}};
   // The force each boundary condition applies (docs/guide/results.md).
   for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) {
     const Vec2 f = m_problem.reaction(k);

@@ -24,7 +24,7 @@ std::string_view to_string(LinearSolverKind kind) {
 }
 
 std::string_view to_string(PreconditionerKind kind) {
-  return name_of(kind, std::array<std::string_view, 6>{"auto", "bond", "cholmod", "ic", "diagonal", "ilut"});
+  return name_of(kind, std::array<std::string_view, 7>{"auto", "bond", "cholmod", "ic", "diagonal", "ilut", "bond_amg"});
 }
 
 std::string_view to_string(BelosMethod kind) {

@@ -60,8 +60,9 @@ struct AdrOptions {
 enum class LinearSolverKind { cholmod, umfpack, klu, ldlt, cg, bicgstab, belos, matrix_free, automatic };
 
 /// solver.krylov.preconditioner. `automatic` is the key's value `auto`: bond with cg,
-/// ilut with bicgstab.
-enum class PreconditionerKind { automatic, bond, cholmod, ic, diagonal, ilut };
+/// bond_amg with matrix_free, ilut with bicgstab.
+/// bond_amg: a MueLu V-cycle of the bond matrix instead of its factor (cg, matrix_free).
+enum class PreconditionerKind { automatic, bond, cholmod, ic, diagonal, ilut, bond_amg };
 
 /// solver.belos.method: Belos's Krylov method. `automatic` (the key's value `auto`): CG while
 /// the tangent is symmetric, GMRES while contact pairs slip.

@@ -426,7 +426,8 @@ void read_krylov(const Field& field, SolverOptions& o) {
   if (auto f = m.find("preconditioner"))
     o.linear.preconditioner =
         read_kind(*f, {PreconditionerKind::automatic, PreconditionerKind::bond, PreconditionerKind::cholmod,
-                       PreconditionerKind::ic, PreconditionerKind::diagonal, PreconditionerKind::ilut});
+                       PreconditionerKind::ic, PreconditionerKind::diagonal, PreconditionerKind::ilut,
+                       PreconditionerKind::bond_amg});
 }
 
 /// Default solver.newton.atol per E t dx of the stiffest material: 7e-10 N for the aluminium
