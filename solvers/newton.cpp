@@ -76,6 +76,7 @@ void NewtonSolver::factorize(SolveReport& report) {
   }
   lin.factorize(m_K);
   m_factored = &lin;
+  m_factor_state = m_problem.state_signature();  // of the evaluation m_K comes from
   m_have_factor = lin.info() == Eigen::Success;
   report.seconds_factorize += wall_seconds() - t0;
 }
@@ -168,6 +169,16 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
   m_problem.evaluate(x, m_r, assemble0 ? &m_K : nullptr);
   if (assemble0) m_K_symmetric = m_problem.tangent_symmetric();
   report.seconds_evaluate += wall_seconds() - t0;
+  if (use_existing && !reuse_factor() && m_problem.state_signature() != m_factor_state) {
+    // The first iterate's contact active set is not the one the factor was built with (the
+    // predictor closed or opened pairs): that factor would step as if they had not, so the
+    // tangent is evaluated here instead (case 4.3, step 1: 8 -> 5 Newton iterations).
+    t0 = wall_seconds();
+    m_problem.evaluate(x, m_r, &m_K);
+    m_K_symmetric = m_problem.tangent_symmetric();
+    report.seconds_evaluate += wall_seconds() - t0;
+    use_existing = false;
+  }
   double norm = m_r.norm();
   report.residuals.push_back(relative(norm));
   if (monitor) monitor(0, report.residuals.back(), 0.0);

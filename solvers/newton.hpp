@@ -71,6 +71,7 @@ class NewtonSolver final : public StepSolver {
   bool m_analyzed = false;
   bool m_have_factor = false;
   std::uint64_t m_structure = 0;  ///< the problem's structure_version() of m_K
+  std::uint64_t m_factor_state = 0;  ///< the problem's state_signature() when the factor was built
   SolveReport m_pending;  ///< work of prepare(), added to the next report
   VectorXd m_r, m_dx, m_trial, m_trial_r;
 };

@@ -39,7 +39,7 @@ LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks
     return {LinearSolverKind::matrix_free,
             "friction: slipping pairs make the tangent unsymmetric, where GMRES beats UMFPACK (case 4.3 at "
             "5,000 unknowns: 1.0 s against 2.7 s), the tangent's action beats assembling it (case 4.1: 7.3 s "
-            "against 10.8 s) and a MueLu V-cycle of the bond matrix beats its factor (4.3 s)"};
+            "against 10.8 s) and a MueLu V-cycle of the bond matrix beats its factor (4.3 s against 6.4 s)"};
   if (unknowns <= kDirectMaxUnknowns) {
     std::snprintf(buf, sizeof buf, "about %.0f unknowns <= %.0f: a direct factor is as fast and needs no Krylov tolerance",
                   unknowns, kDirectMaxUnknowns);
