@@ -72,6 +72,13 @@ class Problem {
   /// Fills the values of P (from make_preconditioner()) at the state of the last evaluate().
   virtual void assemble_preconditioner(SparseMatrix& /*P*/) {}
 
+  /// While on, evaluate() with a tangent gives each pair that touches without a force (at the
+  /// edge of its contact gate) the stiffness of a closed, stuck pair: the Euler predictor's
+  /// tangent, so that a load increment which pushes bodies together is predicted with them
+  /// in contact (docs/theory/newton.md, "Predictor"). Residuals are unchanged. Returns false,
+  /// and does nothing, when the problem has no such pairs.
+  virtual bool set_touching_closed(bool /*on*/) { return false; }
+
   /// A hash of the discrete state of the last evaluate() (e.g. an active set); 0 for a
   /// smooth problem. Newton counts the iterations that change it and detects cycling.
   virtual std::uint64_t state_signature() const { return 0; }

@@ -77,6 +77,10 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// False while a pair slips with friction (the Jacobian of eq 14 is not symmetric).
   bool tangent_symmetric() const override { return !m_contact || m_contact->symmetric(); }
   bool tangent_constant() const override { return m_small_kinematics && !m_contact && !m_failure; }
+  bool set_touching_closed(bool on) override {
+    if (m_contact) m_contact->set_touching_closed(on);
+    return m_contact != nullptr;
+  }
   /// The contact and friction active set.
   std::uint64_t state_signature() const override { return m_contact ? m_contact->signature() : 0; }
   /// The `bond` preconditioner (assembly/bond_preconditioner.hpp), built on first request.

@@ -119,10 +119,30 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
   m_trial_r -= m_r;
   m_trial_r *= 0.5 / kPredictorStep;  // dr/dlambda (to - from)
   m_problem.set_load_factor(from);
-  m_problem.evaluate(x, m_r, nullptr);
+  // The tangent with touching contact pairs closed and stuck: an increment that pushes bodies
+  // together is predicted with them in contact, not through each other (case 4.1, step 1:
+  // 11 -> N Newton iterations). It replaces the factor when it differs from it.
+  const bool closes = !reuse_factor() && m_problem.set_touching_closed(true);
+  {
+    struct Reopen {
+      Problem& problem;
+      bool on;
+      ~Reopen() {
+        if (on) problem.set_touching_closed(false);
+      }
+    } reopen{m_problem, closes};
+    m_problem.evaluate(x, m_r, closes ? &m_K : nullptr);
+  }
+  if (closes) m_K_symmetric = m_problem.tangent_symmetric();
   m_r += m_trial_r;  // the linearised residual at `to`
   m_problem.set_load_factor(to);
   report.seconds_evaluate += wall_seconds() - t0;
+  if (closes && m_problem.state_signature() != m_factor_state) {
+    const long f0 = factorizations();
+    factorize(report);
+    report.factorizations += static_cast<int>(factorizations() - f0);
+    if (!m_have_factor) return report;
+  }
 
   t0 = wall_seconds();
   LinearSolver& lin = *m_factored;

@@ -36,6 +36,36 @@ constexpr double kSearchSlide = 0.5;
 /// the paper law divides by X.n.
 constexpr double kMinGap = 0.2;
 
+/// ContactSystem::set_touching_closed(): an open pair that touches gets the stiffness of a
+/// closed, stuck pair at full gate; its force stays zero.
+static void close_if_touching(const ContactPair& pair, const Vec2& X, const Vec2& du, double boost, const ContactLaw& law,
+                       PairResult& out) {
+  const Vec2 Y = X + du;
+  const Vec2& n = pair.normal;
+  const Vec2 t = pair.tangent();
+  const double a = pair.gap0, C = pair.stiffness;
+  const double yn = n.dot(Y), s = 1.0 - yn / a;
+  Mat2 J;
+  if (law.exact) {
+    if (a > law.window * (1.0 + kLatticeRoundOff) || std::abs(t.dot(Y)) >= law.window || s < -kLatticeRoundOff) return;
+    J = (boost * C / a) * n * n.transpose();
+  } else if (law.normal == NormalLaw::paper) {
+    if (yn <= 0.0 || Y.norm() > law.radius * (1.0 + kLatticeRoundOff) || s < -kLatticeRoundOff) return;
+    J = (C / a) * n * n.transpose();
+  } else {
+    const double r = Y.norm();
+    if (r > law.radius * (1.0 + kLatticeRoundOff) || r <= std::numeric_limits<double>::min()) return;
+    const Vec2 e = Y / r;
+    J = (C / law.radius) * e * e.transpose();
+  }
+  out.status = PairStatus::slip;  // closed; frictionless pairs slide freely
+  if (law.friction > 0.0) {
+    out.status = PairStatus::stick;
+    J += (law.tangential_factor * C / a) * t * t.transpose();
+  }
+  out.J = J;
+}
+
 PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, const PairHistory& history,
                         const ContactLaw& law, bool want_jacobian) {
   PairResult out;
@@ -430,6 +460,8 @@ void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
                               m_law.velocity_sign ? m_tangential_velocity[k] : 0.0,
                               m_law.exact ? m_boost[k] : 1.0};
     m_result[k] = contact_pair(c, p.position[c.j] - p.position[c.i], du, history, m_law, want_jacobian);
+    if (m_touching_closed && want_jacobian && m_result[k].status == PairStatus::open)
+      close_if_touching(c, p.position[c.j] - p.position[c.i], du, history.boost, m_law, m_result[k]);
   }
   ContactCounts counts;
   counts.candidates = np;

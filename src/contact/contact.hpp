@@ -121,6 +121,12 @@ class ContactSystem {
 
   /// Evaluates every pair at the full displacement u (2N, interleaved).
   void evaluate(const VectorXd& u, bool want_jacobian);
+  /// While on, evaluate() with a Jacobian closes each open pair that touches (the edge of
+  /// its gate: distance within delta_c, not separated along the normal; under exact
+  /// enforcement, facing within the window): status stick (slip without friction), force
+  /// zero, and the Jacobian of a closed pair at full gate, (C/a) n n^T (+ k_t t t^T with
+  /// friction). The Euler predictor's tangent (Problem::set_touching_closed).
+  void set_touching_closed(bool on) { m_touching_closed = on; }
   /// Adds the contact part of dPi/du (2N) of the last evaluation.
   void add_internal_force(VectorXd& force) const;
   /// The contact force acting on each particle (2N) [N] of the last evaluation.
@@ -273,6 +279,7 @@ class ContactSystem {
   ContactCounts m_counts;
   std::uint64_t m_signature = 0;
   bool m_symmetric = true;
+  bool m_touching_closed = false;  ///< set_touching_closed()
   double m_min_distance = 0.0;
   double m_max_closure = 0.0;
   std::vector<Surface> m_surfaces;
