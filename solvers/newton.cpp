@@ -139,6 +139,7 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
   report.seconds_evaluate += wall_seconds() - t0;
   if (closes && m_problem.state_signature() != m_factor_state) {
     const long f0 = factorizations();
+    select_solver().renew_preconditioner();  // the kept one was built without these pairs
     factorize(report);
     report.factorizations += static_cast<int>(factorizations() - f0);
     if (!m_have_factor) return report;

@@ -72,6 +72,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   /// CG on symmetric matrices, GMRES with the same factor otherwise.
   bool needs_symmetric() const override { return false; }
   void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
+  void renew_preconditioner() override { m_reuse.renew(); }
   int iterations() const override { return m_iterations; }
   double error() const override { return m_error; }
   long factorizations() const override { return m_factor->factorizations(); }

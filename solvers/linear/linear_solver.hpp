@@ -63,6 +63,10 @@ class LinearSolver {
   /// Tells the solver whether the next matrices are symmetric. Solvers that handle both
   /// (factor-preconditioned Krylov: CG or GMRES) pick their method by it.
   virtual void set_symmetric(bool /*symmetric*/) {}
+  /// For solvers that keep a preconditioner across factorize() calls while it serves
+  /// (solvers/linear/preconditioner_reuse.hpp): the next factorize() builds a new one. Newton
+  /// calls it when the tangent has changed in kind (contact pairs closed by the predictor).
+  virtual void renew_preconditioner() {}
 
   /// y = A v, for solvers that never see A's entries.
   using Operator = std::function<void(const VectorXd& v, VectorXd& y)>;

@@ -446,6 +446,7 @@ class BelosSolver final : public LinearSolver {
   }
   void set_preconditioner_matrix(const SparseMatrix& P) override { m_P = &P; }
   void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
+  void renew_preconditioner() override { m_reuse.renew(); }
   bool needs_unknown_layout() const override { return true; }
   void set_unknown_layout(const UnknownLayout& layout) override { m_layout = layout; }
 
