@@ -121,7 +121,7 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
   m_problem.set_load_factor(from);
   // The tangent with touching contact pairs closed and stuck: an increment that pushes bodies
   // together is predicted with them in contact, not through each other (case 4.1, step 1:
-  // 11 -> N Newton iterations). It replaces the factor when it differs from it.
+  // 11 -> 5 Newton iterations). It replaces the factor when it differs from it.
   const bool closes = !reuse_factor() && m_problem.set_touching_closed(true);
   {
     struct Reopen {
