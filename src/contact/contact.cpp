@@ -36,34 +36,44 @@ constexpr double kSearchSlide = 0.5;
 /// the paper law divides by X.n.
 constexpr double kMinGap = 0.2;
 
+/// The stiffness of a closed pair at full gate along its interface normal, (normal_scale C/a)
+/// n n^T, plus k_t t t^T when it sticks: the preconditioner's block of a pair in contact and
+/// the predictor's Jacobian of a touching one (normal_scale: the augmentation boost, 1 under
+/// penalty, 0 when the law's normal term lies elsewhere).
+static Mat2 closed_pair_block(const ContactPair& pair, double normal_scale, double tangential_factor,
+                              bool stick) {
+  const double kn = pair.stiffness / pair.gap0;
+  Mat2 S = (normal_scale * kn) * pair.normal * pair.normal.transpose();
+  if (stick) {
+    const Vec2 t = pair.tangent();
+    S += (tangential_factor * kn) * t * t.transpose();
+  }
+  return S;
+}
+
 /// ContactSystem::set_touching_closed(): an open pair that touches gets the stiffness of a
-/// closed, stuck pair at full gate; its force stays zero.
-static void close_if_touching(const ContactPair& pair, const Vec2& X, const Vec2& du, double boost, const ContactLaw& law,
-                       PairResult& out) {
+/// closed pair at full gate, stuck when the law has friction; its force stays zero.
+static void close_if_touching(const ContactPair& pair, const Vec2& X, const Vec2& du, double boost,
+                              const ContactLaw& law, PairResult& out) {
   const Vec2 Y = X + du;
-  const Vec2& n = pair.normal;
-  const Vec2 t = pair.tangent();
-  const double a = pair.gap0, C = pair.stiffness;
-  const double yn = n.dot(Y), s = 1.0 - yn / a;
-  Mat2 J;
+  const double yn = pair.normal.dot(Y), s = 1.0 - yn / pair.gap0;
+  const bool stick = law.friction > 0.0;
   if (law.exact) {
-    if (a > law.window * (1.0 + kLatticeRoundOff) || std::abs(t.dot(Y)) >= law.window || s < -kLatticeRoundOff) return;
-    J = (boost * C / a) * n * n.transpose();
+    if (pair.gap0 > law.window * (1.0 + kLatticeRoundOff) || std::abs(pair.tangent().dot(Y)) >= law.window ||
+        s < -kLatticeRoundOff)
+      return;
+    out.J = closed_pair_block(pair, boost, law.tangential_factor, stick);
   } else if (law.normal == NormalLaw::paper) {
     if (yn <= 0.0 || Y.norm() > law.radius * (1.0 + kLatticeRoundOff) || s < -kLatticeRoundOff) return;
-    J = (C / a) * n * n.transpose();
-  } else {
+    out.J = closed_pair_block(pair, 1.0, law.tangential_factor, stick);
+  } else {  // pair law: the normal term acts along the current pair direction
     const double r = Y.norm();
     if (r > law.radius * (1.0 + kLatticeRoundOff) || r <= std::numeric_limits<double>::min()) return;
     const Vec2 e = Y / r;
-    J = (C / law.radius) * e * e.transpose();
+    out.J = (pair.stiffness / law.radius) * e * e.transpose() +
+            closed_pair_block(pair, 0.0, law.tangential_factor, stick);
   }
-  out.status = PairStatus::slip;  // closed; frictionless pairs slide freely
-  if (law.friction > 0.0) {
-    out.status = PairStatus::stick;
-    J += (law.tangential_factor * C / a) * t * t.transpose();
-  }
-  out.J = J;
+  out.status = stick ? PairStatus::stick : PairStatus::slip;  // frictionless closed pairs slide freely
 }
 
 PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, const PairHistory& history,
@@ -520,12 +530,8 @@ void ContactSystem::particle_states(std::vector<int>& out) const {
 Mat2 ContactSystem::preconditioner_block(Index k) const {
   const PairResult& r = m_result[k];
   if (r.status == PairStatus::open) return Mat2::Zero();
-  const ContactPair& c = m_pairs[k];
-  const Vec2 t = c.tangent();
-  const double kn = c.stiffness / c.gap0;
-  Mat2 S = (m_law.exact ? m_boost[k] : 1.0) * kn * c.normal * c.normal.transpose();
-  if (r.status == PairStatus::stick) S += m_law.tangential_factor * kn * t * t.transpose();
-  return S;
+  return closed_pair_block(m_pairs[k], m_law.exact ? m_boost[k] : 1.0, m_law.tangential_factor,
+                           r.status == PairStatus::stick);
 }
 
 double ContactSystem::stiffness_bound(Index k) const {

@@ -444,7 +444,6 @@ TEST(PrecrackedPlate, ContactKeepsTheFacesApart) {
   EXPECT_GT(go.max_closure, 3.0 * gw.max_closure);
 }
 
-
 // The Euler predictor's tangent (Problem::set_touching_closed, docs/theory/newton.md,
 // "Predictor"): in the reference state of two touching blocks each vertical neighbour pair
 // across the interface sits at the edge of its gate (|Y| = delta_c = dx), open, without force
