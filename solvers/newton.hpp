@@ -52,6 +52,8 @@ class NewtonSolver final : public StepSolver {
   bool reuse_factor() const;
   long factorizations() const;
   void factorize(SolveReport& report);
+  /// m_dx = K^-1 (-m_r) with `lin`, timed from t0 (a deferred set-up inside it counts as set-up).
+  void solve_linear(LinearSolver& lin, SolveReport& report, double t0);
 
   /// The linear solver for the current tangent: m_linear, or UMFPACK (m_unsymmetric, made on
   /// first need) while the tangent is unsymmetric and m_linear needs a symmetric matrix.

@@ -30,7 +30,9 @@ class LinearSolver {
 
   /// Symbolic analysis of A's pattern; done once while the pattern does not change.
   virtual void analyzePattern(const SparseMatrix& A) = 0;
-  /// Numeric factorisation (direct) or preconditioner set-up (iterative) of A.
+  /// Numeric factorisation (direct) or preconditioner set-up (iterative) of A. A solver may
+  /// defer the set-up to the next solve(): a set-up that a renewal would replace before any
+  /// solve is then never built (setup_seconds() counts it where it happens).
   virtual void factorize(const SparseMatrix& A) = 0;
   /// Solves A x = b with the last factorised A. For iterative solvers x holds the start
   /// value on entry.
@@ -53,6 +55,9 @@ class LinearSolver {
   virtual void set_relative_tolerance(double /*rtol*/) {}
   /// Numeric factorisations performed so far (of A, or of the preconditioner's matrix).
   virtual long factorizations() const = 0;
+  /// Seconds spent so far building preconditioners inside solve() (deferred set-ups), so that
+  /// callers can count them as set-up, not as solving.
+  virtual double setup_seconds() const { return 0.0; }
 
   /// True when the solver is preconditioned by the factor of a second matrix P that the
   /// caller passes with set_preconditioner_matrix() before each factorize() (PETSc's Pmat).

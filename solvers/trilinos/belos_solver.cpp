@@ -25,6 +25,7 @@
 #include "core/error.hpp"
 #include "solvers/linear/preconditioner_reuse.hpp"
 #include "solvers/trilinos/parallel.hpp"
+#include "solvers/trilinos/threaded_cycle.hpp"
 
 namespace peristat {
 
@@ -291,7 +292,7 @@ class BlockFactor final : public op_t {
 /// smoothing, the same before and after, and a relaxed coarsest level), so CG may use it.
 class MueLuCycle final : public LinearSolver {
  public:
-  MueLuCycle() {
+  explicit MueLuCycle(bool threaded) : m_threaded(threaded) {
     parallel::ensure_started();
     // This process's own communicator: under mpirun every rank runs the same Krylov iteration
     // on its whole copy of the model (matrix_free is not distributed). Teuchos's SerialComm
@@ -336,9 +337,14 @@ class MueLuCycle final : public LinearSolver {
         p.set("number of equations", 2);
         p.sublist("user data").set("Nullspace", m_copy.rigid_body_modes(m_layout));
       }
+      m_cycle.reset();
       m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_copy.matrix), p);
+      // The cycle on this program's threads (MueLu's apply runs on one core: Debian's Kokkos
+      // is Serial only); a hierarchy it cannot repeat is applied by MueLu, and said so in name().
+      if (m_threaded) m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not);
     } catch (const std::exception&) {  // a Trilinos failure (e.g. a zero pivot): the seam's terms
       m_muelu = Teuchos::null;
+      m_cycle.reset();
       m_info = Eigen::NumericalIssue;
     }
   }
@@ -354,7 +360,10 @@ class MueLuCycle final : public LinearSolver {
       const Teuchos::ArrayRCP<double> in = m_in->getDataNonConst(0);
       for (LO r = 0; r < local; ++r) in[r] = d.unknown_of_local[r] >= 0 ? b[d.unknown_of_local[r]] : 0.0;
     }
-    m_muelu->apply(*m_in, *m_out);
+    if (m_cycle)
+      m_cycle->apply(m_in->getData(0).getRawPtr(), m_out->getDataNonConst(0).getRawPtr());
+    else
+      m_muelu->apply(*m_in, *m_out);
     x.resize(b.size());
     const Teuchos::ArrayRCP<const double> out = m_out->getData(0);
     for (LO r = 0; r < local; ++r)
@@ -362,7 +371,9 @@ class MueLuCycle final : public LinearSolver {
   }
 
   Eigen::ComputationInfo info() const override { return m_info; }
-  std::string name() const override { return "muelu"; }
+  /// "muelu", or "muelu-serial" when MueLu applies the cycle on one core (not threaded, or a
+  /// hierarchy the threaded cycle does not repeat).
+  std::string name() const override { return m_muelu.is_null() || m_cycle ? "muelu" : "muelu-serial"; }
   bool needs_symmetric() const override { return true; }
   long factorizations() const override { return m_builds; }
   bool needs_unknown_layout() const override { return true; }
@@ -374,6 +385,9 @@ class MueLuCycle final : public LinearSolver {
   TpetraCopy m_copy;
   RCP<mv_t> m_in, m_out;
   RCP<MueLu::TpetraOperator<double, LO, GO, NT>> m_muelu;
+  bool m_threaded;
+  std::unique_ptr<ThreadedCycle> m_cycle;  ///< m_muelu's cycle on this program's threads, or null
+  std::string m_why_not;                   ///< why the last hierarchy has no threaded cycle
   long m_builds = 0;
   Eigen::ComputationInfo m_info = Eigen::Success;
 };
@@ -609,6 +623,6 @@ std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options) {
   return std::make_unique<BelosSolver>(options);
 }
 
-std::unique_ptr<LinearSolver> make_muelu_cycle() { return std::make_unique<MueLuCycle>(); }
+std::unique_ptr<LinearSolver> make_muelu_cycle(bool threaded) { return std::make_unique<MueLuCycle>(threaded); }
 
 }  // namespace peristat

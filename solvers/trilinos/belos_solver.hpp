@@ -17,6 +17,8 @@ std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options);
 
 /// One MueLu V-cycle of the matrix it factorises (smoothed aggregation, in this process), as
 /// the preconditioner of factor-preconditioned Krylov (solver.krylov.preconditioner: bond_amg).
-std::unique_ptr<LinearSolver> make_muelu_cycle();
+/// `threaded`: the cycle is applied by this program's OpenMP threads on MueLu's hierarchy
+/// (solvers/trilinos/threaded_cycle.hpp); false: by MueLu, on one core (for comparison).
+std::unique_ptr<LinearSolver> make_muelu_cycle(bool threaded = true);
 
 }  // namespace peristat

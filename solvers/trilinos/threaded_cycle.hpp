@@ -1,0 +1,76 @@
+// The V-cycle of a MueLu hierarchy applied by this program's OpenMP threads instead of by
+// MueLu (docs/theory/newton.md, "Bond preconditioner"). Debian's Trilinos has Kokkos' Serial
+// back end only, so MueLu's own apply runs on one core while the tangent's action around it
+// uses all of them: on case 4.1 the V-cycle was 44% of the wall time with 2 threads. MueLu
+// still builds the hierarchy (aggregates, prolongators, Galerkin products, the smoothers'
+// eigenvalue estimates); this class reads it and repeats MueLu's cycle (Hierarchy::Iterate)
+// with Ifpack2's Chebyshev and Jacobi arithmetic (Ifpack2::Details::Chebyshev::
+// ifpackApplyImpl, Ifpack2::Relaxation) on the same matrices, held, not copied. A hierarchy it
+// does not recognise is reported, and MueLu applies the cycle itself. Compiled as C++17 with
+// the rest of the Trilinos adapter.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <MueLu_Hierarchy.hpp>
+#include <Tpetra_CrsMatrix.hpp>
+
+namespace peristat {
+
+class ThreadedCycle {
+ public:
+  using crs_t = Tpetra::CrsMatrix<double>;
+  using LO = crs_t::local_ordinal_type;
+  using GO = crs_t::global_ordinal_type;
+  using NT = crs_t::node_type;
+  using hierarchy_t = MueLu::Hierarchy<double, LO, GO, NT>;
+
+  /// The cycle of `h` (one process, no rebalancing), or null with the reason in `why_not`.
+  static std::unique_ptr<ThreadedCycle> from(hierarchy_t& h, std::string& why_not);
+
+  /// x = M b: one V-cycle from a zero initial guess, as MueLu's apply of the hierarchy as a
+  /// preconditioner. b and x hold the finest level's rows.
+  void apply(const double* b, double* x);
+
+  /// Rows of the finest level.
+  LO rows() const;
+
+ private:
+  using local_t = crs_t::local_matrix_host_type;
+
+  /// A smoother's arithmetic: Chebyshev (Ifpack2's "ifpack" variant) or damped Jacobi.
+  struct Smoother {
+    enum class Kind { none, chebyshev, jacobi } kind = Kind::none;
+    int degree = 1;          ///< Chebyshev degree, or Jacobi sweeps
+    double lambda_max = 0;   ///< Chebyshev: Ifpack2's estimate of the largest eigenvalue of D^-1 A
+    double ratio = 0;        ///< Chebyshev: lambda_max / lambda_min
+    double boost = 1.1;      ///< Chebyshev: the boost of lambda_max
+    double damping = 1.0;    ///< Jacobi
+    /// Chebyshev: diagonal entries below it count as it (Ifpack2's default: machine epsilon)
+    double min_diagonal = 0.0;
+  };
+
+  struct Level {
+    local_t A;                   ///< this level's matrix
+    local_t P;                   ///< prolongation from the next level (not on the coarsest)
+    std::vector<double> d_inv;   ///< 1 / diag(A)
+    Smoother pre, post;
+    std::vector<double> b, x, r, w;  ///< right-hand side, iterate, residual, smoother's W
+    std::vector<double> chunks;      ///< restriction: kChunks partial sums of the next level's rows
+  };
+
+  /// Restriction P^T r sums over fixed row ranges, one buffer each, then adds the buffers in
+  /// order: the same bits on any number of threads.
+  static constexpr int kChunks = 4;
+
+  static bool read_smoother(const Teuchos::RCP<MueLu::SmootherBase<double, LO, GO, NT>>& s, Smoother& out,
+                            std::string& why_not);
+  void cycle(std::size_t l, const double* b, double* x);
+  void smooth(Level& level, const Smoother& s, const double* b, double* x, bool zero_guess);
+
+  std::vector<Level> m_levels;
+};
+
+}  // namespace peristat
