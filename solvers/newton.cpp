@@ -64,7 +64,13 @@ LinearSolver& NewtonSolver::select_solver() {
 void NewtonSolver::factorize(SolveReport& report) {
   const double t0 = wall_seconds();
   LinearSolver& lin = select_solver();
-  if (lin.uses_preconditioner_matrix()) {
+  if (lin.takes_preconditioner_source()) {
+    // P when the solver sets up (at the state of the last evaluate, like K), not kept here
+    lin.set_preconditioner_source([this](SparseMatrix& P) {
+      P = m_problem.make_preconditioner();
+      m_problem.assemble_preconditioner(P);
+    });
+  } else if (lin.uses_preconditioner_matrix()) {
     if (m_P.rows() == 0) m_P = m_problem.make_preconditioner();
     m_problem.assemble_preconditioner(m_P);  // at the state of the last evaluate, like K
     lin.set_preconditioner_matrix(m_P);

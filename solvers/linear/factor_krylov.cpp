@@ -83,16 +83,30 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   double setup_seconds() const override { return m_setup_seconds; }
   bool uses_preconditioner_matrix() const override { return m_source == FactorSource::preconditioner_matrix; }
   void set_preconditioner_matrix(const SparseMatrix& P) override { m_P = &P; }
+  bool takes_preconditioner_source() const override { return m_source == FactorSource::preconditioner_matrix; }
+  void set_preconditioner_source(MatrixSource source) override { m_P_source = std::move(source); }
 
  private:
   void refresh_factor() {
     const double t0 = wall_seconds();
-    const SparseMatrix& M = m_source == FactorSource::preconditioner_matrix ? *m_P : *m_A;
-    if (!m_analyzed) {
-      m_factor->analyzePattern(M);
-      m_analyzed = true;
+    if (m_source == FactorSource::preconditioner_matrix && m_P_source) {
+      m_factor->release_factor();  // the old set-up goes before P comes
+      m_have_factor = false;
+      SparseMatrix P;  // assembled now, dropped when the factor has what it needs
+      m_P_source(P);
+      if (!m_analyzed) {
+        m_factor->analyzePattern(P);
+        m_analyzed = true;
+      }
+      m_factor->factorize_and_release(P);
+    } else {
+      const SparseMatrix& M = m_source == FactorSource::preconditioner_matrix ? *m_P : *m_A;
+      if (!m_analyzed) {
+        m_factor->analyzePattern(M);
+        m_analyzed = true;
+      }
+      m_factor->factorize(M);
     }
-    m_factor->factorize(M);
     m_info = m_factor->info();
     m_have_factor = m_info == Eigen::Success;
     m_reuse.built();
@@ -220,6 +234,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   int m_max_iterations;
   const SparseMatrix* m_A = nullptr;
   const SparseMatrix* m_P = nullptr;
+  MatrixSource m_P_source;  ///< P on demand (takes_preconditioner_source), else m_P
   bool m_analyzed = false, m_have_factor = false, m_symmetric = true;
   PreconditionerReuse m_reuse;
   int m_iterations = 0;

@@ -64,6 +64,20 @@ class LinearSolver {
   virtual bool uses_preconditioner_matrix() const { return false; }
   /// P must stay alive and keep its pattern until the next call.
   virtual void set_preconditioner_matrix(const SparseMatrix& /*P*/) {}
+  /// Fills P (pattern and values) at the state of the problem's last evaluation.
+  using MatrixSource = std::function<void(SparseMatrix& P)>;
+  /// True for solvers that read P only when they set up their kept preconditioner: they take
+  /// set_preconditioner_source() instead of set_preconditioner_matrix(), ask for P when they
+  /// set up and drop it afterwards, so nobody holds P between set-ups (at a million
+  /// particles 1.4 GB, and its assembly at every Newton iteration).
+  virtual bool takes_preconditioner_source() const { return false; }
+  virtual void set_preconditioner_source(MatrixSource /*source*/) {}
+  /// factorize(A), after which the solver does not read A again: it may empty A (free its
+  /// memory) as soon as it has what it needs from it.
+  virtual void factorize_and_release(SparseMatrix& A) { factorize(A); }
+  /// Drops the factor or preconditioner that the next factorize() replaces, before the
+  /// caller assembles that factorize()'s matrix: the two are then never held together.
+  virtual void release_factor() {}
 
   /// Tells the solver whether the next matrices are symmetric. Solvers that handle both
   /// (factor-preconditioned Krylov: CG or GMRES) pick their method by it.

@@ -292,6 +292,8 @@ class BlockFactor final : public op_t {
 /// smoothing, the same before and after, and a relaxed coarsest level), so CG may use it.
 class MueLuCycle final : public LinearSolver {
  public:
+  static constexpr long long kTripleProductRows = 1'000'000;
+
   explicit MueLuCycle(bool threaded) : m_threaded(threaded) {
     parallel::ensure_started();
     // This process's own communicator: under mpirun every rank runs the same Krylov iteration
@@ -312,41 +314,22 @@ class MueLuCycle final : public LinearSolver {
     m_info = Eigen::Success;
     if (m_copy.matrix.is_null()) analyzePattern(P);
     m_copy.fill(P);
-    ++m_builds;
-    try {
-      // The old hierarchy goes before the new one is built: at a million particles the two
-      // together were the run's peak (9.1 against 8.1 GB). Rebuilding in place ("reuse: type"
-      // RP with ReuseTpetraPreconditioner) saved set-up time at 300 x 300 but held 0.3 GB more
-      // and threw at 1000 x 1000.
-      m_muelu = Teuchos::null;
-      Teuchos::ParameterList p;
-      p.set("verbosity", "none");
-      // As belos's muelu (its measurements): Chebyshev smoothing, a relaxed coarsest level.
-      p.set("smoother: type", "CHEBYSHEV");
-      p.set("coarse: type", "RELAXATION");
-      p.set("coarse: max size", 100);
-      // R = P^T applied, not stored: 20 MB of 862 MB at 300 x 300, the same iterations.
-      p.set("transpose: use implicit", true);
-      // Aggregates ignore couplings weaker than 0.02 of their rows' diagonals (the contact
-      // pairs' blocks mostly): at paper resolution 4.2 2.75 -> 1.55 s (Krylov 782 -> 432), 4.1
-      // 4.22 -> 3.86 s, 4.3 1.00 -> 0.83 s; the tension plate unchanged (300 x 300 and
-      // 1000 x 1000: the same time, memory and iterations). 0.01 and 0.03-0.05 gain less,
-      // 0.1 costs 4-8 times the iterations.
-      p.set("aggregation: drop tol", 0.02);
-      if (m_copy.d.per_node == 2) {
-        p.set("number of equations", 2);
-        p.sublist("user data").set("Nullspace", m_copy.rigid_body_modes(m_layout));
-      }
-      m_cycle.reset();
-      m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_copy.matrix), p);
-      // The cycle on this program's threads (MueLu's apply runs on one core: Debian's Kokkos
-      // is Serial only); a hierarchy it cannot repeat is applied by MueLu, and said so in name().
-      if (m_threaded) m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not);
-    } catch (const std::exception&) {  // a Trilinos failure (e.g. a zero pivot): the seam's terms
-      m_muelu = Teuchos::null;
-      m_cycle.reset();
-      m_info = Eigen::NumericalIssue;
-    }
+    set_up();
+  }
+
+  void release_factor() override {
+    m_cycle.reset();
+    m_muelu = Teuchos::null;
+  }
+
+  /// P is copied before the hierarchy is built, so it is freed first: the set-up is the
+  /// peak of a million-particle run.
+  void factorize_and_release(SparseMatrix& P) override {
+    m_info = Eigen::Success;
+    if (m_copy.matrix.is_null()) analyzePattern(P);
+    m_copy.fill(P);
+    P = SparseMatrix();
+    set_up();
   }
 
   void solve(const VectorXd& b, VectorXd& x) override {
@@ -380,6 +363,54 @@ class MueLuCycle final : public LinearSolver {
   void set_unknown_layout(const UnknownLayout& layout) override { m_layout = layout; }
 
  private:
+  /// MueLu's hierarchy of the filled copy, and its threaded cycle.
+  void set_up() {
+    ++m_builds;
+    try {
+      // The old hierarchy goes before the new one is built: at a million particles the two
+      // together were the run's peak (9.1 against 8.1 GB). Rebuilding in place ("reuse: type"
+      // RP with ReuseTpetraPreconditioner) saved set-up time at 300 x 300 but held 0.3 GB more
+      // and threw at 1000 x 1000.
+      m_muelu = Teuchos::null;
+      Teuchos::ParameterList p;
+      p.set("verbosity", "none");
+      // As belos's muelu (its measurements): Chebyshev smoothing, a relaxed coarsest level.
+      p.set("smoother: type", "CHEBYSHEV");
+      p.set("coarse: type", "RELAXATION");
+      p.set("coarse: max size", 100);
+      // R = P^T applied, not stored: 20 MB of 862 MB at 300 x 300, the same iterations.
+      p.set("transpose: use implicit", true);
+      // Aggregates ignore couplings weaker than 0.02 of their rows' diagonals (the contact
+      // pairs' blocks mostly): at paper resolution 4.2 2.75 -> 1.55 s (Krylov 782 -> 432), 4.1
+      // 4.22 -> 3.86 s, 4.3 1.00 -> 0.83 s; the tension plate unchanged (300 x 300 and
+      // 1000 x 1000: the same time, memory and iterations). 0.01 and 0.03-0.05 gain less,
+      // 0.1 costs 4-8 times the iterations.
+      p.set("aggregation: drop tol", 0.02);
+      // ... but the prolongator is smoothed with the whole matrix, not a filtered copy: one
+      // matrix fewer to build. Case 4.3 at paper resolution: Krylov 221 -> 241 with one set-up
+      // fewer (0.24 -> 0.14 s of set-up); tension 300 x 300, one step: set-up 2.0 -> 1.5 s; the
+      // LEFM case 169 -> 150 Krylov; 4.1, 4.2 and 4.4 within 2 iterations.
+      p.set("sa: use filtered matrix", false);
+      // Above a million rows the Galerkin product P^T A P is formed without the temporary A P
+      // (1.2 GB at a million particles, the run's peak): 700 x 700, peak 3.86 -> 3.68 GB for
+      // 8.5 -> 10.3 s of set-up. Below, set-up time counts more than memory.
+      p.set("rap: triple product", m_copy.d.n_rows > kTripleProductRows);
+      if (m_copy.d.per_node == 2) {
+        p.set("number of equations", 2);
+        p.sublist("user data").set("Nullspace", m_copy.rigid_body_modes(m_layout));
+      }
+      m_cycle.reset();
+      m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_copy.matrix), p);
+      // The cycle on this program's threads (MueLu's apply runs on one core: Debian's Kokkos
+      // is Serial only); a hierarchy it cannot repeat is applied by MueLu, and said so in name().
+      if (m_threaded) m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not);
+    } catch (const std::exception&) {  // a Trilinos failure (e.g. a zero pivot): the seam's terms
+      m_muelu = Teuchos::null;
+      m_cycle.reset();
+      m_info = Eigen::NumericalIssue;
+    }
+  }
+
   RCP<const Teuchos::Comm<int>> m_comm;
   UnknownLayout m_layout;
   TpetraCopy m_copy;

@@ -205,10 +205,11 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
       why_not = "level " + std::to_string(i) + " has a diagonal entry that is not positive";
       return nullptr;
     }
-    level.b.assign(static_cast<std::size_t>(n), 0.0);
-    level.x.assign(static_cast<std::size_t>(n), 0.0);
-    level.r.assign(static_cast<std::size_t>(n), 0.0);
-    level.w.assign(static_cast<std::size_t>(n), 0.0);
+    if (i > 0) {  // the finest level's are the caller's
+      level.b.assign(static_cast<std::size_t>(n), 0.0);
+      level.x.assign(static_cast<std::size_t>(n), 0.0);
+    }
+    level.work.assign(static_cast<std::size_t>(n), 0.0);
   }
   for (int i = 0; i + 1 < levels; ++i) {
     Level& level = c->m_levels[static_cast<std::size_t>(i)];
@@ -223,7 +224,7 @@ void ThreadedCycle::apply(const double* b, double* x) { cycle(0, b, x); }
 
 void ThreadedCycle::smooth(Level& level, const Smoother& s, const double* b, double* x, bool zero_guess) {
   const LO n = level.A.numRows();
-  double* w = level.w.data();
+  double* w = level.work.data();  // the smoother's W (the residual is not live while it smooths)
   const double* d_inv = level.d_inv.data();
   if (s.kind == Smoother::Kind::jacobi) {
     // Ifpack2::Relaxation, Jacobi: x = w D^-1 b from zero, then x += w D^-1 (b - A x).
@@ -278,7 +279,7 @@ void ThreadedCycle::cycle(std::size_t l, const double* b, double* x) {
     return;
   }
   if (zero_guess) std::fill(x, x + n, 0.0);
-  double* r = level.r.data();
+  double* r = level.work.data();  // the residual (the smoother's W is not live here)
   residual(level.A, b, x, r);
   // b_c = P^T r: kChunks fixed row ranges scatter into their own buffers, added in order.
   Level& coarse = m_levels[l + 1];

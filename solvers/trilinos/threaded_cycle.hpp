@@ -57,7 +57,10 @@ class ThreadedCycle {
     local_t P;                   ///< prolongation from the next level (not on the coarsest)
     std::vector<double> d_inv;   ///< 1 / diag(A)
     Smoother pre, post;
-    std::vector<double> b, x, r, w;  ///< right-hand side, iterate, residual, smoother's W
+    std::vector<double> b, x;  ///< right-hand side and iterate (the coarser levels'; the finest's are the caller's)
+    /// The smoother's W, and the residual between the smoothers: never live at once, one
+    /// buffer (16 MB less at a million particles, where the memory goal is tight)
+    std::vector<double> work;
     std::vector<double> chunks;      ///< restriction: kChunks partial sums of the next level's rows
   };
 
