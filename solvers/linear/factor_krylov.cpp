@@ -50,13 +50,16 @@ class FactorPreconditionedKrylov final : public LinearSolver {
     m_analyzed = false;  // a new pattern (of A, or of the preconditioner matrix)
   }
 
-  /// A due preconditioner is built at the next solve(), from the matrix of the last call: the
-  /// Euler predictor's renewal (contact pairs it closes) then replaces the set-up at the
-  /// unloaded state before that one was ever built (cases 4.1 and 4.3: one set-up fewer).
+  /// A due preconditioner takes its matrix now (P at this state, from the source, or A) but
+  /// may build at the next solve() (MueLu's hierarchy): the Euler predictor's renewal
+  /// (contact pairs it closes) then replaces the set-up at the unloaded state before that
+  /// one was ever built (cases 4.1 and 4.3: one set-up fewer).
   void factorize(const SparseMatrix& A) override {
     m_A = &A;
     m_info = Eigen::Success;
-    if (m_reuse.due()) m_have_factor = false;
+    if (!m_reuse.due()) return;
+    m_have_factor = false;
+    if (m_source == FactorSource::preconditioner_matrix && m_P_source) load_preconditioner_matrix();
   }
 
   void solve(const VectorXd& b, VectorXd& x) override {
@@ -90,15 +93,9 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   void refresh_factor() {
     const double t0 = wall_seconds();
     if (m_source == FactorSource::preconditioner_matrix && m_P_source) {
-      m_factor->release_factor();  // the old set-up goes before P comes
-      m_have_factor = false;
-      SparseMatrix P;  // assembled now, dropped when the factor has what it needs
-      m_P_source(P);
-      if (!m_analyzed) {
-        m_factor->analyzePattern(P);
-        m_analyzed = true;
-      }
-      m_factor->factorize_and_release(P);
+      if (!m_loaded) load_preconditioner_matrix();  // a set-up factorize() did not announce
+      m_factor->set_up_loaded();
+      m_loaded = false;
     } else {
       const SparseMatrix& M = m_source == FactorSource::preconditioner_matrix ? *m_P : *m_A;
       if (!m_analyzed) {
@@ -111,6 +108,21 @@ class FactorPreconditionedKrylov final : public LinearSolver {
     m_have_factor = m_info == Eigen::Success;
     m_reuse.built();
     m_setup_seconds += wall_seconds() - t0;
+  }
+
+  /// P at the state of the last evaluation (with the tangent, when factorize() calls it)
+  /// into the factor, which keeps what it needs; P is dropped here, the factor's old set-up
+  /// before P is assembled.
+  void load_preconditioner_matrix() {
+    m_factor->release_factor();
+    SparseMatrix P;
+    m_P_source(P);
+    if (!m_analyzed) {
+      m_factor->analyzePattern(P);
+      m_analyzed = true;
+    }
+    m_factor->load(P);
+    m_loaded = true;
   }
 
   void run(const VectorXd& b, VectorXd& x) {
@@ -235,6 +247,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   const SparseMatrix* m_A = nullptr;
   const SparseMatrix* m_P = nullptr;
   MatrixSource m_P_source;  ///< P on demand (takes_preconditioner_source), else m_P
+  bool m_loaded = false;    ///< the factor holds P's values for a set-up not built yet
   bool m_analyzed = false, m_have_factor = false, m_symmetric = true;
   PreconditionerReuse m_reuse;
   int m_iterations = 0;

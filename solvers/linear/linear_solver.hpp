@@ -72,9 +72,11 @@ class LinearSolver {
   /// particles 1.4 GB, and its assembly at every Newton iteration).
   virtual bool takes_preconditioner_source() const { return false; }
   virtual void set_preconditioner_source(MatrixSource /*source*/) {}
-  /// factorize(A), after which the solver does not read A again: it may empty A (free its
-  /// memory) as soon as it has what it needs from it.
-  virtual void factorize_and_release(SparseMatrix& A) { factorize(A); }
+  /// factorize(A) in two halves: load() takes what the solver needs from A, after which it
+  /// does not read A again and may empty it (free its memory); set_up_loaded() builds the
+  /// rest, which a solver may defer to it (MueLu's hierarchy). factorize() = both.
+  virtual void load(SparseMatrix& A) { factorize(A); }
+  virtual void set_up_loaded() {}
   /// Drops the factor or preconditioner that the next factorize() replaces, before the
   /// caller assembles that factorize()'s matrix: the two are then never held together.
   virtual void release_factor() {}

@@ -322,17 +322,22 @@ class MueLuCycle final : public LinearSolver {
     m_muelu = Teuchos::null;
   }
 
-  /// P is copied before the hierarchy is built, so it is freed first: the set-up is the
-  /// peak of a million-particle run.
-  void factorize_and_release(SparseMatrix& P) override {
+  /// P's values into the hierarchy's matrix, then P freed: the set-up, the peak of a
+  /// million-particle run, never holds both. The set-up itself waits for set_up_loaded().
+  void load(SparseMatrix& P) override {
     m_info = Eigen::Success;
+    release_factor();
     if (m_copy.matrix.is_null()) analyzePattern(P);
     m_copy.fill(P);
     P = SparseMatrix();
-    set_up();
+    m_loaded = true;
+  }
+  void set_up_loaded() override {
+    if (m_loaded) set_up();
   }
 
   void solve(const VectorXd& b, VectorXd& x) override {
+    set_up_loaded();
     if (m_muelu.is_null()) {  // no hierarchy (a failed set-up): the caller sees info()
       m_info = Eigen::NumericalIssue;
       return;
@@ -365,6 +370,7 @@ class MueLuCycle final : public LinearSolver {
  private:
   /// MueLu's hierarchy of the filled copy, and its threaded cycle.
   void set_up() {
+    m_loaded = false;
     ++m_builds;
     try {
       // The old hierarchy goes before the new one is built: at a million particles the two
@@ -391,9 +397,9 @@ class MueLuCycle final : public LinearSolver {
       // fewer (0.24 -> 0.14 s of set-up); tension 300 x 300, one step: set-up 2.0 -> 1.5 s; the
       // LEFM case 169 -> 150 Krylov; 4.1, 4.2 and 4.4 within 2 iterations.
       p.set("sa: use filtered matrix", false);
-      // Above a million rows the Galerkin product P^T A P is formed without the temporary A P
-      // (1.2 GB at a million particles, the run's peak): 700 x 700, peak 3.86 -> 3.68 GB for
-      // 8.5 -> 10.3 s of set-up. Below, set-up time counts more than memory.
+      // Above a million rows the Galerkin product P^T A P is formed without the temporary A P,
+      // which made the set-up the run's peak: 1000 x 1000, peak 7.97 -> 7.54 GB (1e9 B);
+      // 700 x 700, 3.96 -> 3.77 GB for 8.5 -> 10.3 s of set-up. Below, time counts more.
       p.set("rap: triple product", m_copy.d.n_rows > kTripleProductRows);
       if (m_copy.d.per_node == 2) {
         p.set("number of equations", 2);
@@ -417,6 +423,7 @@ class MueLuCycle final : public LinearSolver {
   RCP<mv_t> m_in, m_out;
   RCP<MueLu::TpetraOperator<double, LO, GO, NT>> m_muelu;
   bool m_threaded;
+  bool m_loaded = false;  ///< load() filled m_copy for a set-up not built yet
   std::unique_ptr<ThreadedCycle> m_cycle;  ///< m_muelu's cycle on this program's threads, or null
   std::string m_why_not;                   ///< why the last hierarchy has no threaded cycle
   long m_builds = 0;

@@ -185,8 +185,9 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
     if (L.IsAvailable("PostSmoother") &&
         !read_smoother(L.Get<RCP<MueLu::SmootherBase<double, LO, GO, NT>>>("PostSmoother"), level.post, why_not))
       return nullptr;
-    // 1 / diag(A), as Ifpack2 computes it: Chebyshev takes 1 / t for an entry below its
-    // threshold t, Jacobi (its threshold 0) the entry's reciprocal.
+    // D^-1 as Ifpack2 computes it (Details::Chebyshev's reciprocal_threshold): an entry below
+    // the threshold t in magnitude gets t itself, not 1 / t (that row is barely smoothed);
+    // Jacobi's threshold is 0.
     if (level.pre.kind != Smoother::Kind::none && level.post.kind != Smoother::Kind::none &&
         level.pre.min_diagonal != level.post.min_diagonal) {
       why_not = "level " + std::to_string(i) + " smooths with two diagonal thresholds";
@@ -200,9 +201,9 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
     const double* a = level.A.values.data();
     for (LO r = 0; r < n; ++r)
       for (auto k = row[r]; k < row[r + 1]; ++k)
-        if (col[k] == r) level.d_inv[r] = std::abs(a[k]) < threshold ? 1.0 / threshold : 1.0 / a[k];
-    if (!std::all_of(level.d_inv.begin(), level.d_inv.end(), [](double v) { return v > 0.0 && std::isfinite(v); })) {
-      why_not = "level " + std::to_string(i) + " has a diagonal entry that is not positive";
+        if (col[k] == r) level.d_inv[r] = std::abs(a[k]) < threshold ? threshold : 1.0 / a[k];
+    if (!std::all_of(level.d_inv.begin(), level.d_inv.end(), [](double v) { return std::isfinite(v); })) {
+      why_not = "level " + std::to_string(i) + " has a zero diagonal entry (Jacobi)";
       return nullptr;
     }
     if (i > 0) {  // the finest level's are the caller's
@@ -308,6 +309,7 @@ void ThreadedCycle::cycle(std::size_t l, const double* b, double* x) {
     }
   }
   cycle(l + 1, coarse.b.data(), coarse.x.data());
+
   {  // x += P x_c
     const local_t& P = level.P;
     const auto* row = P.graph.row_map.data();

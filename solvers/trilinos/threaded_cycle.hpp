@@ -48,7 +48,8 @@ class ThreadedCycle {
     double ratio = 0;        ///< Chebyshev: lambda_max / lambda_min
     double boost = 1.1;      ///< Chebyshev: the boost of lambda_max
     double damping = 1.0;    ///< Jacobi
-    /// Chebyshev: diagonal entries below it count as it (Ifpack2's default: machine epsilon)
+    /// Chebyshev: a diagonal entry below it in magnitude gets it as its inverse, as in Ifpack2
+    /// (default: machine epsilon)
     double min_diagonal = 0.0;
   };
 
