@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "core/clock.hpp"
 #include "solvers/linear/preconditioner_reuse.hpp"
@@ -59,7 +60,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
     m_info = Eigen::Success;
     if (!m_reuse.due()) return;
     m_have_factor = false;
-    if (m_source == FactorSource::preconditioner_matrix && m_P_source) load_preconditioner_matrix();
+    if (m_source == FactorSource::preconditioner_matrix) load_preconditioner_matrix();
   }
 
   void solve(const VectorXd& b, VectorXd& x) override {
@@ -85,24 +86,22 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   long factorizations() const override { return m_factor->factorizations(); }
   double setup_seconds() const override { return m_setup_seconds; }
   bool uses_preconditioner_matrix() const override { return m_source == FactorSource::preconditioner_matrix; }
-  void set_preconditioner_matrix(const SparseMatrix& P) override { m_P = &P; }
   bool takes_preconditioner_source() const override { return m_source == FactorSource::preconditioner_matrix; }
   void set_preconditioner_source(MatrixSource source) override { m_P_source = std::move(source); }
 
  private:
   void refresh_factor() {
     const double t0 = wall_seconds();
-    if (m_source == FactorSource::preconditioner_matrix && m_P_source) {
+    if (m_source == FactorSource::preconditioner_matrix) {
       if (!m_loaded) load_preconditioner_matrix();  // a set-up factorize() did not announce
       m_factor->set_up_loaded();
       m_loaded = false;
     } else {
-      const SparseMatrix& M = m_source == FactorSource::preconditioner_matrix ? *m_P : *m_A;
       if (!m_analyzed) {
-        m_factor->analyzePattern(M);
+        m_factor->analyzePattern(*m_A);
         m_analyzed = true;
       }
-      m_factor->factorize(M);
+      m_factor->factorize(*m_A);
     }
     m_info = m_factor->info();
     m_have_factor = m_info == Eigen::Success;
@@ -114,6 +113,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   /// into the factor, which keeps what it needs; P is dropped here, the factor's old set-up
   /// before P is assembled.
   void load_preconditioner_matrix() {
+    if (!m_P_source) throw std::logic_error("factor-preconditioned Krylov: set_preconditioner_source() first");
     m_factor->release_factor();
     SparseMatrix P;
     m_P_source(P);
@@ -245,8 +245,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   double m_rtol, m_rtol_floor;
   int m_max_iterations;
   const SparseMatrix* m_A = nullptr;
-  const SparseMatrix* m_P = nullptr;
-  MatrixSource m_P_source;  ///< P on demand (takes_preconditioner_source), else m_P
+  MatrixSource m_P_source;  ///< P on demand (FactorSource::preconditioner_matrix)
   bool m_loaded = false;    ///< the factor holds P's values for a set-up not built yet
   bool m_analyzed = false, m_have_factor = false, m_symmetric = true;
   PreconditionerReuse m_reuse;

@@ -13,7 +13,7 @@ namespace peristat {
 
 enum class FactorSource {
   system_matrix,         ///< factor A itself (refreshed when iterations climb)
-  preconditioner_matrix  ///< factor the P given by set_preconditioner_matrix()
+  preconditioner_matrix  ///< factor the P that set_preconditioner_source() assembles
 };
 
 /// `factor` is a direct solver for symmetric matrices (CHOLMOD in practice). With

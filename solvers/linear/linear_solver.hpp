@@ -60,7 +60,8 @@ class LinearSolver {
   virtual double setup_seconds() const { return 0.0; }
 
   /// True when the solver is preconditioned by the factor of a second matrix P that the
-  /// caller passes with set_preconditioner_matrix() before each factorize() (PETSc's Pmat).
+  /// caller passes with set_preconditioner_matrix() before each factorize() (PETSc's Pmat),
+  /// or, when takes_preconditioner_source(), assembles through the source when it sets up.
   virtual bool uses_preconditioner_matrix() const { return false; }
   /// P must stay alive and keep its pattern until the next call.
   virtual void set_preconditioner_matrix(const SparseMatrix& /*P*/) {}

@@ -307,7 +307,7 @@ class MueLuCycle final : public LinearSolver {
     m_copy.analyze(P, m_layout, m_comm);
     m_in = rcp(new mv_t(m_copy.map, 1));
     m_out = rcp(new mv_t(m_copy.map, 1));
-    m_muelu = Teuchos::null;
+    release_factor();
   }
 
   void factorize(const SparseMatrix& P) override {
@@ -377,7 +377,7 @@ class MueLuCycle final : public LinearSolver {
       // together were the run's peak (9.1 against 8.1 GB). Rebuilding in place ("reuse: type"
       // RP with ReuseTpetraPreconditioner) saved set-up time at 300 x 300 but held 0.3 GB more
       // and threw at 1000 x 1000.
-      m_muelu = Teuchos::null;
+      release_factor();
       Teuchos::ParameterList p;
       p.set("verbosity", "none");
       // As belos's muelu (its measurements): Chebyshev smoothing, a relaxed coarsest level.
@@ -405,14 +405,12 @@ class MueLuCycle final : public LinearSolver {
         p.set("number of equations", 2);
         p.sublist("user data").set("Nullspace", m_copy.rigid_body_modes(m_layout));
       }
-      m_cycle.reset();
       m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_copy.matrix), p);
       // The cycle on this program's threads (MueLu's apply runs on one core: Debian's Kokkos
       // is Serial only); a hierarchy it cannot repeat is applied by MueLu, and said so in name().
       if (m_threaded) m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not);
     } catch (const std::exception&) {  // a Trilinos failure (e.g. a zero pivot): the seam's terms
-      m_muelu = Teuchos::null;
-      m_cycle.reset();
+      release_factor();
       m_info = Eigen::NumericalIssue;
     }
   }

@@ -219,8 +219,6 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
   return c;
 }
 
-ThreadedCycle::LO ThreadedCycle::rows() const { return m_levels.front().A.numRows(); }
-
 void ThreadedCycle::apply(const double* b, double* x) { cycle(0, b, x); }
 
 void ThreadedCycle::smooth(Level& level, const Smoother& s, const double* b, double* x, bool zero_guess) {

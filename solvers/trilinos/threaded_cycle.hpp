@@ -1,7 +1,7 @@
 // The V-cycle of a MueLu hierarchy applied by this program's OpenMP threads instead of by
 // MueLu (docs/theory/newton.md, "Bond preconditioner"). Debian's Trilinos has Kokkos' Serial
 // back end only, so MueLu's own apply runs on one core while the tangent's action around it
-// uses all of them: on case 4.1 the V-cycle was 44% of the wall time with 2 threads. MueLu
+// uses all of them: on case 4.1 (2 threads) the V-cycle was 44% of the main thread's time. MueLu
 // still builds the hierarchy (aggregates, prolongators, Galerkin products, the smoothers'
 // eigenvalue estimates); this class reads it and repeats MueLu's cycle (Hierarchy::Iterate)
 // with Ifpack2's Chebyshev and Jacobi arithmetic (Ifpack2::Details::Chebyshev::
@@ -33,9 +33,6 @@ class ThreadedCycle {
   /// x = M b: one V-cycle from a zero initial guess, as MueLu's apply of the hierarchy as a
   /// preconditioner. b and x hold the finest level's rows.
   void apply(const double* b, double* x);
-
-  /// Rows of the finest level.
-  LO rows() const;
 
  private:
   using local_t = crs_t::local_matrix_host_type;
