@@ -292,6 +292,9 @@ class BlockFactor final : public op_t {
 /// smoothing, the same before and after, and a relaxed coarsest level), so CG may use it.
 class MueLuCycle final : public LinearSolver {
  public:
+  /// Above this many rows memory counts more than set-up and cycle time: the Galerkin product
+  /// without its temporary, no blocked copy of the finest matrix (src/app/preflight.hpp's
+  /// kBlockedCycleRows is the same bound).
   static constexpr long long kTripleProductRows = 1'000'000;
 
   explicit MueLuCycle(bool threaded) : m_threaded(threaded) {
@@ -408,7 +411,10 @@ class MueLuCycle final : public LinearSolver {
       m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_copy.matrix), p);
       // The cycle on this program's threads (MueLu's apply runs on one core: Debian's Kokkos
       // is Serial only); a hierarchy it cannot repeat is applied by MueLu, and said so in name().
-      if (m_threaded) m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not);
+      // Its finest level in 2 x 2 blocks too, where memory allows (below a million rows).
+      if (m_threaded)
+        m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not,
+                                      m_copy.d.per_node == 2 && m_copy.d.n_rows <= kTripleProductRows);
     } catch (const std::exception&) {  // a Trilinos failure (e.g. a zero pivot): the seam's terms
       release_factor();
       m_info = Eigen::NumericalIssue;

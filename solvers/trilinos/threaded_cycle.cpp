@@ -52,24 +52,99 @@ inline double row_residual(const local_t& A, const double* b, const double* x, L
   return s;
 }
 
+/// b_i - (A x)_i for rows i = 2p and 2p + 1 of a blocked matrix: the same subtractions in the
+/// same order as row_residual() on the CSR rows (a zero entry subtracts an exact zero).
+inline void block_residual(const ThreadedCycle::Blocks& B, const double* b, const double* x, LO p, double& r0,
+                           double& r1) {
+  double s0 = b[2 * p], s1 = b[2 * p + 1];
+  const double* a = B.values.data();
+  const LO* col = B.col.data();
+  for (std::size_t k = B.start[p]; k < B.start[p + 1]; ++k) {
+    const double x0 = x[2 * col[k]], x1 = x[2 * col[k] + 1];
+    const double* blk = a + 4 * k;
+    s0 -= blk[0] * x0;
+    s1 -= blk[1] * x0;
+    s0 -= blk[2] * x1;
+    s1 -= blk[3] * x1;
+  }
+  r0 = s0;
+  r1 = s1;
+}
+
 /// r = b - A x
-void residual(const local_t& A, const double* b, const double* x, double* r) {
+void residual(const local_t& A, const ThreadedCycle::Blocks& B, const double* b, const double* x, double* r) {
+  if (!B.empty()) {
+    const auto blocks = static_cast<LO>(B.start.size() - 1);
+#pragma omp parallel for schedule(static)
+    for (LO p = 0; p < blocks; ++p) block_residual(B, b, x, p, r[2 * p], r[2 * p + 1]);
+    return;
+  }
   const LO n = A.numRows();
 #pragma omp parallel for schedule(static)
   for (LO i = 0; i < n; ++i) r[i] = row_residual(A, b, x, i);
 }
 
 /// w = c1 D^-1 (b - A x) + c2 w, then x += w (c2 = 0: w's old values are not read).
-void scaled_residual_step(const local_t& A, const double* d_inv, const double* b, double* x, double* w,
-                          double c1, double c2) {
+void scaled_residual_step(const local_t& A, const ThreadedCycle::Blocks& B, const double* d_inv, const double* b,
+                          double* x, double* w, double c1, double c2) {
   const LO n = A.numRows();
+  const auto update = [&](LO i, double s) { w[i] = c2 == 0.0 ? c1 * d_inv[i] * s : c1 * d_inv[i] * s + c2 * w[i]; };
+  if (!B.empty()) {
+    const auto blocks = static_cast<LO>(B.start.size() - 1);
 #pragma omp parallel for schedule(static)
-  for (LO i = 0; i < n; ++i) {
-    const double s = row_residual(A, b, x, i);
-    w[i] = c2 == 0.0 ? c1 * d_inv[i] * s : c1 * d_inv[i] * s + c2 * w[i];
+    for (LO p = 0; p < blocks; ++p) {
+      double s0, s1;
+      block_residual(B, b, x, p, s0, s1);
+      update(2 * p, s0);
+      update(2 * p + 1, s1);
+    }
+  } else {
+#pragma omp parallel for schedule(static)
+    for (LO i = 0; i < n; ++i) update(i, row_residual(A, b, x, i));
   }
 #pragma omp parallel for schedule(static)
   for (LO i = 0; i < n; ++i) x[i] += w[i];
+}
+
+/// A's rows in 2 x 2 blocks, or empty if A has an odd number of rows.
+ThreadedCycle::Blocks to_blocks(const local_t& A) {
+  ThreadedCycle::Blocks B;
+  const LO n = A.numRows();
+  if (n % 2 != 0) return B;
+  const auto* row = A.graph.row_map.data();
+  const LO* col = A.graph.entries.data();
+  const double* a = A.values.data();
+  const LO blocks = n / 2;
+  B.start.assign(static_cast<std::size_t>(blocks) + 1, 0);
+  std::vector<LO> cols;
+  for (int pass = 0; pass < 2; ++pass) {
+    for (LO p = 0; p < blocks; ++p) {
+      cols.clear();
+      for (LO i = 2 * p; i <= 2 * p + 1; ++i)
+        for (auto k = row[i]; k < row[i + 1]; ++k) cols.push_back(col[k] / 2);
+      std::sort(cols.begin(), cols.end());
+      cols.erase(std::unique(cols.begin(), cols.end()), cols.end());
+      if (pass == 0) {
+        B.start[static_cast<std::size_t>(p) + 1] = B.start[static_cast<std::size_t>(p)] + cols.size();
+        continue;
+      }
+      const std::size_t first = B.start[static_cast<std::size_t>(p)];
+      std::copy(cols.begin(), cols.end(), B.col.begin() + static_cast<std::ptrdiff_t>(first));
+      for (LO c = 0; c < 2; ++c) {
+        const LO i = 2 * p + c;
+        for (auto k = row[i]; k < row[i + 1]; ++k) {
+          const std::size_t blk =
+              first + static_cast<std::size_t>(std::lower_bound(cols.begin(), cols.end(), col[k] / 2) - cols.begin());
+          B.values[4 * blk + static_cast<std::size_t>(2 * (col[k] % 2) + c)] = a[k];
+        }
+      }
+    }
+    if (pass == 0) {
+      B.col.assign(B.start.back(), 0);
+      B.values.assign(4 * B.start.back(), 0.0);
+    }
+  }
+  return B;
 }
 
 /// x = c D^-1 b (and w = x)
@@ -142,7 +217,7 @@ bool ThreadedCycle::read_smoother(const RCP<MueLu::SmootherBase<double, LO, GO, 
   return false;
 }
 
-std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& why_not) {
+std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& why_not, bool blocked) {
   std::unique_ptr<ThreadedCycle> c(new ThreadedCycle);
   if (h.GetCycle() != MueLu::VCYCLE) {
     why_not = "not a V-cycle";
@@ -164,6 +239,7 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
       return nullptr;
     }
     level.A = A->getLocalMatrixHost();
+    if (i == 0 && blocked) level.blocks = to_blocks(level.A);
     if (i > 0) {
       if ((L.IsAvailable("Importer") && !L.Get<RCP<const Xpetra::Import<LO, GO, NT>>>("Importer").is_null()) ||
           L.IsAvailable("Pbar")) {
@@ -231,7 +307,7 @@ void ThreadedCycle::smooth(Level& level, const Smoother& s, const double* b, dou
       if (sweep == 0 && zero_guess)
         scaled_diagonal(n, d_inv, b, x, w, s.damping);
       else
-        scaled_residual_step(level.A, d_inv, b, x, w, s.damping, 0.0);
+        scaled_residual_step(level.A, level.blocks, d_inv, b, x, w, s.damping, 0.0);
     }
     return;
   }
@@ -247,13 +323,13 @@ void ThreadedCycle::smooth(Level& level, const Smoother& s, const double* b, dou
   if (zero_guess)
     scaled_diagonal(n, d_inv, b, x, w, 1.0 / theta);
   else
-    scaled_residual_step(level.A, d_inv, b, x, w, 1.0 / theta, 0.0);
+    scaled_residual_step(level.A, level.blocks, d_inv, b, x, w, 1.0 / theta, 0.0);
   double rho = 1.0 / s1;
   for (int k = 1; k < s.degree; ++k) {
     const double rho_next = 1.0 / (2.0 * s1 - rho);
     const double c2 = rho_next * rho, c1 = 2.0 * rho_next * delta;
     rho = rho_next;
-    scaled_residual_step(level.A, d_inv, b, x, w, c1, c2);
+    scaled_residual_step(level.A, level.blocks, d_inv, b, x, w, c1, c2);
   }
 }
 
@@ -279,7 +355,7 @@ void ThreadedCycle::cycle(std::size_t l, const double* b, double* x) {
   }
   if (zero_guess) std::fill(x, x + n, 0.0);
   double* r = level.work.data();  // the residual (the smoother's W is not live here)
-  residual(level.A, b, x, r);
+  residual(level.A, level.blocks, b, x, r);
   // b_c = P^T r: kChunks fixed row ranges scatter into their own buffers, added in order.
   Level& coarse = m_levels[l + 1];
   const LO nc = coarse.A.numRows();

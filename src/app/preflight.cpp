@@ -123,6 +123,7 @@ SizeEstimate estimate_size(const Scene& scene) {
       if (amg) {
         e.factor_of = "the bond matrix, its copy in Tpetra and MueLu's hierarchy";
         e.factor_bytes = kBytesPerAmgNonzero * nnz;
+        if (2.0 * n <= kBlockedCycleRows) e.factor_bytes += kBytesPerBlockedNonzero * nnz;
       } else {
         e.factor_of = "the bond preconditioner";
         e.factor_nonzeros = factor_fill(n, true) * nnz;
