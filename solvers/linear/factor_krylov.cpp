@@ -80,6 +80,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   /// CG on symmetric matrices, GMRES with the same factor otherwise.
   bool needs_symmetric() const override { return false; }
   void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
+  void set_may_be_unsymmetric(bool may) override { m_factor->set_may_be_unsymmetric(may); }
   void renew_preconditioner() override { m_reuse.renew(); }
   int iterations() const override { return m_iterations; }
   double error() const override { return m_error; }

@@ -85,6 +85,11 @@ class LinearSolver {
   /// Tells the solver whether the next matrices are symmetric. Solvers that handle both
   /// (factor-preconditioned Krylov: CG or GMRES) pick their method by it.
   virtual void set_symmetric(bool /*symmetric*/) {}
+  /// Tells the solver, once, whether the run's matrices may be unsymmetric (frictional
+  /// contact: slipping pairs), so that a preconditioner kept across Newton iterations is built
+  /// for GMRES even when the state it is built at is symmetric (all pairs stuck); the MueLu
+  /// V-cycle then smooths with Chebyshev degree 2 instead of 1.
+  virtual void set_may_be_unsymmetric(bool /*may*/) {}
   /// For solvers that keep a preconditioner across factorize() calls while it serves
   /// (solvers/linear/preconditioner_reuse.hpp): the next factorize() builds a new one. Newton
   /// calls it when the tangent has changed in kind (contact pairs closed by the predictor).

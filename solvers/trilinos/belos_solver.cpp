@@ -366,6 +366,8 @@ class MueLuCycle final : public LinearSolver {
   /// hierarchy the threaded cycle does not repeat).
   std::string name() const override { return m_muelu.is_null() || m_cycle ? "muelu" : "muelu-serial"; }
   bool needs_symmetric() const override { return true; }
+  /// The run's tangents may be unsymmetric: the cycle will serve GMRES (smoothing degree 2).
+  void set_may_be_unsymmetric(bool may) override { m_gmres = may; }
   long factorizations() const override { return m_builds; }
   bool needs_unknown_layout() const override { return true; }
   void set_unknown_layout(const UnknownLayout& layout) override { m_layout = layout; }
@@ -385,6 +387,14 @@ class MueLuCycle final : public LinearSolver {
       p.set("verbosity", "none");
       // As belos's muelu (its measurements): Chebyshev smoothing, a relaxed coarsest level.
       p.set("smoother: type", "CHEBYSHEV");
+      // Chebyshev degree 2 where the tangents may be unsymmetric (frictional contact: the
+      // cycle serves GMRES while pairs slip), 1 otherwise (CG). Measured at paper resolution
+      // (docs/performance.md, "Fifth round"), degree 2 against 1: Krylov iterations 4.1
+      // 301 -> 206 (wall 3.33 -> 3.01 s, medians of 6), 4.4 2690 -> 2244, 4.2 3.2 -> 2.6 s,
+      // 4.3 the same wall; but the symmetric ones take more: the frictionless LEFM case
+      // 150 -> 165 (5.1 -> 6.0 s), the tension plate 400 x 400 218 -> 239. The smoother is
+      // symmetric either way, so CG may use a degree-2 cycle while all pairs stick.
+      p.sublist("smoother: params").set("chebyshev: degree", m_gmres ? 2 : 1);
       p.set("coarse: type", "RELAXATION");
       p.set("coarse: max size", 100);
       // R = P^T applied, not stored: 20 MB of 862 MB at 300 x 300, the same iterations.
@@ -428,6 +438,7 @@ class MueLuCycle final : public LinearSolver {
   RCP<MueLu::TpetraOperator<double, LO, GO, NT>> m_muelu;
   bool m_threaded;
   bool m_loaded = false;  ///< load() filled m_copy for a set-up not built yet
+  bool m_gmres = false;   ///< the cycle may serve GMRES (set_may_be_unsymmetric): Chebyshev degree 2
   std::unique_ptr<ThreadedCycle> m_cycle;  ///< m_muelu's cycle on this program's threads, or null
   std::string m_why_not;                   ///< why the last hierarchy has no threaded cycle
   long m_builds = 0;

@@ -93,6 +93,7 @@ std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProb
   if (linear->needs_operator())
     linear->set_operator([&problem](const VectorXd& v, VectorXd& y) { problem.apply_tangent(v, y); });
   if (linear->needs_unknown_layout()) linear->set_unknown_layout(unknown_layout(problem.model(), problem.n_unknowns()));
+  linear->set_may_be_unsymmetric(scene.contact.enabled && scene.contact.friction > 0.0);  // pairs may slip
   return std::make_unique<NewtonSolver>(problem, *linear, scene.solver.newton);
 }
 
