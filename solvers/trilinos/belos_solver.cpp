@@ -292,11 +292,6 @@ class BlockFactor final : public op_t {
 /// smoothing, the same before and after, and a relaxed coarsest level), so CG may use it.
 class MueLuCycle final : public LinearSolver {
  public:
-  /// Above this many rows memory counts more than set-up and cycle time: the Galerkin product
-  /// without its temporary, no blocked copy of the finest matrix (src/app/preflight.hpp's
-  /// kBlockedCycleRows is the same bound).
-  static constexpr long long kTripleProductRows = 1'000'000;
-
   explicit MueLuCycle(bool threaded) : m_threaded(threaded) {
     parallel::ensure_started();
     // This process's own communicator: under mpirun every rank runs the same Krylov iteration
@@ -413,7 +408,7 @@ class MueLuCycle final : public LinearSolver {
       // Above a million rows the Galerkin product P^T A P is formed without the temporary A P,
       // which made the set-up the run's peak: 1000 x 1000, peak 7.97 -> 7.54 GB (1e9 B);
       // 700 x 700, 3.96 -> 3.77 GB for 8.5 -> 10.3 s of set-up. Below, time counts more.
-      p.set("rap: triple product", m_copy.d.n_rows > kTripleProductRows);
+      p.set("rap: triple product", m_copy.d.n_rows > kAmgMemoryFirstRows);
       if (m_copy.d.per_node == 2) {
         p.set("number of equations", 2);
         p.sublist("user data").set("Nullspace", m_copy.rigid_body_modes(m_layout));
@@ -424,7 +419,7 @@ class MueLuCycle final : public LinearSolver {
       // Its finest level in 2 x 2 blocks too, where memory allows (below a million rows).
       if (m_threaded)
         m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not,
-                                      m_copy.d.per_node == 2 && m_copy.d.n_rows <= kTripleProductRows);
+                                      m_copy.d.per_node == 2 && m_copy.d.n_rows <= kAmgMemoryFirstRows);
     } catch (const std::exception&) {  // a Trilinos failure (e.g. a zero pivot): the seam's terms
       release_factor();
       m_info = Eigen::NumericalIssue;

@@ -21,4 +21,9 @@ std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options);
 /// (solvers/trilinos/threaded_cycle.hpp); false: by MueLu, on one core (for comparison).
 std::unique_ptr<LinearSolver> make_muelu_cycle(bool threaded = true);
 
+/// Above this many rows the MueLu V-cycle puts memory before set-up and cycle time: the
+/// Galerkin product without its AP temporary, no blocked copy of the finest matrix
+/// (solvers/trilinos/threaded_cycle.hpp, Blocks). The preflight's memory estimate uses it too.
+inline constexpr long long kAmgMemoryFirstRows = 1'000'000;
+
 }  // namespace peristat

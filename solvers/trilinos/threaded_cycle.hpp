@@ -5,7 +5,8 @@
 // still builds the hierarchy (aggregates, prolongators, Galerkin products, the smoothers'
 // eigenvalue estimates); this class reads it and repeats MueLu's cycle (Hierarchy::Iterate)
 // with Ifpack2's Chebyshev and Jacobi arithmetic (Ifpack2::Details::Chebyshev::
-// ifpackApplyImpl, Ifpack2::Relaxation) on the same matrices, held, not copied. A hierarchy it
+// ifpackApplyImpl, Ifpack2::Relaxation) on the same matrices, held, not copied (except the
+// finest one's 2 x 2 blocks, below a million rows: Blocks). A hierarchy it
 // does not recognise is reported, and MueLu applies the cycle itself. Compiled as C++17 with
 // the rest of the Trilinos adapter.
 #pragma once
@@ -41,7 +42,7 @@ class ThreadedCycle {
   /// kernels form two rows at a time from it, each row's subtractions in the CSR row's order
   /// (the same bits): a block column loads x's pair once and its column index once for two
   /// rows. Case 4.1: the V-cycle 1.07 -> 0.79 s over 318 cycles (medians of 4 runs), for a
-  /// copy of the finest matrix (+18 MB there).
+  /// copy of the finest matrix (about 9 bytes per nonzero).
   struct Blocks {
     std::vector<std::size_t> start;  ///< per block row, into col (and 4 x into values)
     std::vector<LO> col;             ///< block column

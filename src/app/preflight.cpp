@@ -12,6 +12,7 @@
 #include "core/error.hpp"
 #include "discretisation/model.hpp"
 #include "scene/geometry.hpp"
+#include "solvers/trilinos/belos_solver.hpp"
 #include "solvers/trilinos/parallel.hpp"
 
 namespace peristat {
@@ -123,7 +124,7 @@ SizeEstimate estimate_size(const Scene& scene) {
       if (amg) {
         e.factor_of = "the bond matrix, its copy in Tpetra and MueLu's hierarchy";
         e.factor_bytes = kBytesPerAmgNonzero * nnz;
-        if (2.0 * n <= kBlockedCycleRows) e.factor_bytes += kBytesPerBlockedNonzero * nnz;
+        if (2.0 * n <= static_cast<double>(kAmgMemoryFirstRows)) e.factor_bytes += kBytesPerBlockedNonzero * nnz;
       } else {
         e.factor_of = "the bond preconditioner";
         e.factor_nonzeros = factor_fill(n, true) * nnz;
