@@ -292,7 +292,7 @@ class BlockFactor final : public op_t {
 /// smoothing, the same before and after, and a relaxed coarsest level), so CG may use it.
 class MueLuCycle final : public LinearSolver {
  public:
-  explicit MueLuCycle(bool threaded) : m_threaded(threaded) {
+  explicit MueLuCycle(CycleApply apply) : m_apply(apply) {
     parallel::ensure_started();
     // This process's own communicator: under mpirun every rank runs the same Krylov iteration
     // on its whole copy of the model (matrix_free is not distributed). Teuchos's SerialComm
@@ -416,10 +416,15 @@ class MueLuCycle final : public LinearSolver {
       m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_copy.matrix), p);
       // The cycle on this program's threads (MueLu's apply runs on one core: Debian's Kokkos
       // is Serial only); a hierarchy it cannot repeat is applied by MueLu, and said so in name().
-      // Its finest level in 2 x 2 blocks too, where memory allows (below a million rows).
-      if (m_threaded)
-        m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not,
-                                      m_copy.d.per_node == 2 && m_copy.d.n_rows <= kAmgMemoryFirstRows);
+      // Its finest level in 2 x 2 blocks too, where memory allows (below a million rows), of
+      // floats by default (ThreadedCycle::Blocks).
+      if (m_apply != CycleApply::muelu) {
+        using Finest = ThreadedCycle::Finest;
+        const bool blocked = m_copy.d.per_node == 2 && m_copy.d.n_rows <= kAmgMemoryFirstRows;
+        const Finest finest =
+            !blocked ? Finest::csr : m_apply == CycleApply::threads ? Finest::float_blocks : Finest::blocks;
+        m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not, finest);
+      }
     } catch (const std::exception&) {  // a Trilinos failure (e.g. a zero pivot): the seam's terms
       release_factor();
       m_info = Eigen::NumericalIssue;
@@ -431,7 +436,7 @@ class MueLuCycle final : public LinearSolver {
   TpetraCopy m_copy;
   RCP<mv_t> m_in, m_out;
   RCP<MueLu::TpetraOperator<double, LO, GO, NT>> m_muelu;
-  bool m_threaded;
+  CycleApply m_apply;
   bool m_loaded = false;  ///< load() filled m_copy for a set-up not built yet
   bool m_gmres = false;   ///< the cycle may serve GMRES (set_may_be_unsymmetric): Chebyshev degree 2
   std::unique_ptr<ThreadedCycle> m_cycle;  ///< m_muelu's cycle on this program's threads, or null
@@ -671,6 +676,6 @@ std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options) {
   return std::make_unique<BelosSolver>(options);
 }
 
-std::unique_ptr<LinearSolver> make_muelu_cycle(bool threaded) { return std::make_unique<MueLuCycle>(threaded); }
+std::unique_ptr<LinearSolver> make_muelu_cycle(CycleApply apply) { return std::make_unique<MueLuCycle>(apply); }
 
 }  // namespace peristat

@@ -15,11 +15,20 @@ namespace peristat {
 /// Starts MPI (through Tpetra) when it has not been started.
 std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options);
 
+/// Who applies the MueLu V-cycle, and from what copy of its finest matrix.
+enum class CycleApply {
+  /// This program's OpenMP threads on MueLu's hierarchy (solvers/trilinos/threaded_cycle.hpp),
+  /// the finest matrix in 2 x 2 blocks of floats up to kAmgMemoryFirstRows rows. The default.
+  threads,
+  /// The same threads, blocks of doubles: MueLu's own arithmetic, to rounding (for tests).
+  threads_exact,
+  /// MueLu's apply, on one core (for comparison).
+  muelu,
+};
+
 /// One MueLu V-cycle of the matrix it factorises (smoothed aggregation, in this process), as
 /// the preconditioner of factor-preconditioned Krylov (solver.krylov.preconditioner: bond_amg).
-/// `threaded`: the cycle is applied by this program's OpenMP threads on MueLu's hierarchy
-/// (solvers/trilinos/threaded_cycle.hpp); false: by MueLu, on one core (for comparison).
-std::unique_ptr<LinearSolver> make_muelu_cycle(bool threaded = true);
+std::unique_ptr<LinearSolver> make_muelu_cycle(CycleApply apply = CycleApply::threads);
 
 /// Above this many rows the MueLu V-cycle puts memory before set-up and cycle time: the
 /// Galerkin product without its AP temporary, no blocked copy of the finest matrix

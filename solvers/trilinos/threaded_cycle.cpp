@@ -52,62 +52,70 @@ inline double row_residual(const local_t& A, const double* b, const double* x, L
   return s;
 }
 
-/// b_i - (A x)_i for rows i = 2p and 2p + 1 of a blocked matrix: the same subtractions in the
-/// same order as row_residual() on the CSR rows (a zero entry subtracts an exact zero).
-inline void block_residual(const ThreadedCycle::Blocks& B, const double* b, const double* x, LO p, double& r0,
-                           double& r1) {
+/// b_i - (A x)_i for rows i = 2p and 2p + 1 of a blocked matrix with values `a` (doubles or
+/// floats, the arithmetic in doubles): the same subtractions in the same order as
+/// row_residual() on the CSR rows (a zero entry subtracts an exact zero).
+template <class Value>
+inline void block_residual(const ThreadedCycle::Blocks& B, const Value* a, const double* b, const double* x, LO p,
+                           double& r0, double& r1) {
   double s0 = b[2 * p], s1 = b[2 * p + 1];
-  const double* a = B.values.data();
   const LO* col = B.col.data();
   for (std::size_t k = B.start[p]; k < B.start[p + 1]; ++k) {
     const double x0 = x[2 * col[k]], x1 = x[2 * col[k] + 1];
-    const double* blk = a + 4 * k;
-    s0 -= blk[0] * x0;
-    s1 -= blk[1] * x0;
-    s0 -= blk[2] * x1;
-    s1 -= blk[3] * x1;
+    const Value* blk = a + 4 * k;
+    s0 -= static_cast<double>(blk[0]) * x0;
+    s1 -= static_cast<double>(blk[1]) * x0;
+    s0 -= static_cast<double>(blk[2]) * x1;
+    s1 -= static_cast<double>(blk[3]) * x1;
   }
   r0 = s0;
   r1 = s1;
 }
 
-/// r = b - A x
-void residual(const local_t& A, const ThreadedCycle::Blocks& B, const double* b, const double* x, double* r) {
-  if (!B.empty()) {
+/// f(i, (b - A x)_i) for every row i, each row one thread's: from the blocks (of doubles or
+/// floats) when there are, else from the CSR matrix.
+template <class F>
+void for_each_residual(const local_t& A, const ThreadedCycle::Blocks& B, const double* b, const double* x, F&& f) {
+  const auto by_blocks = [&](const auto* a) {
     const auto blocks = static_cast<LO>(B.start.size() - 1);
 #pragma omp parallel for schedule(static)
-    for (LO p = 0; p < blocks; ++p) block_residual(B, b, x, p, r[2 * p], r[2 * p + 1]);
-    return;
-  }
-  const LO n = A.numRows();
+    for (LO p = 0; p < blocks; ++p) {
+      double s0, s1;
+      block_residual(B, a, b, x, p, s0, s1);
+      f(2 * p, s0);
+      f(2 * p + 1, s1);
+    }
+  };
+  if (B.empty()) {
+    const LO n = A.numRows();
 #pragma omp parallel for schedule(static)
-  for (LO i = 0; i < n; ++i) r[i] = row_residual(A, b, x, i);
+    for (LO i = 0; i < n; ++i) f(i, row_residual(A, b, x, i));
+  } else if (B.values.empty()) {
+    by_blocks(B.rounded.data());
+  } else {
+    by_blocks(B.values.data());
+  }
+}
+
+/// r = b - A x
+void residual(const local_t& A, const ThreadedCycle::Blocks& B, const double* b, const double* x, double* r) {
+  for_each_residual(A, B, b, x, [r](LO i, double s) { r[i] = s; });
 }
 
 /// w = c1 D^-1 (b - A x) + c2 w, then x += w (c2 = 0: w's old values are not read).
 void scaled_residual_step(const local_t& A, const ThreadedCycle::Blocks& B, const double* d_inv, const double* b,
                           double* x, double* w, double c1, double c2) {
   const LO n = A.numRows();
-  const auto update = [&](LO i, double s) { w[i] = c2 == 0.0 ? c1 * d_inv[i] * s : c1 * d_inv[i] * s + c2 * w[i]; };
-  if (!B.empty()) {
-    const auto blocks = static_cast<LO>(B.start.size() - 1);
-#pragma omp parallel for schedule(static)
-    for (LO p = 0; p < blocks; ++p) {
-      double s0, s1;
-      block_residual(B, b, x, p, s0, s1);
-      update(2 * p, s0);
-      update(2 * p + 1, s1);
-    }
-  } else {
-#pragma omp parallel for schedule(static)
-    for (LO i = 0; i < n; ++i) update(i, row_residual(A, b, x, i));
-  }
+  for_each_residual(A, B, b, x, [&](LO i, double s) {
+    w[i] = c2 == 0.0 ? c1 * d_inv[i] * s : c1 * d_inv[i] * s + c2 * w[i];
+  });
 #pragma omp parallel for schedule(static)
   for (LO i = 0; i < n; ++i) x[i] += w[i];
 }
 
-/// A's rows in 2 x 2 blocks, or empty if A has an odd number of rows.
-ThreadedCycle::Blocks to_blocks(const local_t& A) {
+/// A's rows in 2 x 2 blocks, or empty if A has an odd number of rows; `rounded`: the values
+/// as floats, unless one of them is not finite as a float (then doubles).
+ThreadedCycle::Blocks to_blocks(const local_t& A, bool rounded) {
   ThreadedCycle::Blocks B;
   const LO n = A.numRows();
   if (n % 2 != 0) return B;
@@ -143,6 +151,11 @@ ThreadedCycle::Blocks to_blocks(const local_t& A) {
       B.col.assign(B.start.back(), 0);
       B.values.assign(4 * B.start.back(), 0.0);
     }
+  }
+  if (rounded && std::all_of(B.values.begin(), B.values.end(),
+                             [](double v) { return std::abs(v) <= std::numeric_limits<float>::max(); })) {
+    B.rounded.assign(B.values.begin(), B.values.end());
+    std::vector<double>().swap(B.values);
   }
   return B;
 }
@@ -217,7 +230,13 @@ bool ThreadedCycle::read_smoother(const RCP<MueLu::SmootherBase<double, LO, GO, 
   return false;
 }
 
-std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& why_not, bool blocked) {
+ThreadedCycle::Finest ThreadedCycle::finest() const {
+  const Blocks& B = m_levels.front().blocks;
+  if (B.empty()) return Finest::csr;
+  return B.values.empty() ? Finest::float_blocks : Finest::blocks;
+}
+
+std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& why_not, Finest finest) {
   std::unique_ptr<ThreadedCycle> c(new ThreadedCycle);
   if (h.GetCycle() != MueLu::VCYCLE) {
     why_not = "not a V-cycle";
@@ -239,7 +258,7 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
       return nullptr;
     }
     level.A = A->getLocalMatrixHost();
-    if (i == 0 && blocked) level.blocks = to_blocks(level.A);
+    if (i == 0 && finest != Finest::csr) level.blocks = to_blocks(level.A, finest == Finest::float_blocks);
     if (i > 0) {
       if ((L.IsAvailable("Importer") && !L.Get<RCP<const Xpetra::Import<LO, GO, NT>>>("Importer").is_null()) ||
           L.IsAvailable("Pbar")) {

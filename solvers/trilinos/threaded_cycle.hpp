@@ -28,10 +28,20 @@ class ThreadedCycle {
   using NT = crs_t::node_type;
   using hierarchy_t = MueLu::Hierarchy<double, LO, GO, NT>;
 
+  /// How the finest level's matrix is read by the smoothers and the residual.
+  enum class Finest {
+    csr,           ///< MueLu's CSR matrix itself (no copy)
+    blocks,        ///< a copy in 2 x 2 blocks of doubles: MueLu's arithmetic, the same bits
+    float_blocks,  ///< a copy in 2 x 2 blocks of floats (Blocks): a preconditioner of A_f, A rounded
+  };
+
   /// The cycle of `h` (one process, no rebalancing), or null with the reason in `why_not`.
-  /// `blocked`: the finest level's rows are two per particle, and a copy of its matrix in
-  /// 2 x 2 blocks is worth its memory (Blocks).
-  static std::unique_ptr<ThreadedCycle> from(hierarchy_t& h, std::string& why_not, bool blocked);
+  /// `finest`: blocks of either kind need two rows per particle (odd rows: csr); float_blocks
+  /// holds doubles instead where an entry does not fit a float.
+  static std::unique_ptr<ThreadedCycle> from(hierarchy_t& h, std::string& why_not, Finest finest);
+
+  /// The finest level as the cycle reads it (for name(), tests and the log).
+  Finest finest() const;
 
   /// x = M b: one V-cycle from a zero initial guess, as MueLu's apply of the hierarchy as a
   /// preconditioner. b and x hold the finest level's rows.
@@ -40,13 +50,18 @@ class ThreadedCycle {
   /// A matrix with two rows per particle in 2 x 2 blocks (block row p: rows 2p and 2p + 1;
   /// an entry absent from one of the two rows is stored as zero). The residual and smoother
   /// kernels form two rows at a time from it, each row's subtractions in the CSR row's order
-  /// (the same bits): a block column loads x's pair once and its column index once for two
-  /// rows. Case 4.1: the V-cycle 1.07 -> 0.79 s over 318 cycles (medians of 4 runs), for a
-  /// copy of the finest matrix (about 9 bytes per nonzero).
+  /// (with doubles, the same bits): a block column loads x's pair once and its column index
+  /// once for two rows. Case 4.1: the V-cycle 1.07 -> 0.79 s over 318 cycles (medians of 4
+  /// runs), for a copy of the finest matrix (about 9 bytes per nonzero).
+  /// The values rounded to floats (the arithmetic stays double) halve the bytes the finest
+  /// level's five sweeps read per cycle: the cycle is then a fixed, symmetric operator built
+  /// on A_f = fl(A) (relative change 6e-8 per entry) instead of A, which the Krylov method
+  /// never sees (it applies the exact tangent). About 5 bytes per nonzero.
   struct Blocks {
     std::vector<std::size_t> start;  ///< per block row, into col (and 4 x into values)
     std::vector<LO> col;             ///< block column
-    std::vector<double> values;      ///< per block, column by column: a00 a10 a01 a11
+    std::vector<double> values;      ///< per block, column by column: a00 a10 a01 a11 (or empty)
+    std::vector<float> rounded;      ///< the same rounded to floats, when values is empty
     bool empty() const { return start.empty(); }
   };
 
