@@ -147,25 +147,30 @@ class TpetraCopy {
     Teuchos::ArrayRCP<LO> column_indices = Teuchos::arcp<LO>(static_cast<Teuchos_Ordinal>(nonzeros));
     m_source.assign(nonzeros, -1);
     m_diagonal.resize(local);
-    std::vector<std::pair<LO, Index>> row;  // (local column, position in A) of one row
-    for (LO r = 0; r < local; ++r) {
-      const Index k = d.unknown_of_local[r];
-      row.clear();
-      row.emplace_back(r, -1);
-      if (k >= 0)
-        for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
-          const Index j = static_cast<Index>(it.row());
-          const Index at = find_entry(A, k, j);
-          if (j == k)
-            row.front().second = at;
-          else
-            row.emplace_back(local_column(d.row_of[j]), at);
+    // Each row one thread's (case 4.1: 0.049 s on one).
+#pragma omp parallel
+    {
+      std::vector<std::pair<LO, Index>> row;  // (local column, position in A) of one row
+#pragma omp for schedule(static)
+      for (LO r = 0; r < local; ++r) {
+        const Index k = d.unknown_of_local[r];
+        row.clear();
+        row.emplace_back(r, -1);
+        if (k >= 0)
+          for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
+            const Index j = static_cast<Index>(it.row());
+            const Index at = find_entry(A, k, j);
+            if (j == k)
+              row.front().second = at;
+            else
+              row.emplace_back(local_column(d.row_of[j]), at);
+          }
+        std::sort(row.begin(), row.end());  // Tpetra wants each row's local indices sorted
+        for (std::size_t e = 0; e < row.size(); ++e) {
+          column_indices[row_pointers[r] + e] = row[e].first;
+          m_source[row_pointers[r] + e] = row[e].second;
+          if (row[e].first == r) m_diagonal[r] = static_cast<Index>(row_pointers[r] + e);
         }
-      std::sort(row.begin(), row.end());  // Tpetra wants each row's local indices sorted
-      for (std::size_t e = 0; e < row.size(); ++e) {
-        column_indices[row_pointers[r] + e] = row[e].first;
-        m_source[row_pointers[r] + e] = row[e].second;
-        if (row[e].first == r) m_diagonal[r] = static_cast<Index>(row_pointers[r] + e);
       }
     }
     m_row_start.assign(row_pointers.begin(), row_pointers.end());

@@ -38,7 +38,9 @@ RCP<const ThreadedCycle::crs_t> tpetra_matrix(MueLu::Level& level, const std::st
 }
 
 /// Local column indices are the domain's rows (one process: the column map is the domain map).
-bool columns_are_domain(const ThreadedCycle::crs_t& m) { return m.getColMap()->isSameAs(*m.getDomainMap()); }
+bool columns_are_domain(const ThreadedCycle::crs_t& m) {
+  return m.getColMap()->isSameAs(*m.getDomainMap());
+}
 
 // The kernels. Each row is one thread's, so the results do not depend on the thread count.
 
@@ -56,8 +58,8 @@ inline double row_residual(const local_t& A, const double* b, const double* x, L
 /// floats, the arithmetic in doubles): the same subtractions in the same order as
 /// row_residual() on the CSR rows (a zero entry subtracts an exact zero).
 template <class Value>
-inline void block_residual(const ThreadedCycle::Blocks& B, const Value* a, const double* b, const double* x, LO p,
-                           double& r0, double& r1) {
+inline void block_residual(const ThreadedCycle::Blocks& B, const Value* a, const double* b, const double* x,
+                           LO p, double& r0, double& r1) {
   double s0 = b[2 * p], s1 = b[2 * p + 1];
   const LO* col = B.col.data();
   for (std::size_t k = B.start[p]; k < B.start[p + 1]; ++k) {
@@ -75,7 +77,8 @@ inline void block_residual(const ThreadedCycle::Blocks& B, const Value* a, const
 /// f(i, (b - A x)_i) for every row i, each row one thread's: from the blocks (of doubles or
 /// floats) when there are, else from the CSR matrix.
 template <class F>
-void for_each_residual(const local_t& A, const ThreadedCycle::Blocks& B, const double* b, const double* x, F&& f) {
+void for_each_residual(const local_t& A, const ThreadedCycle::Blocks& B, const double* b, const double* x,
+                       F&& f) {
   const auto by_blocks = [&](const auto* a) {
     const auto blocks = static_cast<LO>(B.start.size() - 1);
 #pragma omp parallel for schedule(static)
@@ -103,8 +106,8 @@ void residual(const local_t& A, const ThreadedCycle::Blocks& B, const double* b,
 }
 
 /// w = c1 D^-1 (b - A x) + c2 w, then x += w (c2 = 0: w's old values are not read).
-void scaled_residual_step(const local_t& A, const ThreadedCycle::Blocks& B, const double* d_inv, const double* b,
-                          double* x, double* w, double c1, double c2) {
+void scaled_residual_step(const local_t& A, const ThreadedCycle::Blocks& B, const double* d_inv,
+                          const double* b, double* x, double* w, double c1, double c2) {
   const LO n = A.numRows();
   for_each_residual(A, B, b, x, [&](LO i, double s) {
     w[i] = c2 == 0.0 ? c1 * d_inv[i] * s : c1 * d_inv[i] * s + c2 * w[i];
@@ -123,39 +126,53 @@ ThreadedCycle::Blocks to_blocks(const local_t& A, bool rounded) {
   const LO* col = A.graph.entries.data();
   const double* a = A.values.data();
   const LO blocks = n / 2;
+  const auto nonzeros = static_cast<std::ptrdiff_t>(row[n]);
+  const bool to_float = rounded && std::all_of(a, a + nonzeros, [](double v) {
+                          return std::abs(v) <= static_cast<double>(std::numeric_limits<float>::max());
+                        });
   B.start.assign(static_cast<std::size_t>(blocks) + 1, 0);
-  std::vector<LO> cols;
+  // Two passes over the block rows, each row one thread's: the block counts, then (after
+  // their prefix sum) the columns and values.
   for (int pass = 0; pass < 2; ++pass) {
-    for (LO p = 0; p < blocks; ++p) {
-      cols.clear();
-      for (LO i = 2 * p; i <= 2 * p + 1; ++i)
-        for (auto k = row[i]; k < row[i + 1]; ++k) cols.push_back(col[k] / 2);
-      std::sort(cols.begin(), cols.end());
-      cols.erase(std::unique(cols.begin(), cols.end()), cols.end());
-      if (pass == 0) {
-        B.start[static_cast<std::size_t>(p) + 1] = B.start[static_cast<std::size_t>(p)] + cols.size();
-        continue;
-      }
-      const std::size_t first = B.start[static_cast<std::size_t>(p)];
-      std::copy(cols.begin(), cols.end(), B.col.begin() + static_cast<std::ptrdiff_t>(first));
-      for (LO c = 0; c < 2; ++c) {
-        const LO i = 2 * p + c;
-        for (auto k = row[i]; k < row[i + 1]; ++k) {
-          const std::size_t blk =
-              first + static_cast<std::size_t>(std::lower_bound(cols.begin(), cols.end(), col[k] / 2) - cols.begin());
-          B.values[4 * blk + static_cast<std::size_t>(2 * (col[k] % 2) + c)] = a[k];
+#pragma omp parallel
+    {
+      std::vector<LO> cols;
+#pragma omp for schedule(static)
+      for (LO p = 0; p < blocks; ++p) {
+        cols.clear();
+        for (LO i = 2 * p; i <= 2 * p + 1; ++i)
+          for (auto k = row[i]; k < row[i + 1]; ++k) cols.push_back(col[k] / 2);
+        std::sort(cols.begin(), cols.end());
+        cols.erase(std::unique(cols.begin(), cols.end()), cols.end());
+        if (pass == 0) {
+          B.start[static_cast<std::size_t>(p) + 1] = cols.size();
+          continue;
+        }
+        const std::size_t first = B.start[static_cast<std::size_t>(p)];
+        std::copy(cols.begin(), cols.end(), B.col.begin() + static_cast<std::ptrdiff_t>(first));
+        for (LO c = 0; c < 2; ++c) {
+          const LO i = 2 * p + c;
+          for (auto k = row[i]; k < row[i + 1]; ++k) {
+            const std::size_t blk =
+                first + static_cast<std::size_t>(std::lower_bound(cols.begin(), cols.end(), col[k] / 2) -
+                                                 cols.begin());
+            const std::size_t at = 4 * blk + static_cast<std::size_t>(2 * (col[k] % 2) + c);
+            if (to_float)
+              B.rounded[at] = static_cast<float>(a[k]);
+            else
+              B.values[at] = a[k];
+          }
         }
       }
     }
     if (pass == 0) {
+      for (std::size_t p = 0; p < static_cast<std::size_t>(blocks); ++p) B.start[p + 1] += B.start[p];
       B.col.assign(B.start.back(), 0);
-      B.values.assign(4 * B.start.back(), 0.0);
+      if (to_float)
+        B.rounded.assign(4 * B.start.back(), 0.0f);
+      else
+        B.values.assign(4 * B.start.back(), 0.0);
     }
-  }
-  if (rounded && std::all_of(B.values.begin(), B.values.end(),
-                             [](double v) { return std::abs(v) <= std::numeric_limits<float>::max(); })) {
-    B.rounded.assign(B.values.begin(), B.values.end());
-    std::vector<double>().swap(B.values);
   }
   return B;
 }
@@ -196,13 +213,17 @@ bool ThreadedCycle::read_smoother(const RCP<MueLu::SmootherBase<double, LO, GO, 
   };
   if (const auto chebyshev = rcp_dynamic_cast<Ifpack2::Chebyshev<row_t>>(prec); !chebyshev.is_null()) {
     if (!only({"chebyshev: degree", "chebyshev: ratio eigenvalue", "chebyshev: max eigenvalue",
-               "chebyshev: boost factor", "chebyshev: min diagonal value", "chebyshev: zero starting solution",
+               "chebyshev: boost factor", "chebyshev: min diagonal value",
+               "chebyshev: zero starting solution",
                "chebyshev: eigenvalue max iterations"}))  // the last: the set-up's estimate
       return false;
     out.kind = Smoother::Kind::chebyshev;
     out.degree = list.isParameter("chebyshev: degree") ? list.get<int>("chebyshev: degree") : 1;
-    out.ratio = list.isParameter("chebyshev: ratio eigenvalue") ? list.get<double>("chebyshev: ratio eigenvalue") : 30.0;
-    out.boost = list.isParameter("chebyshev: boost factor") ? list.get<double>("chebyshev: boost factor") : 1.1;
+    out.ratio = list.isParameter("chebyshev: ratio eigenvalue")
+                    ? list.get<double>("chebyshev: ratio eigenvalue")
+                    : 30.0;
+    out.boost =
+        list.isParameter("chebyshev: boost factor") ? list.get<double>("chebyshev: boost factor") : 1.1;
     out.min_diagonal = list.isParameter("chebyshev: min diagonal value")
                            ? list.get<double>("chebyshev: min diagonal value")
                            : std::numeric_limits<double>::epsilon();
@@ -223,7 +244,8 @@ bool ThreadedCycle::read_smoother(const RCP<MueLu::SmootherBase<double, LO, GO, 
     }
     out.kind = Smoother::Kind::jacobi;
     out.degree = list.isParameter("relaxation: sweeps") ? list.get<int>("relaxation: sweeps") : 1;
-    out.damping = list.isParameter("relaxation: damping factor") ? list.get<double>("relaxation: damping factor") : 1.0;
+    out.damping =
+        list.isParameter("relaxation: damping factor") ? list.get<double>("relaxation: damping factor") : 1.0;
     return true;
   }
   why_not = "an Ifpack2 smoother other than Chebyshev or Jacobi";
@@ -253,14 +275,16 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
       why_not = "level " + std::to_string(i) + " has no Tpetra matrix";
       return nullptr;
     }
-    if (A->getComm()->getSize() != 1 || !columns_are_domain(*A) || !A->getRowMap()->isSameAs(*A->getDomainMap())) {
+    if (A->getComm()->getSize() != 1 || !columns_are_domain(*A) ||
+        !A->getRowMap()->isSameAs(*A->getDomainMap())) {
       why_not = "level " + std::to_string(i) + " is distributed";
       return nullptr;
     }
     level.A = A->getLocalMatrixHost();
     if (i == 0 && finest != Finest::csr) level.blocks = to_blocks(level.A, finest == Finest::float_blocks);
     if (i > 0) {
-      if ((L.IsAvailable("Importer") && !L.Get<RCP<const Xpetra::Import<LO, GO, NT>>>("Importer").is_null()) ||
+      if ((L.IsAvailable("Importer") &&
+           !L.Get<RCP<const Xpetra::Import<LO, GO, NT>>>("Importer").is_null()) ||
           L.IsAvailable("Pbar")) {
         why_not = "level " + std::to_string(i) + " is rebalanced";
         return nullptr;
@@ -275,10 +299,12 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
     }
     finer = A;
     if (L.IsAvailable("PreSmoother") &&
-        !read_smoother(L.Get<RCP<MueLu::SmootherBase<double, LO, GO, NT>>>("PreSmoother"), level.pre, why_not))
+        !read_smoother(L.Get<RCP<MueLu::SmootherBase<double, LO, GO, NT>>>("PreSmoother"), level.pre,
+                       why_not))
       return nullptr;
     if (L.IsAvailable("PostSmoother") &&
-        !read_smoother(L.Get<RCP<MueLu::SmootherBase<double, LO, GO, NT>>>("PostSmoother"), level.post, why_not))
+        !read_smoother(L.Get<RCP<MueLu::SmootherBase<double, LO, GO, NT>>>("PostSmoother"), level.post,
+                       why_not))
       return nullptr;
     // D^-1 as Ifpack2 computes it (Details::Chebyshev's reciprocal_threshold): an entry below
     // the threshold t in magnitude gets t itself, not 1 / t (that row is barely smoothed);
@@ -288,7 +314,8 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
       why_not = "level " + std::to_string(i) + " smooths with two diagonal thresholds";
       return nullptr;
     }
-    const double threshold = level.pre.kind != Smoother::Kind::none ? level.pre.min_diagonal : level.post.min_diagonal;
+    const double threshold =
+        level.pre.kind != Smoother::Kind::none ? level.pre.min_diagonal : level.post.min_diagonal;
     const LO n = level.A.numRows();
     level.d_inv.assign(static_cast<std::size_t>(n), 0.0);
     const auto* row = level.A.graph.row_map.data();
@@ -314,7 +341,9 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
   return c;
 }
 
-void ThreadedCycle::apply(const double* b, double* x) { cycle(0, b, x); }
+void ThreadedCycle::apply(const double* b, double* x) {
+  cycle(0, b, x);
+}
 
 void ThreadedCycle::smooth(Level& level, const Smoother& s, const double* b, double* x, bool zero_guess) {
   const LO n = level.A.numRows();
