@@ -252,12 +252,6 @@ bool ThreadedCycle::read_smoother(const RCP<MueLu::SmootherBase<double, LO, GO, 
   return false;
 }
 
-ThreadedCycle::Finest ThreadedCycle::finest() const {
-  const Blocks& B = m_levels.front().blocks;
-  if (B.empty()) return Finest::csr;
-  return B.values.empty() ? Finest::float_blocks : Finest::blocks;
-}
-
 std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& why_not, Finest finest) {
   std::unique_ptr<ThreadedCycle> c(new ThreadedCycle);
   if (h.GetCycle() != MueLu::VCYCLE) {

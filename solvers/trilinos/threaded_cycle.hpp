@@ -40,9 +40,6 @@ class ThreadedCycle {
   /// holds doubles instead where an entry does not fit a float.
   static std::unique_ptr<ThreadedCycle> from(hierarchy_t& h, std::string& why_not, Finest finest);
 
-  /// The finest level as the cycle reads it (for name(), tests and the log).
-  Finest finest() const;
-
   /// x = M b: one V-cycle from a zero initial guess, as MueLu's apply of the hierarchy as a
   /// preconditioner. b and x hold the finest level's rows.
   void apply(const double* b, double* x);
