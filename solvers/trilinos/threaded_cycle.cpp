@@ -127,8 +127,12 @@ ThreadedCycle::Blocks to_blocks(const local_t& A, bool rounded) {
   const double* a = A.values.data();
   const LO blocks = n / 2;
   const auto nonzeros = static_cast<std::ptrdiff_t>(row[n]);
+  // Floats only where every entry keeps its 24 bits: none beyond a float's range, and no
+  // non-zero one among the subnormals (a scene in extreme units; it keeps doubles).
   const bool to_float = rounded && std::all_of(a, a + nonzeros, [](double v) {
-                          return std::abs(v) <= static_cast<double>(std::numeric_limits<float>::max());
+                          const double m = std::abs(v);
+                          return m == 0.0 || (m >= static_cast<double>(std::numeric_limits<float>::min()) &&
+                                              m <= static_cast<double>(std::numeric_limits<float>::max()));
                         });
   B.start.assign(static_cast<std::size_t>(blocks) + 1, 0);
   // Two passes over the block rows, each row one thread's: the block counts, then (after

@@ -37,7 +37,7 @@ class ThreadedCycle {
 
   /// The cycle of `h` (one process, no rebalancing), or null with the reason in `why_not`.
   /// `finest`: blocks of either kind need two rows per particle (odd rows: csr); float_blocks
-  /// holds doubles instead where an entry does not fit a float.
+  /// holds doubles instead where a non-zero entry is beyond a float's range or subnormal as one.
   static std::unique_ptr<ThreadedCycle> from(hierarchy_t& h, std::string& why_not, Finest finest);
 
   /// x = M b: one V-cycle from a zero initial guess, as MueLu's apply of the hierarchy as a

@@ -210,5 +210,33 @@ TEST(BondAmg, ThreadedCycleRepeatsMueLus) {
   }
 }
 
+// The float blocks are a choice the cycle may refuse: in extreme units (here E = 1e-45 Pa, so
+// that the bond matrix's entries, about E t, are subnormal as floats) rounding would lose
+// their digits or flush them to zero, and the default cycle keeps doubles instead: the same
+// bits as the exact cycle. At E = 70 GPa the same comparison differs (the floats in use).
+TEST(BondAmg, FloatBlocksFallBackToDoublesInExtremeUnits) {
+  for (const std::string E : {"1e-45", "7e10"}) {
+    auto s = test::solve_case("tension_plate", {"discretization.spacing=4e-3", "solver.linear=matrix_free",
+                                                "materials.aluminium.E=" + E});
+    ASSERT_TRUE(s->run.completed) << "E = " << E << ": " << s->run.message;
+    const Cycle f = bond_cycle(*s->problem, CycleApply::threads), d = bond_cycle(*s->problem, CycleApply::threads_exact);
+    ASSERT_EQ(f.cycle->name(), "muelu");
+    const double largest = f.P.coeffs().cwiseAbs().maxCoeff();
+    const VectorXd b = VectorXd::Random(f.P.rows());
+    VectorXd x_default, x_exact;
+    f.cycle->solve(b, x_default);
+    d.cycle->solve(b, x_exact);
+    const double apart = (x_default - x_exact).norm() / x_exact.norm();
+    std::printf("E = %s Pa: largest bond-matrix entry %.2e, default against exact cycle %.2e\n", E.c_str(), largest,
+                apart);
+    if (E == "1e-45") {
+      ASSERT_LT(largest, 1.1e-38) << "the scene must put the entries below a float's normal range";
+      EXPECT_EQ(apart, 0.0) << "doubles kept: the same bits";
+    } else {
+      EXPECT_GT(apart, 1e-12) << "floats in use at ordinary units";
+    }
+  }
+}
+
 }  // namespace
 }  // namespace peristat
