@@ -117,7 +117,7 @@ void scaled_residual_step(const local_t& A, const ThreadedCycle::Blocks& B, cons
 }
 
 /// A's rows in 2 x 2 blocks, or empty if A has an odd number of rows; `rounded`: the values
-/// as floats, unless one of them is not finite as a float (then doubles).
+/// as floats, unless a non-zero one is beyond a float's range or subnormal as one (then doubles).
 ThreadedCycle::Blocks to_blocks(const local_t& A, bool rounded) {
   ThreadedCycle::Blocks B;
   const LO n = A.numRows();

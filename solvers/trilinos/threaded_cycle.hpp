@@ -55,7 +55,7 @@ class ThreadedCycle {
   /// on A_f = fl(A) (relative change 6e-8 per entry) instead of A, which the Krylov method
   /// never sees (it applies the exact tangent). About 5 bytes per nonzero.
   struct Blocks {
-    std::vector<std::size_t> start;  ///< per block row, into col (and 4 x into values)
+    std::vector<std::size_t> start;  ///< per block row, into col (and 4 x into values or rounded)
     std::vector<LO> col;             ///< block column
     std::vector<double> values;      ///< per block, column by column: a00 a10 a01 a11 (or empty)
     std::vector<float> rounded;      ///< the same rounded to floats, when values is empty

@@ -54,7 +54,7 @@ inline constexpr double kBytesPerFactorNonzero = 10.0;
 inline constexpr double kBytesPerAmgNonzero = 65.0;
 /// Up to kAmgMemoryFirstRows rows (solvers/trilinos/belos_solver.hpp) the threaded V-cycle
 /// also keeps the finest matrix in 2 x 2 blocks (solvers/trilinos/threaded_cycle.hpp, Blocks:
-/// 4 float values and one index per block of four nonzeros; doubles during its making).
+/// 4 float values and one index per block of four nonzeros, written straight as floats).
 inline constexpr double kBytesPerBlockedNonzero = 5.0;
 inline constexpr double kBytesPerCopiedNonzero = 12.0;
 /// Largest family accepted (bonds of an interior particle): horizon_factor up to about 24.
