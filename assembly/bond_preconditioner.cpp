@@ -6,11 +6,12 @@
 namespace peristat {
 
 BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
-                                       const ContactSystem* contact, std::span<const double> weight)
+                                       const ContactSystem* contact, std::span<const double> weight,
+                                       const OwnedRows& owned)
     : m_model(model),
       m_contact(contact),
       m_radius(options.bond_radius * model.spacing),
-      m_pattern(build_pattern(model, PatternReach::bonds_within, m_radius, contact)) {
+      m_pattern(build_pattern(model, PatternReach::bonds_within, m_radius, contact, owned)) {
   const Bonds& bonds = model.bonds;
   const Particles& part = model.particles;
   const Index n = part.size();
@@ -28,13 +29,12 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
 void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weight,
                                   std::span<const Vec2> direction) const {
   const Bonds& bonds = m_model.bonds;
-  const Index n = m_model.particles.size();
   const double r2 = m_radius * m_radius * (1.0 + kBondRadiusMargin);
 #pragma omp parallel
   {
     ColumnWriter col(m_model, m_pattern, P);
 #pragma omp for schedule(static)
-    for (Index p = 0; p < n; ++p) {
+    for (Index p = m_pattern.col_first; p < m_pattern.col_end; ++p) {
       if (!col.begin(p)) continue;
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
         if (bonds.xi[b].squaredNorm() > r2) continue;
@@ -47,8 +47,10 @@ void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weigh
       if (m_contact) {
         for (auto e = m_contact->incident_begin(p); e != m_contact->incident_end(p); ++e) {
           // Pairs added at run time (broken bonds) longer than the preconditioner's stencil
-          // have no block in its pattern; the preconditioner does without them.
-          if (!col.has(e->other)) continue;
+          // have no block in its pattern; the preconditioner does without them. A rank's
+          // pattern of owned rows stores (other, p) only when `other` is its own: it knows the
+          // pair by the transposed block (p, other) when p is (the pattern is symmetric).
+          if (!col.has(e->other) && !(m_pattern.partial && m_pattern.holds(p, e->other))) continue;
           col.add_pair(e->other, m_contact->preconditioner_block(e->pair));
         }
       }

@@ -21,8 +21,10 @@ class BondPreconditioner {
   /// without contact); it must outlive the preconditioner. `weight`: the bond weights its
   /// alpha' is measured with (the kernel's, so surface-corrected families are not counted
   /// twice: a family's missing bonds raise its factors, not also its alpha').
-  BondPreconditioner(const Model& model, const BondPreconditionerOptions& options, const ContactSystem* contact,
-                     std::span<const double> weight);
+  /// `owned`: the rows this rank assembles (build_pattern()); every row by default.
+  BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
+                     const ContactSystem* contact, std::span<const double> weight,
+                     const OwnedRows& owned = {});
 
   /// A matrix with the preconditioner's pattern and zero values.
   SparseMatrix make_matrix() const { return m_pattern.make_matrix(m_model.constraints); }

@@ -29,13 +29,15 @@ class ColumnWriter {
         m_values(A.valuePtr()),
         m_slot(static_cast<std::size_t>(m_width) * m_width, -1) {}
 
-  /// False when p has no free component (nothing to write).
+  /// False when p has no free component, or (a pattern of owned rows) no stored block:
+  /// nothing to write.
   bool begin(Index p) {
     m_p = p;
     m_sign[0] = m_sign[1] = 1.0;
     m_col[0] = m_cons.free_index[2 * p];
     m_col[1] = m_cons.free_index[2 * p + 1];
     if (m_col[0] < 0 && m_col[1] < 0) return false;
+    if (m_pat.col_start[p] == m_pat.col_start[p + 1]) return false;
     for (Index k = m_pat.col_start[p]; k < m_pat.col_start[p + 1]; ++k) slot(m_pat.row_particle[k]) = k;
     for (int c = 0; c < 2; ++c)
       if (m_col[c] >= 0) std::fill(m_values + m_outer[m_col[c]], m_values + m_outer[m_col[c] + 1], 0.0);
@@ -51,10 +53,11 @@ class ColumnWriter {
     m_sign[1] = sign[1];
   }
   /// Adds the block a (row component, column component) at (q, p). Rows without a free
-  /// component are dropped.
+  /// component are dropped, and so are the rows that a pattern of owned rows does not store.
   void add(Index q, double a00, double a01, double a10, double a11) {
     const bool xr = m_cons.free_index[2 * q] >= 0, yr = m_cons.free_index[2 * q + 1] >= 0;
     if (!xr && !yr) return;
+    if (m_pat.partial && !has(q)) return;
     const Index base = m_pat.row_offset[slot(q)];
     const double a[2][2] = {{a00, a01}, {a10, a11}};
     for (int cp = 0; cp < 2; ++cp) {

@@ -1,60 +1,118 @@
 #include "assembly/pattern.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 
 #include <omp.h>
 
+#include "core/partition.hpp"
+
 namespace peristat {
 
+OwnedRows owned_rows(const Constraints& cons, int rank, int ranks) {
+  const Index n = static_cast<Index>(cons.free_index.size() / 2);
+  std::vector<Index> node_particle;  // the particles that have an unknown, in order
+  for (Index p = 0; p < n; ++p)
+    if (cons.free_index[2 * p] >= 0 || cons.free_index[2 * p + 1] >= 0) node_particle.push_back(p);
+  const auto nodes = static_cast<std::int64_t>(node_particle.size());
+  const auto particle_of = [&](std::int64_t node) { return node < nodes ? node_particle[node] : n; };
+  OwnedRows rows;
+  rows.first = rank == 0 ? 0 : particle_of(strip_start(nodes, rank, ranks));
+  rows.end = particle_of(strip_start(nodes, rank + 1, ranks));
+  return rows;
+}
+
 TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double radius,
-                             const ContactSystem* contact) {
+                             const ContactSystem* contact, const OwnedRows& owned) {
   const double radius2 = radius * radius * (1.0 + kBondRadiusMargin);
   const Index n = model.particles.size();
   const Bonds& bonds = model.bonds;
   const Constraints& cons = model.constraints;
   TangentPattern pat;
 
-  // Rows of column particle p: {p} + families of p and of each neighbour of p.
-  std::vector<std::vector<Index>> rows(n);
-#pragma omp parallel
-  {
-    std::vector<char> seen(n, 0);
-#pragma omp for schedule(dynamic, 256)
-    for (Index p = 0; p < n; ++p) {
-      std::vector<Index>& r = rows[p];
-      auto add = [&](Index q) {
-        if (!seen[q]) {
-          seen[q] = 1;
-          r.push_back(q);
-        }
-      };
-      // The particles reached from c: its bonds (within the radius) and, for two horizons,
-      // their families; `take` filters them.
-      const auto reach_from = [&](Index c, auto take) {
-        for (Index b = bonds.start[c]; b < bonds.start[c + 1]; ++b) {
-          const Index i = bonds.neighbour[b];
-          if (reach_kind == PatternReach::bonds_within && bonds.xi[b].squaredNorm() > radius2) continue;
-          take(i);
-          if (reach_kind != PatternReach::two_horizons) continue;
-          for (Index k = bonds.start[i]; k < bonds.start[i + 1]; ++k) take(bonds.neighbour[k]);
-        }
-      };
-      add(p);
-      reach_from(p, add);
-      if (contact)
-        for (auto e = contact->incident_begin(p); e != contact->incident_end(p); ++e) add(e->other);
-      // Mirror ghosts of p: their columns are folded into p's (docs/theory/osb.md, section 7),
-      // so p's rows also hold the free rows of each ghost's column.
-      if (cons.has_images()) {
-        const auto add_free = [&](Index q) {
-          if (cons.free_index[2 * q] >= 0 || cons.free_index[2 * q + 1] >= 0) add(q);
-        };
-        for (Index k = cons.image_start[p]; k < cons.image_start[p + 1]; ++k)
-          reach_from(cons.images[k].ghost, add_free);
+  // Rows of column particle p: {p} + families of p and of each neighbour of p, those that
+  // `keep` accepts, ascending. `seen` is n zeros on entry and on return.
+  const auto collect = [&](Index p, std::vector<Index>& r, std::vector<char>& seen, auto keep) {
+    auto add = [&](Index q) {
+      if (!seen[q] && keep(q)) {
+        seen[q] = 1;
+        r.push_back(q);
       }
-      std::sort(r.begin(), r.end());
-      for (Index q : r) seen[q] = 0;
+    };
+    // The particles reached from c: its bonds (within the radius) and, for two horizons,
+    // their families; `take` filters them.
+    const auto reach_from = [&](Index c, auto take) {
+      for (Index b = bonds.start[c]; b < bonds.start[c + 1]; ++b) {
+        const Index i = bonds.neighbour[b];
+        if (reach_kind == PatternReach::bonds_within && bonds.xi[b].squaredNorm() > radius2) continue;
+        take(i);
+        if (reach_kind != PatternReach::two_horizons) continue;
+        for (Index k = bonds.start[i]; k < bonds.start[i + 1]; ++k) take(bonds.neighbour[k]);
+      }
+    };
+    add(p);
+    reach_from(p, add);
+    if (contact)
+      for (auto e = contact->incident_begin(p); e != contact->incident_end(p); ++e) add(e->other);
+    // Mirror ghosts of p: their columns are folded into p's (docs/theory/osb.md, section 7),
+    // so p's rows also hold the free rows of each ghost's column.
+    if (cons.has_images()) {
+      const auto add_free = [&](Index q) {
+        if (cons.free_index[2 * q] >= 0 || cons.free_index[2 * q + 1] >= 0) add(q);
+      };
+      for (Index k = cons.image_start[p]; k < cons.image_start[p + 1]; ++k)
+        reach_from(cons.images[k].ghost, add_free);
+    }
+    std::sort(r.begin(), r.end());
+    for (Index q : r) seen[q] = 0;
+  };
+  const auto every = [](Index) { return true; };
+  const auto mine = [&](Index q) { return owned.contains(q); };
+
+  std::vector<std::vector<Index>> rows(n);
+  pat.col_first = 0;
+  pat.col_end = n;
+  if (owned.all()) {
+#pragma omp parallel
+    {
+      std::vector<char> seen(n, 0);
+#pragma omp for schedule(dynamic, 256)
+      for (Index p = 0; p < n; ++p) collect(p, rows[p], seen, every);
+    }
+  } else {
+    // The owned columns first, whole: the pattern is structurally symmetric, so the particles
+    // they reach are exactly the columns that hold an owned row. Those are then collected with
+    // owned rows only, and the owned columns cut to their owned rows.
+    pat.partial = true;
+    const Index first = std::min(owned.first, n), end = std::min(owned.end, n);
+    std::vector<char> touched(n, 0);
+#pragma omp parallel
+    {
+      std::vector<char> seen(n, 0);
+#pragma omp for schedule(dynamic, 256)
+      for (Index p = first; p < end; ++p) collect(p, rows[p], seen, every);
+#pragma omp single
+      {
+        for (Index p = first; p < end; ++p)
+          for (Index q : rows[p]) touched[q] = 1;
+        pat.col_first = n;
+        pat.col_end = 0;
+        for (Index p = 0; p < n; ++p)
+          if (touched[p]) {
+            pat.col_first = std::min(pat.col_first, p);
+            pat.col_end = p + 1;
+          }
+        if (pat.col_first > pat.col_end) pat.col_first = pat.col_end;
+      }
+#pragma omp for schedule(dynamic, 256)
+      for (Index p = pat.col_first; p < pat.col_end; ++p) {
+        if (!touched[p]) continue;
+        if (mine(p))
+          std::erase_if(rows[p], [&](Index q) { return !mine(q); });
+        else
+          collect(p, rows[p], seen, mine);
+      }
     }
   }
 

@@ -3,12 +3,27 @@
 // rows of column particle p are the union of the families of p and of its neighbours.
 #pragma once
 
+#include <algorithm>
+#include <limits>
 #include <vector>
 
 #include "contact/contact.hpp"
 #include "discretisation/model.hpp"
 
 namespace peristat {
+
+/// The rows that one rank of a distributed run assembles: the particles [first, end), its
+/// strip (docs/guide/distributed.md). The default holds every row (one process).
+struct OwnedRows {
+  Index first = 0;
+  Index end = std::numeric_limits<Index>::max();
+  bool all() const { return first == 0 && end == std::numeric_limits<Index>::max(); }
+  bool contains(Index p) const { return p >= first && p < end; }
+};
+
+/// Rank `rank` of `ranks`' rows: the particles of its strip of nodes (strip_start() over the
+/// particles that have an unknown, in particle order; the Tpetra adapter owns the same rows).
+OwnedRows owned_rows(const Constraints& constraints, int rank, int ranks);
 
 /// Particle-level column structure plus the map to the free-dof matrix.
 struct TangentPattern {
@@ -18,9 +33,18 @@ struct TangentPattern {
   std::vector<Index> col_start;
   std::vector<Index> row_particle;
   std::vector<Index> row_offset;
-  int lattice_reach = 0;   ///< max lattice offset between coupled particles
+  int lattice_reach = 0;   ///< max lattice offset between coupled particles (of the stored blocks)
   long long nonzeros = 0;  ///< of the free-dof matrix
+  /// Built for OwnedRows other than all(): only those rows are stored, and a column may be
+  /// empty. Columns outside [col_first, col_end) are empty in any case.
+  bool partial = false;
+  Index col_first = 0, col_end = 0;
 
+  /// Whether the pattern stores the block (row particle q, column particle p).
+  bool holds(Index q, Index p) const {
+    const auto begin = row_particle.begin() + col_start[p], end = row_particle.begin() + col_start[p + 1];
+    return std::binary_search(begin, end, q);
+  }
   /// A free-dof matrix with this pattern (values zero), column-major, rows ascending in each
   /// column. O(nonzeros); the structure above is what is expensive to build.
   SparseMatrix make_matrix(const Constraints& constraints) const;
@@ -42,8 +66,11 @@ enum class PatternReach {
 
 /// Builds the pattern's structure. Deterministic; O(N n^2) with n the family size.
 /// `radius` [m] is used with PatternReach::bonds_within only. The candidate pairs of
-/// `contact`, when given, are coupled too.
+/// `contact`, when given, are coupled too. With `owned` rows, only they are stored (each
+/// column's blocks in owned rows, in the same order as in the whole pattern), and the work is
+/// that of the owned columns and of the columns within reach of them.
 TangentPattern build_pattern(const Model& model, PatternReach reach = PatternReach::two_horizons,
-                             double radius = 0.0, const ContactSystem* contact = nullptr);
+                             double radius = 0.0, const ContactSystem* contact = nullptr,
+                             const OwnedRows& owned = {});
 
 }  // namespace peristat

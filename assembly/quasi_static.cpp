@@ -41,8 +41,9 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
       m_options(options),
       m_contact(make_contact(model, options.contact, m_contact_setup_seconds)),
       m_failure(options.failure.enabled ? std::make_unique<BondFailure>(model, options.failure) : nullptr),
-      m_pattern(options.matrix_free ? TangentPattern{}
-                                    : build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get())),
+      m_pattern(options.matrix_free
+                    ? TangentPattern{}
+                    : build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get(), options.rows)),
       m_correction(model, options.surface_correction) {
   m_small_kinematics = true;
   for (const BodyInfo& body : model.bodies) {
@@ -279,7 +280,8 @@ void QuasiStaticProblem::commit(const VectorXd& x) {
   const std::uint64_t version = m_contact->version();
   m_contact->commit(m_u);
   if (m_contact->version() != version) {  // new partners: the pattern grows
-    if (!m_options.matrix_free) m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get());
+    if (!m_options.matrix_free)
+      m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get(), m_options.rows);
     m_preconditioner.reset();
   }
 }
@@ -312,7 +314,8 @@ void QuasiStaticProblem::restore_state(const StateArchive& archive, const Vector
   }
   if (m_contact) {
     m_contact->restore(archive);
-    if (!m_options.matrix_free) m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get());
+    if (!m_options.matrix_free)
+      m_pattern = build_pattern(m_model, PatternReach::two_horizons, 0.0, m_contact.get(), m_options.rows);
     m_preconditioner.reset();
   }
   update_fragments();
@@ -496,10 +499,22 @@ Index QuasiStaticProblem::fragment_contacts() const {
 
 void QuasiStaticProblem::decouple_fragments(SparseMatrix& K) const {
   if (m_fragment_unknowns.empty()) return;
-  const double d = K.diagonal().cwiseAbs().maxCoeff();
+  // A rank's K holds its own rows only: the largest diagonal is the ranks' (the same number
+  // on every rank, as in one process).
+  double d = K.diagonal().cwiseAbs().maxCoeff();
+  if (m_options.max_over_ranks) d = m_options.max_over_ranks(d);
+  // Entry (row, col) of K, or null when K does not store it (never inserted).
+  const auto stored = [&K](Index row, Index col) -> double* {
+    const Index* begin = K.innerIndexPtr() + K.outerIndexPtr()[col];
+    const Index* end = K.innerIndexPtr() + K.outerIndexPtr()[col + 1];
+    const Index* at = std::lower_bound(begin, end, row);
+    return at != end && *at == row ? K.valuePtr() + (at - K.innerIndexPtr()) : nullptr;
+  };
   for (const Index f : m_fragment_unknowns) {
     for (SparseMatrix::InnerIterator it(K, f); it; ++it) {
-      if (it.row() != f) K.coeffRef(f, it.row()) = 0.0;  // the pattern is symmetric
+      // The pattern is symmetric: row f holds column it.row() where K stores row f.
+      if (it.row() != f)
+        if (double* v = stored(f, static_cast<Index>(it.row()))) *v = 0.0;
       it.valueRef() = it.row() == f ? d : 0.0;
     }
   }
@@ -575,7 +590,6 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
   const Bonds& bonds = m_model.bonds;
   const Particles& part = m_model.particles;
   const Constraints& cons = m_model.constraints;
-  const Index n = part.size();
 #pragma omp parallel
   {
     ColumnWriter col(m_model, m_pattern, K);
@@ -604,7 +618,7 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
       }
     };
 #pragma omp for schedule(static)
-    for (Index p = 0; p < n; ++p) {
+    for (Index p = m_pattern.col_first; p < m_pattern.col_end; ++p) {
       if (!col.begin(p)) continue;
       column(p);
       // Mirror ghosts of p depend on u_p: their columns fold into p's (chain rule).
@@ -625,11 +639,11 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
 
 SparseMatrix QuasiStaticProblem::make_preconditioner() {
   if (!m_preconditioner)
-    m_preconditioner =
-        std::make_unique<BondPreconditioner>(
-            m_model, m_options.bond_preconditioner, m_contact.get(),
-            m_correction.method() == SurfaceCorrectionMethod::none ? std::span<const double>(m_model.bonds.weight)
-                                                                   : m_correction.weights());
+    m_preconditioner = std::make_unique<BondPreconditioner>(
+        m_model, m_options.bond_preconditioner, m_contact.get(),
+        m_correction.method() == SurfaceCorrectionMethod::none ? std::span<const double>(m_model.bonds.weight)
+                                                               : m_correction.weights(),
+        m_options.rows);
   return m_preconditioner->make_matrix();
 }
 

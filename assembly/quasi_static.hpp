@@ -6,6 +6,7 @@
 // contact pairs with their history (contact/contact.hpp) live in objects of their own.
 #pragma once
 
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -50,6 +51,13 @@ struct ProblemOptions {
   /// make_tangent() gives an empty matrix, evaluate() with K prepares apply_tangent() instead
   /// of writing K (ADR needs the assembled tangent and never sets this).
   bool matrix_free = false;
+  /// The rows this process assembles: a rank of a distributed run (solver.linear: belos
+  /// under mpirun) holds and writes only its strip's rows of the tangent and of the bond
+  /// preconditioner (docs/guide/distributed.md). Every row by default.
+  OwnedRows rows;
+  /// With `rows` a strip: the largest of a number over the ranks (every rank calls it at the
+  /// same point), so that the matrices' values are those of one process.
+  std::function<double(double)> max_over_ranks;
 };
 
 class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {

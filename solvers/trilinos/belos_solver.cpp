@@ -2,11 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <exception>
 #include <numeric>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <omp.h>
 
 #include <Eigen/CholmodSupport>
 
@@ -23,6 +27,7 @@
 #include <Tpetra_Map.hpp>
 
 #include "core/error.hpp"
+#include "core/partition.hpp"
 #include "solvers/linear/preconditioner_reuse.hpp"
 #include "solvers/trilinos/parallel.hpp"
 #include "solvers/trilinos/threaded_cycle.hpp"
@@ -81,7 +86,7 @@ Distribution distribute(Index n, const UnknownLayout& layout, int rank, int rank
     std::iota(d.row_of.begin(), d.row_of.end(), GO(0));
   }
   d.n_rows = d.per_node * nodes;
-  const GO first_node = nodes * rank / ranks, end_node = nodes * (rank + 1) / ranks;
+  const GO first_node = strip_start(nodes, rank, ranks), end_node = strip_start(nodes, rank + 1, ranks);
   d.first_row = d.per_node * first_node;
   d.unknown_of_local.assign(static_cast<std::size_t>(d.per_node * (end_node - first_node)), -1);
   for (Index k = 0; k < n; ++k)
@@ -96,33 +101,59 @@ Distribution distribute(Index n, const UnknownLayout& layout, int rank, int rank
 
 std::string first_line(const std::string& text) { return text.substr(0, text.find('\n')); }
 
-/// Position of entry (row, col) in A's value array, or -1 when A does not store it.
-Index find_entry(const SparseMatrix& A, Index row, Index col) {
-  const Index* begin = A.innerIndexPtr() + A.outerIndexPtr()[col];
-  const Index* end = A.innerIndexPtr() + A.outerIndexPtr()[col + 1];
-  const Index* it = std::lower_bound(begin, end, row);
-  return it != end && *it == row ? static_cast<Index>(it - A.innerIndexPtr()) : -1;
-}
-
-/// A symmetric-pattern Eigen matrix copied into a Tpetra CrsMatrix distributed by
-/// distribute(): the graph once per pattern (analyze), the values at every factorisation
-/// (fill). Each local row's columns come from column k of A (the pattern is structurally
-/// symmetric); a padding row and a row without a stored diagonal get one. Local indices from
-/// the start: the column map lists this rank's rows, then the other ranks' rows that its rows
-/// touch, sorted. No global-index copy of the pattern is ever made (at 700 x 700 it would be
-/// 2.4 GB).
+/// An Eigen matrix copied into a Tpetra CrsMatrix distributed by distribute(): the graph
+/// once per pattern (analyze), the values at every factorisation (fill). A holds every row
+/// (one process) or at least this rank's (a rank's own assembly, OwnedRows): each local row's
+/// entries are read from A's columns; a padding row and a row without a stored diagonal get
+/// one. Local indices from the start: the column map lists this rank's rows, then the other
+/// ranks' rows that its rows touch, sorted. No global-index copy of the pattern is ever made
+/// (at 700 x 700 it would be 2.4 GB).
 class TpetraCopy {
  public:
   void analyze(const SparseMatrix& A, const UnknownLayout& layout, const RCP<const Teuchos::Comm<int>>& comm) {
+    if (!A.isCompressed()) throw std::logic_error("TpetraCopy::analyze: the matrix must be compressed");
     const Index n = static_cast<Index>(A.rows());
     d = distribute(n, layout, comm->getRank(), comm->getSize());
     const LO local = d.local_rows();
     map = rcp(new map_t(static_cast<Tpetra::global_size_t>(d.n_rows), static_cast<std::size_t>(local), GO(0), comm));
-    std::vector<GO> remote;
+    // The unknowns of the local rows lie in [k_first, k_end) (row_of increases with the
+    // unknown; owns() is checked all the same). Each thread reads every column of A for the
+    // entries in its share of that range, so that each local row is one thread's.
+    Index k_first = n, k_end = 0;
     for (LO r = 0; r < local; ++r)
-      if (const Index k = d.unknown_of_local[r]; k >= 0)
-        for (SparseMatrix::InnerIterator it(A, k); it; ++it)
-          if (!d.owns(d.row_of[it.row()])) remote.push_back(d.row_of[it.row()]);
+      if (const Index k = d.unknown_of_local[r]; k >= 0) {
+        k_first = std::min(k_first, k);
+        k_end = std::max(k_end, k + 1);
+      }
+    const Index* outer = A.outerIndexPtr();
+    const Index* inner = A.innerIndexPtr();
+    const int threads = omp_get_max_threads();
+    // The entries of column j in thread t's rows: `visit(k, position)` for each owned row k.
+    const auto scan = [&](int t, int teams, Index j, auto visit) {
+      const Index lo = k_first + static_cast<Index>((std::int64_t(k_end) - k_first) * t / teams);
+      const Index hi = k_first + static_cast<Index>((std::int64_t(k_end) - k_first) * (t + 1) / teams);
+      for (const Index* e = std::lower_bound(inner + outer[j], inner + outer[j + 1], lo);
+           e != inner + outer[j + 1] && *e < hi; ++e)
+        if (d.owns(d.row_of[*e])) visit(*e, static_cast<Index>(e - inner));
+    };
+    // Pass 1: entries per local row (the diagonal always), and the other ranks' rows touched.
+    std::vector<std::size_t> count(static_cast<std::size_t>(local), 1);
+    std::vector<std::vector<GO>> remote_of(static_cast<std::size_t>(threads));
+#pragma omp parallel num_threads(threads)
+    {
+      const int t = omp_get_thread_num(), teams = omp_get_num_threads();
+      for (Index j = 0; j < n; ++j) {
+        const bool other_rank = !d.owns(d.row_of[j]);
+        bool touched = false;
+        scan(t, teams, j, [&](Index k, Index) {
+          if (k != j) ++count[d.row_of[k] - d.first_row];
+          touched = true;
+        });
+        if (other_rank && touched) remote_of[t].push_back(d.row_of[j]);
+      }
+    }
+    std::vector<GO> remote;
+    for (const std::vector<GO>& r : remote_of) remote.insert(remote.end(), r.begin(), r.end());
     std::sort(remote.begin(), remote.end());
     remote.erase(std::unique(remote.begin(), remote.end()), remote.end());
     auto local_column = [&](GO column) -> LO {
@@ -136,36 +167,41 @@ class TpetraCopy {
                                                    Teuchos::ArrayView<const GO>(columns_of_map), GO(0), comm));
     Teuchos::ArrayRCP<std::size_t> row_pointers = Teuchos::arcp<std::size_t>(local + 1);
     row_pointers[0] = 0;
-    for (LO r = 0; r < local; ++r) {
-      const Index k = d.unknown_of_local[r];
-      std::size_t count = 1;  // the diagonal, stored or not
-      if (k >= 0)
-        for (SparseMatrix::InnerIterator it(A, k); it; ++it) count += it.row() != k;
-      row_pointers[r + 1] = row_pointers[r] + count;
-    }
+    for (LO r = 0; r < local; ++r) row_pointers[r + 1] = row_pointers[r] + count[r];
     const std::size_t nonzeros = row_pointers[local];
     Teuchos::ArrayRCP<LO> column_indices = Teuchos::arcp<LO>(static_cast<Teuchos_Ordinal>(nonzeros));
     m_source.assign(nonzeros, -1);
     m_diagonal.resize(local);
-    // Each row one thread's (case 4.1: 0.049 s on one).
+    // Pass 2: each row's diagonal first (stored in A or not), then its other entries in the
+    // order of A's columns.
+    std::vector<std::size_t>& next = count;
+    for (LO r = 0; r < local; ++r) {
+      column_indices[row_pointers[r]] = r;
+      next[r] = row_pointers[r] + 1;
+    }
+#pragma omp parallel num_threads(threads)
+    {
+      const int t = omp_get_thread_num(), teams = omp_get_num_threads();
+      for (Index j = 0; j < n; ++j) {
+        const LO column = local_column(d.row_of[j]);
+        scan(t, teams, j, [&](Index k, Index at) {
+          const LO r = static_cast<LO>(d.row_of[k] - d.first_row);
+          const std::size_t slot = k == j ? row_pointers[r] : next[r]++;
+          column_indices[slot] = column;
+          m_source[slot] = at;
+        });
+      }
+    }
+    // Pass 3: each row sorted by local column (Tpetra wants them so).
 #pragma omp parallel
     {
-      std::vector<std::pair<LO, Index>> row;  // (local column, position in A) of one row
+      std::vector<std::pair<LO, Index>> row;
 #pragma omp for schedule(static)
       for (LO r = 0; r < local; ++r) {
-        const Index k = d.unknown_of_local[r];
         row.clear();
-        row.emplace_back(r, -1);
-        if (k >= 0)
-          for (SparseMatrix::InnerIterator it(A, k); it; ++it) {
-            const Index j = static_cast<Index>(it.row());
-            const Index at = find_entry(A, k, j);
-            if (j == k)
-              row.front().second = at;
-            else
-              row.emplace_back(local_column(d.row_of[j]), at);
-          }
-        std::sort(row.begin(), row.end());  // Tpetra wants each row's local indices sorted
+        for (std::size_t e = row_pointers[r]; e < row_pointers[r + 1]; ++e)
+          row.emplace_back(column_indices[e], m_source[e]);
+        std::sort(row.begin(), row.end());
         for (std::size_t e = 0; e < row.size(); ++e) {
           column_indices[row_pointers[r] + e] = row[e].first;
           m_source[row_pointers[r] + e] = row[e].second;

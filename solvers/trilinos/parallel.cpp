@@ -65,6 +65,20 @@ int ranks_on_this_machine() {
   return n;
 }
 
+double max_over_ranks(double value) {
+  if (size() <= 1) return value;
+  double result = value;
+  MPI_Allreduce(&value, &result, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  return result;
+}
+
+long long sum_over_ranks(long long value) {
+  if (size() <= 1) return value;
+  long long result = value;
+  MPI_Allreduce(&value, &result, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  return result;
+}
+
 void abort_if_distributed(int code) {
   if (size() > 1) MPI_Abort(MPI_COMM_WORLD, code);
 }

@@ -26,6 +26,10 @@ int rank();
 int size();
 /// The ranks that share this machine's memory (1 before MPI starts).
 int ranks_on_this_machine();
+/// The largest value and the sum over every rank (collective: every rank calls them at the
+/// same point); the value itself in one process.
+double max_over_ranks(double value);
+long long sum_over_ranks(long long value);
 /// Ends every rank with `code` when more than one runs (an error that one rank meets alone
 /// would leave the others waiting in a collective operation); returns otherwise.
 void abort_if_distributed(int code);

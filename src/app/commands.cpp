@@ -157,7 +157,12 @@ int run_command(const RunArguments& args) {
   for (const std::string& w : warnings) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
 
   const Model model = discretise(scene);
-  QuasiStaticProblem problem(model, problem_options(scene));
+  ProblemOptions options = problem_options(scene);
+  if (ranks > 1) {  // each rank assembles its own rows (docs/guide/distributed.md)
+    options.rows = owned_rows(model.constraints, parallel::rank(), ranks);
+    options.max_over_ranks = parallel::max_over_ranks;
+  }
+  QuasiStaticProblem problem(model, options);
   const ModelSize size = measure(model, problem);
   std::unique_ptr<LinearSolver> linear;
   const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear);

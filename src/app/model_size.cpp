@@ -2,6 +2,8 @@
 
 #include <cstdio>
 
+#include "solvers/trilinos/parallel.hpp"
+
 namespace peristat {
 
 ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
@@ -13,7 +15,7 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
   s.cut_bonds = model.n_cut_bonds;
   s.unknowns = model.constraints.n_free;
   s.prescribed = 2 * p.size() - s.unknowns;
-  s.nonzeros = problem.pattern().nonzeros;
+  s.nonzeros = parallel::sum_over_ranks(problem.pattern().nonzeros);  // a rank stores its own rows
   s.correction = problem.surface_correction().method();
   s.correction_stats = problem.surface_correction().stats();
   s.memory_bytes =

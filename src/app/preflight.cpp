@@ -21,9 +21,9 @@ namespace {
 
 /// ", per rank of the N on it" when ranks share the machine, else "".
 std::string sharing(const SizeEstimate& e) {
-  return e.sharing_ranks > 1
-             ? " per rank of the " + std::to_string(e.sharing_ranks) + " on it (each holds the whole model)"
-             : std::string();
+  return e.sharing_ranks > 1 ? " per rank of the " + std::to_string(e.sharing_ranks) +
+                                   " on it (each holds the whole model and its own rows of the tangent)"
+                             : std::string();
 }
 
 /// MemAvailable of /proc/meminfo [bytes]; 0 when it cannot be read (not Linux).
@@ -140,6 +140,14 @@ SizeEstimate estimate_size(const Scene& scene) {
       e.factor_bytes += kBytesPerCopiedNonzero * e.nonzeros;
       if (lin.belos.preconditioner == BelosPreconditioner::bond_factor)
         e.factor_of = "the bond preconditioner, with the tangent's copy in Tpetra";
+      // Under mpirun a rank assembles, copies and factorises its own rows only
+      // (docs/guide/distributed.md); the model stays whole on every rank.
+      if (const int ranks = parallel::size(); ranks > 1) {
+        const double model_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
+        e.memory_bytes = model_bytes + (e.memory_bytes - model_bytes) / ranks;
+        e.factor_bytes /= ranks;
+        e.factor_nonzeros /= ranks;
+      }
     }
   }
   // Under mpirun every rank holds the whole model (docs/guide/distributed.md): the ranks on

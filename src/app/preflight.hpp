@@ -17,12 +17,12 @@ struct SizeEstimate {
   double fictitious = 0.0;         ///< layers along the edges that carry conditions
   double family = 0.0;             ///< bonds per interior family (the stencil's; pi (m + 1/2)^2 for m > 64)
   double nonzeros = 0.0;           ///< of the tangent: 4 per pair of particles within 2 horizons
-  double memory_bytes = 0.0;       ///< model, problem state and tangent (no factorisation)
+  double memory_bytes = 0.0;       ///< model, problem state and tangent (no factorisation), per rank
   double factor_nonzeros = 0.0;    ///< of the Cholesky factor the linear solver makes (0: none)
   double factor_bytes = 0.0;       ///< the factor and the copy of the matrix the factorisation takes
   std::string factor_of;           ///< what is factorised: "the tangent", "the bond preconditioner" or ""
   double available_bytes = 0.0;    ///< MemAvailable of /proc/meminfo over the ranks sharing it; 0 when unknown
-  int sharing_ranks = 1;           ///< MPI ranks on this machine, each holding the whole model
+  int sharing_ranks = 1;           ///< MPI ranks on this machine, each holding the whole model and its rows
 };
 
 /// Bytes per tangent nonzero of the model, problem state and tangent together, measured with

@@ -10,8 +10,14 @@
 namespace peristat {
 
 ProblemOptions problem_options(const Scene& scene) {
-  return {scene.contact, scene.failure, scene.solver.bond_preconditioner, scene.discretization.surface_correction,
-          scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::matrix_free};
+  ProblemOptions options;
+  options.contact = scene.contact;
+  options.failure = scene.failure;
+  options.bond_preconditioner = scene.solver.bond_preconditioner;
+  options.surface_correction = scene.discretization.surface_correction;
+  options.matrix_free =
+      scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::matrix_free;
+  return options;
 }
 
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {

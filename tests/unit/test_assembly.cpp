@@ -1,5 +1,7 @@
 // The parallel assembly is deterministic: one thread and two threads give bit-identical
 // residuals and tangents (each entry is summed by one thread in a fixed order).
+#include <algorithm>
+#include <functional>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -7,6 +9,7 @@
 
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
+#include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
 #include "support/solve.hpp"
 
@@ -86,6 +89,182 @@ TEST(Discretise, BlockSelectorAddsTheFreeLatticePointsOfItsBox) {
 
   spec.boundary = "  - {body: plate, block: {min: [0.008, -0.003], max: [0.013, 0.0015]}, ux: 0}\n";
   EXPECT_THROW(discretise(test::scene_from_yaml(test::plate_yaml(spec))), InputError);
+}
+
+// A rank of a distributed run assembles its own rows only (ProblemOptions::rows,
+// docs/guide/distributed.md): on 2 and 3 strips, every rank's tangent and bond
+// preconditioner must hold exactly the whole matrices' entries in its rows, bit for bit (the
+// same kernels add the same terms in the same order, only the other rows are dropped), and
+// the strips together every entry. The scenes reach every branch of the column writer: a
+// notched plate with failure, contact between the faces of broken bonds and a held fragment
+// (whose diagonal is the largest over the ranks), and a plate between mirror grips.
+struct RankedMatrices {
+  SparseMatrix K, P;
+  VectorXd r;
+};
+
+// Puts the problem in the test's state: x, and (with failure) the bonds that break at x.
+using Prepare = std::function<void(QuasiStaticProblem&)>;
+
+RankedMatrices assemble(const Model& model, ProblemOptions options, const Prepare& prepare,
+                        const VectorXd& x) {
+  QuasiStaticProblem problem(model, options);
+  prepare(problem);
+  RankedMatrices m{problem.make_tangent(), problem.make_preconditioner(), {}};
+  problem.evaluate(x, m.r, &m.K);
+  problem.assemble_preconditioner(m.P);
+  return m;
+}
+
+// Entries of `part` equal `whole`'s in the rows of [first, end) (unknown rows of those
+// particles), and `part` holds nothing else. Returns the entries compared.
+long long expect_rows_of(const SparseMatrix& whole, const SparseMatrix& part, const std::vector<char>& mine,
+                         const char* what) {
+  long long compared = 0;
+  EXPECT_EQ(whole.rows(), part.rows());
+  EXPECT_EQ(whole.cols(), part.cols());
+  for (Index col = 0; col < whole.outerSize(); ++col) {
+    SparseMatrix::InnerIterator w(whole, col), p(part, col);
+    for (; w; ++w) {
+      if (!mine[w.row()]) continue;
+      if (!p || p.row() != w.row()) {
+        ADD_FAILURE() << what << ": entry (" << w.row() << ", " << col << ") missing from the rank's matrix";
+        return compared;
+      }
+      EXPECT_EQ(p.value(), w.value()) << what << " (" << w.row() << ", " << col << ")";
+      ++p;
+      ++compared;
+    }
+    EXPECT_FALSE(p) << what << ": the rank's matrix holds (" << p.row() << ", " << col << ") beyond its rows";
+  }
+  return compared;
+}
+
+void expect_strips_hold_the_whole(const Scene& scene, const Model& model, const Prepare& prepare,
+                                  const VectorXd& x) {
+  const RankedMatrices whole = assemble(model, problem_options(scene), prepare, x);
+  ASSERT_GT(whole.r.norm(), 0.0);
+  const std::vector<Index>& free = model.constraints.free_index;
+  for (const int ranks : {2, 3}) {
+    // MPI_Allreduce(MAX) emulated: every rank's local maxima, call by call, then their max.
+    std::vector<std::vector<double>> local(static_cast<std::size_t>(ranks));
+    for (int rank = 0; rank < ranks; ++rank) {
+      ProblemOptions options = problem_options(scene);
+      options.rows = owned_rows(model.constraints, rank, ranks);
+      options.max_over_ranks = [&, rank](double v) {
+        local[static_cast<std::size_t>(rank)].push_back(v);
+        return v;
+      };
+      assemble(model, options, prepare, x);
+    }
+    long long k_entries = 0, p_entries = 0;
+    Index all_rows = 0;
+    for (int rank = 0; rank < ranks; ++rank) {
+      ProblemOptions options = problem_options(scene);
+      options.rows = owned_rows(model.constraints, rank, ranks);
+      std::size_t call = 0;
+      options.max_over_ranks = [&](double) {
+        double m = 0.0;
+        for (const auto& values : local) m = std::max(m, values.at(call));
+        ++call;
+        return m;
+      };
+      const RankedMatrices part = assemble(model, options, prepare, x);
+      std::vector<char> mine(static_cast<std::size_t>(whole.K.rows()), 0);
+      Index rows = 0;
+      for (Index c = 0; c < static_cast<Index>(free.size()); ++c)
+        if (free[c] >= 0 && options.rows.contains(c / 2)) {
+          mine[free[c]] = 1;
+          ++rows;
+        }
+      EXPECT_GT(rows, 0) << "rank " << rank << " of " << ranks << " owns rows";
+      all_rows += rows;
+      EXPECT_TRUE((part.r.array() == whole.r.array()).all()) << "the residual stays whole on every rank";
+      const long long k = expect_rows_of(whole.K, part.K, mine, "tangent");
+      const long long pc = expect_rows_of(whole.P, part.P, mine, "bond preconditioner");
+      EXPECT_EQ(part.K.nonZeros(), k) << "the rank stores its rows only";
+      EXPECT_EQ(part.P.nonZeros(), pc) << "the rank stores its rows only";
+      k_entries += k;
+      p_entries += pc;
+    }
+    EXPECT_EQ(all_rows, whole.K.rows()) << "the strips own every row once";
+    EXPECT_EQ(k_entries, whole.K.nonZeros()) << ranks << " strips hold every entry of the tangent";
+    EXPECT_EQ(p_entries, whole.P.nonZeros()) << ranks << " strips hold every entry of the preconditioner";
+  }
+}
+
+TEST(Assembly, OwnedRowsAreTheWholeMatricesRows) {
+  // The notched plate with failure and contact; one interior particle moved by 10 dx breaks
+  // every bond of its family (verification.Fragments) and is held as a fragment, and its
+  // broken bonds become contact candidates.
+  const Scene scene =
+      test::scene_from_yaml(test::notch_yaml(2e-5, true, "{linear: umfpack}", "contact: {friction: 0.3}\n"));
+  const Model model = discretise(scene);
+  const Particles& p = model.particles;
+  Index moved = -1;
+  for (Index i = 0; i < p.size(); ++i)
+    if (!p.fictitious[i] && (p.position[i] - Vec2(0.03, 0.015)).norm() < 1e-3) moved = i;
+  ASSERT_GE(moved, 0);
+  VectorXd held = VectorXd::Zero(model.constraints.n_free);
+  held[model.constraints.free_index[2 * moved]] = 1e-2;
+  const Prepare prepare = [&](QuasiStaticProblem& problem) {
+    problem.set_load_factor(0.0);
+    while (problem.advance_irreversible_state(held) > 0) problem.commit(held);
+    problem.set_load_factor(1.0);
+  };
+  {
+    QuasiStaticProblem probe(model, problem_options(scene));
+    prepare(probe);
+    ASSERT_EQ(probe.fragment_particles(), 1);
+    ASSERT_NE(probe.contact(), nullptr);
+    ASSERT_GT(probe.contact()->size(), 0) << "broken bonds are contact candidates";
+  }
+  VectorXd x = test::random_vector(model.constraints.n_free, 1e-6, 21u);
+  x += held;
+  expect_strips_hold_the_whole(scene, model, prepare, x);
+}
+
+TEST(Assembly, OwnedRowsWithMirrorGrips) {
+  test::PlateSpec spec;
+  spec.nx = 30;
+  spec.ny = 12;
+  spec.boundary = test::mirror_tension_boundary(1e-3, spec);
+  const Scene scene = test::scene_from_yaml(test::plate_yaml(spec));
+  const Model model = discretise(scene);
+  ASSERT_TRUE(model.constraints.has_images());
+  const Prepare prepare = [](QuasiStaticProblem& problem) { problem.set_load_factor(1.0); };
+  expect_strips_hold_the_whole(scene, model, prepare,
+                               test::random_vector(model.constraints.n_free, 1e-6, 22u));
+}
+
+TEST(Assembly, OwnedRowsWithContactAcrossTheStrips) {
+  // A plate cut through by a vertical crack and compressed across it (derivative.ContactTangent):
+  // the strips are bands of lattice rows, so the crack crosses their boundaries, and a
+  // contact radius of 1.6 dx closes diagonal pairs between particles of two strips.
+  test::PlateSpec spec;
+  spec.nx = 12;
+  spec.ny = 8;
+  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
+  spec.cracks = "  - {from: [0.0061, -0.001], to: [0.0061, 0.009]}\n";
+  const Scene scene =
+      test::scene_from_yaml(test::plate_yaml(spec) + "contact:\n  friction: 0.2\n  radius_factor: 1.6\n");
+  const Model model = discretise(scene);
+  VectorXd x = test::random_vector(model.constraints.n_free, 0.02 * spec.dx, 23u);
+  for (Index p = 0; p < model.particles.size(); ++p)
+    if (const Index k = model.constraints.free_index[2 * p]; k >= 0)
+      x[k] -= 0.08 * model.particles.position[p].x();
+  const Prepare prepare = [](QuasiStaticProblem& problem) { problem.set_load_factor(1.0); };
+  {
+    QuasiStaticProblem probe(model, problem_options(scene));
+    prepare(probe);
+    SparseMatrix K = probe.make_tangent();
+    VectorXd r;
+    probe.evaluate(x, r, &K);
+    const ContactCounts counts = probe.contact()->counts();
+    ASSERT_GT(counts.stick, 0);
+    ASSERT_GT(counts.slip, 0);
+  }
+  expect_strips_hold_the_whole(scene, model, prepare, x);
 }
 
 }  // namespace
