@@ -15,7 +15,9 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
   s.cut_bonds = model.n_cut_bonds;
   s.unknowns = model.constraints.n_free;
   s.prescribed = 2 * p.size() - s.unknowns;
-  s.nonzeros = parallel::sum_over_ranks(problem.pattern().nonzeros);  // a rank stores its own rows
+  // A rank of a distributed run stores its own rows (every rank's pattern is partial then).
+  s.nonzeros = problem.pattern().partial ? parallel::sum_over_ranks(problem.pattern().nonzeros)
+                                         : problem.pattern().nonzeros;
   s.correction = problem.surface_correction().method();
   s.correction_stats = problem.surface_correction().stats();
   s.memory_bytes =

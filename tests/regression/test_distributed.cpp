@@ -69,6 +69,17 @@ void expect_same_answer(const Pair& p) {
 TEST(Distributed, TensionPlateOnTwoRanksEqualsSerial) {
   const Pair p = run_both("tension_plate", "tension_plate", " --set discretization.spacing=2e-3");
   expect_same_answer(p);
+  // Each rank assembles only its rows of the tangent; summary.json counts them over the
+  // ranks, which must give the one-process tangent's count exactly (the strips own every
+  // row once; unit.Assembly.OwnedRows* check the entries themselves).
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+  const test::CliResult one = test::run_cli("run " + scene + " --quiet --out " + (p.dir / "one").string() +
+                                            " --set discretization.spacing=2e-3 --set solver.linear=belos");
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  const long long whole = test::read_json(p.dir / "one" / "summary.json")["run"]["tangent_nonzeros"];
+  const long long ranks = test::read_json(p.dir / "mpi" / "summary.json")["run"]["tangent_nonzeros"];
+  EXPECT_GT(whole, 0);
+  EXPECT_EQ(ranks, whole);
 }
 
 TEST(Distributed, SlidingPlatesOnTwoRanksEqualSerial) {
