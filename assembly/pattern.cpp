@@ -10,17 +10,20 @@
 
 namespace peristat {
 
-OwnedRows owned_rows(const Constraints& cons, int rank, int ranks) {
+std::vector<int> strip_owners(const Constraints& cons, int ranks) {
   const Index n = static_cast<Index>(cons.free_index.size() / 2);
-  std::vector<Index> node_particle;  // the particles that have an unknown, in order
-  for (Index p = 0; p < n; ++p)
-    if (cons.free_index[2 * p] >= 0 || cons.free_index[2 * p + 1] >= 0) node_particle.push_back(p);
-  const auto nodes = static_cast<std::int64_t>(node_particle.size());
-  const auto particle_of = [&](std::int64_t node) { return node < nodes ? node_particle[node] : n; };
-  OwnedRows rows;
-  rows.first = rank == 0 ? 0 : particle_of(strip_start(nodes, rank, ranks));
-  rows.end = particle_of(strip_start(nodes, rank + 1, ranks));
-  return rows;
+  std::vector<int> owner(static_cast<std::size_t>(n), 0);
+  std::int64_t nodes = 0;
+  for (Index p = 0; p < n; ++p) nodes += cons.free_index[2 * p] >= 0 || cons.free_index[2 * p + 1] >= 0;
+  std::int64_t node = 0;
+  int rank = 0;
+  for (Index p = 0; p < n; ++p) {
+    if (cons.free_index[2 * p] < 0 && cons.free_index[2 * p + 1] < 0) continue;
+    while (rank + 1 < ranks && node >= strip_start(nodes, rank + 1, ranks)) ++rank;
+    owner[static_cast<std::size_t>(p)] = rank;
+    ++node;
+  }
+  return owner;
 }
 
 TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double radius,
@@ -85,17 +88,18 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
     // they reach are exactly the columns that hold an owned row. Those are then collected with
     // owned rows only, and the owned columns cut to their owned rows.
     pat.partial = true;
-    const Index first = std::min(owned.first, n), end = std::min(owned.end, n);
     std::vector<char> touched(n, 0);
 #pragma omp parallel
     {
       std::vector<char> seen(n, 0);
 #pragma omp for schedule(dynamic, 256)
-      for (Index p = first; p < end; ++p) collect(p, rows[p], seen, every);
+      for (Index p = 0; p < n; ++p)
+        if (mine(p)) collect(p, rows[p], seen, every);
 #pragma omp single
       {
-        for (Index p = first; p < end; ++p)
-          for (Index q : rows[p]) touched[q] = 1;
+        for (Index p = 0; p < n; ++p)
+          if (mine(p))
+            for (Index q : rows[p]) touched[q] = 1;
         pat.col_first = n;
         pat.col_end = 0;
         for (Index p = 0; p < n; ++p)

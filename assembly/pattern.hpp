@@ -12,18 +12,22 @@
 
 namespace peristat {
 
-/// The rows that one rank of a distributed run assembles: the particles [first, end), its
-/// strip (docs/guide/distributed.md). The default holds every row (one process).
+/// The rows that one rank of a distributed run assembles (docs/guide/distributed.md): those
+/// of the particles whose owner is `rank`. The default (no owners) holds every row (one
+/// process).
 struct OwnedRows {
-  Index first = 0;
-  Index end = std::numeric_limits<Index>::max();
-  bool all() const { return first == 0 && end == std::numeric_limits<Index>::max(); }
-  bool contains(Index p) const { return p >= first && p < end; }
+  int rank = 0;
+  std::vector<int> owner;  ///< per particle, the rank that owns its rows; empty: this process, all
+  bool all() const { return owner.empty(); }
+  bool contains(Index p) const { return owner.empty() || owner[static_cast<std::size_t>(p)] == rank; }
 };
 
-/// Rank `rank` of `ranks`' rows: the particles of its strip of nodes (strip_start() over the
-/// particles that have an unknown, in particle order; the Tpetra adapter owns the same rows).
-OwnedRows owned_rows(const Constraints& constraints, int rank, int ranks);
+/// The owners of the particles' rows on `ranks` ranks: the nodes (the particles that have an
+/// unknown, in particle order) in strips of equal count (strip_start()), or split by
+/// Zoltan2's recursive coordinate bisection of their positions (`rcb`). A particle without
+/// an unknown is given to rank 0 (it has no row). The Tpetra adapter numbers its rows by
+/// the same owners (UnknownLayout::owner).
+std::vector<int> strip_owners(const Constraints& constraints, int ranks);
 
 /// Particle-level column structure plus the map to the free-dof matrix.
 struct TangentPattern {

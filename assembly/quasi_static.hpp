@@ -138,6 +138,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// (with mirror conditions, the ghosts' families too).
   double energy() const { return m_energy; }
   const Model& model() const { return m_model; }
+  /// The rows this process assembles (ProblemOptions::rows).
+  const OwnedRows& owned_rows() const { return m_options.rows; }
   /// The committed state into / from a checkpoint (peristat run --resume): load factor,
   /// energy ledger, broken bonds, contact candidates and their history. restore_state()
   /// expects a fresh problem of the same model and the committed unknowns x.

@@ -22,6 +22,9 @@ namespace peristat {
 struct UnknownLayout {
   std::vector<Index> component;  ///< per unknown: 2 * particle + direction
   std::vector<double> x, y;      ///< per particle [m]
+  /// Per particle, the MPI rank that owns its rows (the assembly's OwnedRows::owner); empty:
+  /// strips of the particles in their order (one process: every row).
+  std::vector<int> owner;
 };
 
 class LinearSolver {

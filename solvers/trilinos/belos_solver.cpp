@@ -50,9 +50,10 @@ using op_t = Tpetra::Operator<double, LO, GO, NT>;
 using import_t = Tpetra::Import<LO, GO, NT>;
 
 /// The distributed numbering. With a layout, the unknowns of a particle are rows 2 q and
-/// 2 q + 1 of the particle's node q (nodes: the particles that have an unknown, in particle
-/// order); a prescribed direction of a node is a padding row (diagonal only, zero right-hand
-/// side, zero solution). Ranks own contiguous ranges of nodes: strips of the lattice.
+/// 2 q + 1 of the particle's node q (nodes: the particles that have an unknown, ordered by
+/// their owner rank, then by particle); a prescribed direction of a node is a padding row
+/// (diagonal only, zero right-hand side, zero solution). Ranks own contiguous ranges of
+/// nodes: with the layout's owners, each rank's particles; without, strips of the lattice.
 struct Distribution {
   int per_node = 1;
   std::vector<GO> row_of;               ///< per unknown: its global row
@@ -69,24 +70,41 @@ Distribution distribute(Index n, const UnknownLayout& layout, int rank, int rank
   Distribution d;
   d.row_of.resize(n);
   GO nodes = n;
+  GO first_node = -1, end_node = -1;  // this rank's nodes; from the owners, or strips below
   std::vector<Index> particle_of_node;
   if (static_cast<Index>(layout.component.size()) == n && n > 0) {
     d.per_node = 2;
     const Index particles = *std::max_element(layout.component.begin(), layout.component.end()) / 2 + 1;
     std::vector<Index> node_of(particles, -1);
     for (Index k = 0; k < n; ++k) node_of[layout.component[k] / 2] = 0;
+    const bool owners = ranks > 1 && !layout.owner.empty();
+    const auto owner = [&](Index p) { return owners ? layout.owner[static_cast<std::size_t>(p)] : 0; };
     for (Index p = 0; p < particles; ++p)
-      if (node_of[p] == 0) {
-        node_of[p] = static_cast<Index>(particle_of_node.size());
-        particle_of_node.push_back(p);
-      }
+      if (node_of[p] == 0) particle_of_node.push_back(p);
+    // By owner, then by particle (stable: strips keep the particle order).
+    std::stable_sort(particle_of_node.begin(), particle_of_node.end(),
+                     [&](Index a, Index b) { return owner(a) < owner(b); });
+    for (std::size_t q = 0; q < particle_of_node.size(); ++q)
+      node_of[particle_of_node[q]] = static_cast<Index>(q);
     for (Index k = 0; k < n; ++k) d.row_of[k] = 2 * GO(node_of[layout.component[k] / 2]) + layout.component[k] % 2;
     nodes = static_cast<GO>(particle_of_node.size());
+    if (owners) {
+      const auto first = [&](int r) {
+        return static_cast<GO>(std::lower_bound(particle_of_node.begin(), particle_of_node.end(), r,
+                                                [&](Index p, int value) { return owner(p) < value; }) -
+                               particle_of_node.begin());
+      };
+      first_node = first(rank);
+      end_node = first(rank + 1);
+    }
   } else {
     std::iota(d.row_of.begin(), d.row_of.end(), GO(0));
   }
   d.n_rows = d.per_node * nodes;
-  const GO first_node = strip_start(nodes, rank, ranks), end_node = strip_start(nodes, rank + 1, ranks);
+  if (first_node < 0) {
+    first_node = strip_start(nodes, rank, ranks);
+    end_node = strip_start(nodes, rank + 1, ranks);
+  }
   d.first_row = d.per_node * first_node;
   d.unknown_of_local.assign(static_cast<std::size_t>(d.per_node * (end_node - first_node)), -1);
   for (Index k = 0; k < n; ++k)

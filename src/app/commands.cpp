@@ -159,7 +159,7 @@ int run_command(const RunArguments& args) {
   const Model model = discretise(scene);
   ProblemOptions options = problem_options(scene);
   if (ranks > 1) {  // each rank assembles its own rows (docs/guide/distributed.md)
-    options.rows = owned_rows(model.constraints, parallel::rank(), ranks);
+    options.rows = owned_rows(scene, model, parallel::rank(), ranks);
     options.max_over_ranks = parallel::max_over_ranks;
   }
   QuasiStaticProblem problem(model, options);

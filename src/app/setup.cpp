@@ -6,6 +6,7 @@
 #include "app/preflight.hpp"
 #include "solvers/adr.hpp"
 #include "solvers/newton.hpp"
+#include "solvers/trilinos/partition.hpp"
 
 namespace peristat {
 
@@ -18,6 +19,31 @@ ProblemOptions problem_options(const Scene& scene) {
   options.matrix_free =
       scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::matrix_free;
   return options;
+}
+
+OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks) {
+  OwnedRows rows;
+  if (ranks <= 1) return rows;
+  rows.rank = rank;
+  if (scene.solver.linear.belos.partition == BelosPartition::strips) {
+    rows.owner = strip_owners(model.constraints, ranks);
+    return rows;
+  }
+  // rcb: the nodes' positions, bisected; particles without an unknown go to rank 0.
+  const Constraints& cons = model.constraints;
+  std::vector<double> x, y;
+  std::vector<Index> node_particle;
+  for (Index p = 0; p < model.particles.size(); ++p)
+    if (cons.free_index[2 * p] >= 0 || cons.free_index[2 * p + 1] >= 0) {
+      node_particle.push_back(p);
+      x.push_back(model.particles.position[p].x());
+      y.push_back(model.particles.position[p].y());
+    }
+  const std::vector<int> part = rcb_parts(x, y, ranks);
+  rows.owner.assign(static_cast<std::size_t>(model.particles.size()), 0);
+  for (std::size_t k = 0; k < node_particle.size(); ++k)
+    rows.owner[static_cast<std::size_t>(node_particle[k])] = part[k];
+  return rows;
 }
 
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
@@ -98,7 +124,11 @@ std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProb
   linear = make_linear_solver(options);
   if (linear->needs_operator())
     linear->set_operator([&problem](const VectorXd& v, VectorXd& y) { problem.apply_tangent(v, y); });
-  if (linear->needs_unknown_layout()) linear->set_unknown_layout(unknown_layout(problem.model(), problem.n_unknowns()));
+  if (linear->needs_unknown_layout()) {
+    UnknownLayout layout = unknown_layout(problem.model(), problem.n_unknowns());
+    layout.owner = problem.owned_rows().owner;  // the ranks' rows, as the problem assembles them
+    linear->set_unknown_layout(layout);
+  }
   linear->set_may_be_unsymmetric(scene.contact.enabled && scene.contact.friction > 0.0);  // pairs may slip
   return std::make_unique<NewtonSolver>(problem, *linear, scene.solver.newton);
 }

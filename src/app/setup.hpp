@@ -45,6 +45,11 @@ std::string resolve_linear_solver(Scene& scene, int ranks);
 /// What the problem models, from the scene.
 ProblemOptions problem_options(const Scene& scene);
 
+/// The rows rank `rank` of `ranks` assembles (ProblemOptions::rows): by
+/// solver.belos.partition, strips or Zoltan2's RCB of the particles that have an unknown
+/// (every rank computes the same owners). Every row when ranks <= 1.
+OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks);
+
 /// Each unknown's particle and direction, and the particles' positions (LinearSolver's hint).
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
 

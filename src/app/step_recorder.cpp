@@ -44,6 +44,8 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                        {"load_steps", scene.loading.steps},
                                        {"solver", solver},
                                        {"checks", checks}};
+  // Under mpirun: how the rows were split (solver.belos.partition).
+  if (parallel::size() > 1) info["partition"] = to_string(scene.solver.linear.belos.partition);
   {
     const SurfaceCorrectionStats& c = s.correction_stats;
     nlohmann::ordered_json sc = {

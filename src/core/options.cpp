@@ -35,6 +35,10 @@ std::string_view to_string(BelosPreconditioner kind) {
   return name_of(kind, std::array<std::string_view, 4>{"muelu", "ifpack2_ilut", "ifpack2_relaxation", "bond_factor"});
 }
 
+std::string_view to_string(BelosPartition kind) {
+  return name_of(kind, std::array<std::string_view, 2>{"strips", "rcb"});
+}
+
 std::string_view to_string(ContactEnforcement kind) {
   return name_of(kind, std::array<std::string_view, 2>{"penalty", "exact"});
 }

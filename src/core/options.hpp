@@ -76,10 +76,19 @@ enum class BelosPreconditioner {
   bond_factor          ///< CHOLMOD factor of each rank's block of the bond matrix (additive Schwarz)
 };
 
+/// solver.belos.partition: which rows each MPI rank owns (docs/guide/distributed.md).
+enum class BelosPartition {
+  strips,  ///< the particles with an unknown, in lattice order, in P ranges of equal count
+  rcb      ///< Zoltan2's recursive coordinate bisection of those particles' positions
+};
+
 /// The Trilinos path (solver.linear: belos; solver.belos.*).
 struct BelosOptions {
   BelosMethod method = BelosMethod::automatic;
   BelosPreconditioner preconditioner = BelosPreconditioner::bond_factor;
+  /// rcb: equal or fewer Krylov iterations than strips on every case measured on two ranks
+  /// (case 4.1: 200 against 693, docs/guide/distributed.md "Partition").
+  BelosPartition partition = BelosPartition::rcb;
   double rtol = 1e-10;        ///< relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;  ///< Krylov iterations per solve
   int restart = 100;          ///< GMRES basis vectors before a restart
@@ -125,6 +134,7 @@ std::string_view to_string(LinearSolverKind kind);
 std::string_view to_string(PreconditionerKind kind);
 std::string_view to_string(BelosMethod kind);
 std::string_view to_string(BelosPreconditioner kind);
+std::string_view to_string(BelosPartition kind);
 
 // ---- physics ---------------------------------------------------------------------------
 

@@ -9,6 +9,7 @@
 
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
+#include "solvers/trilinos/partition.hpp"
 #include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
 #include "support/solve.hpp"
@@ -92,7 +93,7 @@ TEST(Discretise, BlockSelectorAddsTheFreeLatticePointsOfItsBox) {
 }
 
 // A rank of a distributed run assembles its own rows only (ProblemOptions::rows,
-// docs/guide/distributed.md): on 2 and 3 strips, every rank's tangent and bond
+// docs/guide/distributed.md): on 2 and 3 ranks, strips or RCB parts, every rank's tangent and bond
 // preconditioner must hold exactly the whole matrices' entries in its rows, bit for bit (the
 // same kernels add the same terms in the same order, only the other rows are dropped), and
 // the strips together every entry. The scenes reach every branch of the column writer: a
@@ -140,17 +141,27 @@ long long expect_rows_of(const SparseMatrix& whole, const SparseMatrix& part, co
   return compared;
 }
 
-void expect_strips_hold_the_whole(const Scene& scene, const Model& model, const Prepare& prepare,
-                                  const VectorXd& x) {
+void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const Prepare& prepare,
+                                  const VectorXd& x, bool rcb_differs = false) {
   const RankedMatrices whole = assemble(model, problem_options(scene), prepare, x);
   ASSERT_GT(whole.r.norm(), 0.0);
   const std::vector<Index>& free = model.constraints.free_index;
-  for (const int ranks : {2, 3}) {
+  for (const auto& [partition, ranks] :
+       {std::pair{BelosPartition::strips, 2}, std::pair{BelosPartition::strips, 3},
+        std::pair{BelosPartition::rcb, 2}, std::pair{BelosPartition::rcb, 3}}) {
+    SCOPED_TRACE(std::string(to_string(partition)) + " on " + std::to_string(ranks) + " ranks");
+    Scene partitioned = scene;
+    partitioned.solver.linear.belos.partition = partition;
+    const auto owners = [&](int rank) { return owned_rows(partitioned, model, rank, ranks); };
+    if (partition == BelosPartition::rcb && rcb_differs) {
+      EXPECT_NE(owners(0).owner, strip_owners(model.constraints, ranks))
+          << "RCB parts are not the strips here";
+    }
     // MPI_Allreduce(MAX) emulated: every rank's local maxima, call by call, then their max.
     std::vector<std::vector<double>> local(static_cast<std::size_t>(ranks));
     for (int rank = 0; rank < ranks; ++rank) {
       ProblemOptions options = problem_options(scene);
-      options.rows = owned_rows(model.constraints, rank, ranks);
+      options.rows = owners(rank);
       options.max_over_ranks = [&, rank](double v) {
         local[static_cast<std::size_t>(rank)].push_back(v);
         return v;
@@ -161,7 +172,7 @@ void expect_strips_hold_the_whole(const Scene& scene, const Model& model, const 
     Index all_rows = 0;
     for (int rank = 0; rank < ranks; ++rank) {
       ProblemOptions options = problem_options(scene);
-      options.rows = owned_rows(model.constraints, rank, ranks);
+      options.rows = owners(rank);
       std::size_t call = 0;
       options.max_over_ranks = [&](double) {
         double m = 0.0;
@@ -188,8 +199,8 @@ void expect_strips_hold_the_whole(const Scene& scene, const Model& model, const 
       p_entries += pc;
     }
     EXPECT_EQ(all_rows, whole.K.rows()) << "the strips own every row once";
-    EXPECT_EQ(k_entries, whole.K.nonZeros()) << ranks << " strips hold every entry of the tangent";
-    EXPECT_EQ(p_entries, whole.P.nonZeros()) << ranks << " strips hold every entry of the preconditioner";
+    EXPECT_EQ(k_entries, whole.K.nonZeros()) << "the ranks hold every entry of the tangent";
+    EXPECT_EQ(p_entries, whole.P.nonZeros()) << "the ranks hold every entry of the preconditioner";
   }
 }
 
@@ -221,7 +232,7 @@ TEST(Assembly, OwnedRowsAreTheWholeMatricesRows) {
   }
   VectorXd x = test::random_vector(model.constraints.n_free, 1e-6, 21u);
   x += held;
-  expect_strips_hold_the_whole(scene, model, prepare, x);
+  expect_ranks_hold_the_whole(scene, model, prepare, x, true);
 }
 
 TEST(Assembly, OwnedRowsWithMirrorGrips) {
@@ -233,7 +244,7 @@ TEST(Assembly, OwnedRowsWithMirrorGrips) {
   const Model model = discretise(scene);
   ASSERT_TRUE(model.constraints.has_images());
   const Prepare prepare = [](QuasiStaticProblem& problem) { problem.set_load_factor(1.0); };
-  expect_strips_hold_the_whole(scene, model, prepare,
+  expect_ranks_hold_the_whole(scene, model, prepare,
                                test::random_vector(model.constraints.n_free, 1e-6, 22u));
 }
 
@@ -264,7 +275,34 @@ TEST(Assembly, OwnedRowsWithContactAcrossTheStrips) {
     ASSERT_GT(counts.stick, 0);
     ASSERT_GT(counts.slip, 0);
   }
-  expect_strips_hold_the_whole(scene, model, prepare, x);
+  expect_ranks_hold_the_whole(scene, model, prepare, x);
+}
+
+// solver.belos.partition: rcb (Zoltan2): a 40 x 10 grid of points in 2 and 4 parts of equal
+// count, the first cut across the longer side (x), and the same parts on a second call (every
+// rank computes the owners by itself, so they must agree).
+TEST(Partition, RcbCutsTheLongerSideIntoEqualCounts) {
+  std::vector<double> x, y;
+  for (int j = 0; j < 10; ++j)
+    for (int i = 0; i < 40; ++i) {
+      x.push_back(i + 0.5);
+      y.push_back(j + 0.5);
+    }
+  const std::vector<int> two = rcb_parts(x, y, 2);
+  ASSERT_EQ(two.size(), x.size());
+  EXPECT_EQ(std::count(two.begin(), two.end(), 0), 200);
+  EXPECT_EQ(std::count(two.begin(), two.end(), 1), 200);
+  double x0 = -1.0, x1 = 1e9;  // the largest x of part 0 and the smallest of part 1, or the other way
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    if (two[k] == two[0])
+      x0 = std::max(x0, x[k]);
+    else
+      x1 = std::min(x1, x[k]);
+  }
+  EXPECT_LT(x0, x1) << "the cut runs across x, the longer side";
+  const std::vector<int> four = rcb_parts(x, y, 4);
+  for (int p = 0; p < 4; ++p) EXPECT_EQ(std::count(four.begin(), four.end(), p), 100) << "part " << p;
+  EXPECT_EQ(rcb_parts(x, y, 4), four) << "deterministic";
 }
 
 }  // namespace

@@ -924,16 +924,22 @@ TEST(Scene, BelosKeys) {
   EXPECT_EQ(d.solver.linear.type, LinearSolverKind::belos);
   EXPECT_EQ(d.solver.linear.belos.method, BelosMethod::automatic);
   EXPECT_EQ(d.solver.linear.belos.preconditioner, BelosPreconditioner::bond_factor);
-  const Scene s = parse(k_minimal, {parse_override("solver.linear=belos"), parse_override("solver.belos.method=gmres"),
-                                    parse_override("solver.belos.preconditioner=muelu"),
-                                    parse_override("solver.belos.rtol=1e-8"),
-                                    parse_override("solver.belos.max_iterations=50"),
-                                    parse_override("solver.belos.restart=30")});
+  EXPECT_EQ(d.solver.linear.belos.partition, BelosPartition::rcb);
+  const Scene s =
+      parse(k_minimal,
+            {parse_override("solver.linear=belos"), parse_override("solver.belos.method=gmres"),
+             parse_override("solver.belos.preconditioner=muelu"),
+             parse_override("solver.belos.partition=strips"), parse_override("solver.belos.rtol=1e-8"),
+             parse_override("solver.belos.max_iterations=50"), parse_override("solver.belos.restart=30")});
   EXPECT_EQ(s.solver.linear.belos.method, BelosMethod::gmres);
   EXPECT_EQ(s.solver.linear.belos.preconditioner, BelosPreconditioner::muelu);
   EXPECT_EQ(s.solver.linear.belos.rtol, 1e-8);
   EXPECT_EQ(s.solver.linear.belos.max_iterations, 50);
   EXPECT_EQ(s.solver.linear.belos.restart, 30);
+  EXPECT_EQ(s.solver.linear.belos.partition, BelosPartition::strips);
+  const std::string partition = error_of(k_minimal, {parse_override("solver.belos.partition=metis")});
+  EXPECT_NE(partition.find("solver.belos.partition"), std::string::npos) << partition;
+  EXPECT_NE(partition.find("rcb"), std::string::npos) << "the choices are listed: " << partition;
   const std::string message = error_of(k_minimal, {parse_override("solver.belos.preconditioner=amesos")});
   EXPECT_NE(message.find("solver.belos.preconditioner"), std::string::npos) << message;
   EXPECT_NE(message.find("ifpack2_ilut"), std::string::npos) << "the choices are listed: " << message;
