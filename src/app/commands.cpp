@@ -100,6 +100,17 @@ void check_same_run(const StateArchive& checkpoint, const std::string& path, con
   }
 }
 
+/// The problem's options for this process: under mpirun, the rank's own rows
+/// (docs/guide/distributed.md), so that `check` measures what `run` will hold.
+ProblemOptions process_problem_options(const Scene& scene, const Model& model) {
+  ProblemOptions options = problem_options(scene);
+  if (const int ranks = parallel::size(); ranks > 1) {
+    options.rows = owned_rows(scene, model, parallel::rank(), ranks);
+    options.max_over_ranks = parallel::max_over_ranks;
+  }
+  return options;
+}
+
 }  // namespace
 
 int check_command(const std::string& scene_path, const std::vector<std::string>& overrides) {
@@ -109,7 +120,7 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   const SizeEstimate estimate = estimate_size(scene);
   for (const std::string& w : preflight(scene, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
   const Model model = discretise(scene);
-  const QuasiStaticProblem problem(model, problem_options(scene));
+  const QuasiStaticProblem problem(model, process_problem_options(scene, model));
   std::printf("%s: scene '%s' is valid\n", scene_path.c_str(), scene.name.c_str());
   std::printf("  bodies         %zu, materials %zu, pre-cracks %zu, conditions %zu\n", scene.bodies.size(),
               scene.materials.size(), scene.cracks.size(), scene.boundary.size());
@@ -157,12 +168,7 @@ int run_command(const RunArguments& args) {
   for (const std::string& w : warnings) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
 
   const Model model = discretise(scene);
-  ProblemOptions options = problem_options(scene);
-  if (ranks > 1) {  // each rank assembles its own rows (docs/guide/distributed.md)
-    options.rows = owned_rows(scene, model, parallel::rank(), ranks);
-    options.max_over_ranks = parallel::max_over_ranks;
-  }
-  QuasiStaticProblem problem(model, options);
+  QuasiStaticProblem problem(model, process_problem_options(scene, model));
   const ModelSize size = measure(model, problem);
   std::unique_ptr<LinearSolver> linear;
   const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear);

@@ -42,8 +42,13 @@ void print_size(const ModelSize& s) {
   } else {
     std::printf("  surface        no correction (discretization.surface_correction: none)\n");
   }
-  std::printf("  memory         %.1f MB for model, problem state and tangent (factorisation not included)\n",
-              s.memory_bytes / 1e6);
+  if (parallel::size() > 1)
+    std::printf("  memory         %.1f MB on rank 0: model, problem state and its own rows of the tangent "
+                "(factorisation not included)\n",
+                s.memory_bytes / 1e6);
+  else
+    std::printf("  memory         %.1f MB for model, problem state and tangent (factorisation not included)\n",
+                s.memory_bytes / 1e6);
 }
 
 }  // namespace peristat
