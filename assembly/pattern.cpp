@@ -12,7 +12,7 @@ namespace peristat {
 
 std::vector<int> strip_owners(const Constraints& cons, int ranks) {
   const Index n = static_cast<Index>(cons.free_index.size() / 2);
-  std::vector<int> owner(static_cast<std::size_t>(n), 0);
+  std::vector<int> owner(static_cast<std::size_t>(n), -1);
   std::int64_t nodes = 0;
   for (Index p = 0; p < n; ++p) nodes += cons.free_index[2 * p] >= 0 || cons.free_index[2 * p + 1] >= 0;
   std::int64_t node = 0;

@@ -17,16 +17,16 @@ namespace peristat {
 /// process).
 struct OwnedRows {
   int rank = 0;
-  std::vector<int> owner;  ///< per particle, the rank that owns its rows; empty: this process, all
+  std::vector<int> owner;  ///< per particle, the rank that owns its rows (-1: it has none); empty: all here
   bool all() const { return owner.empty(); }
   bool contains(Index p) const { return owner.empty() || owner[static_cast<std::size_t>(p)] == rank; }
 };
 
 /// The owners of the particles' rows on `ranks` ranks: the nodes (the particles that have an
 /// unknown, in particle order) in strips of equal count (strip_start()), or split by
-/// Zoltan2's recursive coordinate bisection of their positions (`rcb`). A particle without
-/// an unknown is given to rank 0 (it has no row). The Tpetra adapter numbers its rows by
-/// the same owners (UnknownLayout::owner).
+/// Zoltan2's recursive coordinate bisection of their positions (`rcb`, app/setup.hpp). A
+/// particle without an unknown has no row and no owner (-1). The Tpetra adapter numbers its
+/// rows by the same owners (UnknownLayout::owner).
 std::vector<int> strip_owners(const Constraints& constraints, int ranks);
 
 /// Particle-level column structure plus the map to the free-dof matrix.

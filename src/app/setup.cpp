@@ -29,7 +29,7 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
     rows.owner = strip_owners(model.constraints, ranks);
     return rows;
   }
-  // rcb: the nodes' positions, bisected; particles without an unknown go to rank 0.
+  // rcb: the nodes' positions, bisected; particles without an unknown have no owner.
   const Constraints& cons = model.constraints;
   std::vector<double> x, y;
   std::vector<Index> node_particle;
@@ -40,7 +40,7 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
       y.push_back(model.particles.position[p].y());
     }
   const std::vector<int> part = rcb_parts(x, y, ranks);
-  rows.owner.assign(static_cast<std::size_t>(model.particles.size()), 0);
+  rows.owner.assign(static_cast<std::size_t>(model.particles.size()), -1);
   for (std::size_t k = 0; k < node_particle.size(); ++k)
     rows.owner[static_cast<std::size_t>(node_particle[k])] = part[k];
   return rows;

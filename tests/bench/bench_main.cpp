@@ -8,6 +8,10 @@
 //   peristat_bench action SCENE [REPS]               the matrix-free tangent action
 //       (apply_tangent) of SCENE at load factor 1 and zero displacement: time per action
 //       (best and median of REPS, default 200), bonds, and bytes of bond data read per second.
+//   peristat_bench partition SCENE P [--set KEY=VALUE]...   the rows of P ranks by strips and
+//       by RCB (solver.belos.partition): per partition, the largest and mean number of owned
+//       particles and of ghost particles (the other ranks' particles that a rank's rows of the
+//       tangent couple to: the halo a Krylov iteration exchanges), one line each.
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
@@ -171,6 +175,41 @@ int action(const std::string& path, int reps) {
   return 0;
 }
 
+int partition(const std::string& path, int ranks, const std::vector<Override>& overrides) {
+  Scene scene = parse_scene(path, overrides);
+  const Model model = discretise(scene);
+  const Constraints& cons = model.constraints;
+  const auto has_unknown = [&](Index p) { return cons.free_index[2 * p] >= 0 || cons.free_index[2 * p + 1] >= 0; };
+  for (const BelosPartition kind : {BelosPartition::strips, BelosPartition::rcb}) {
+    scene.solver.linear.belos.partition = kind;
+    const double t0 = wall_seconds();
+    const std::vector<int> owner = owned_rows(scene, model, 0, ranks).owner;
+    const double t_partition = wall_seconds() - t0;
+    long long owned_max = 0, owned_sum = 0, ghosts_max = 0, ghosts_sum = 0;
+    for (int rank = 0; rank < ranks; ++rank) {
+      const OwnedRows rows{rank, owner};
+      const TangentPattern pat = build_pattern(model, PatternReach::two_horizons, 0.0, nullptr, rows);
+      long long owned = 0, ghosts = 0;
+      for (Index p = 0; p < model.particles.size(); ++p) {
+        if (!has_unknown(p)) continue;
+        if (rows.contains(p))
+          ++owned;
+        else if (pat.col_start[p] < pat.col_start[p + 1])
+          ++ghosts;  // a column of another rank's particle that holds one of this rank's rows
+      }
+      owned_max = std::max(owned_max, owned);
+      owned_sum += owned;
+      ghosts_max = std::max(ghosts_max, ghosts);
+      ghosts_sum += ghosts;
+    }
+    std::printf("scene=%s partition=%s ranks=%d particles_with_unknowns=%lld owned_max=%lld owned_mean=%.0f "
+                "ghosts_max=%lld ghosts_mean=%.0f halo_bytes_per_exchange=%lld partition_seconds=%.3f\n",
+                scene.name.c_str(), std::string(to_string(kind)).c_str(), ranks, owned_sum, owned_max,
+                double(owned_sum) / ranks, ghosts_max, double(ghosts_sum) / ranks, 16 * ghosts_sum, t_partition);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -178,9 +217,12 @@ int main(int argc, char** argv) {
     return tension(std::atoi(argv[2]), overrides_from(argc, argv, 3));
   if (argc >= 5 && std::strcmp(argv[1], "factor") == 0) return factor(std::atoi(argv[2]), argv[3], argv[4]);
   if (argc >= 3 && std::strcmp(argv[1], "action") == 0) return action(argv[2], argc >= 4 ? std::atoi(argv[3]) : 200);
+  if (argc >= 4 && std::strcmp(argv[1], "partition") == 0)
+    return partition(argv[2], std::atoi(argv[3]), overrides_from(argc, argv, 4));
   std::fprintf(stderr,
                "usage: peristat_bench tension N [--set KEY=VALUE]...\n"
                "       peristat_bench factor N tangent|bond default|amd|metis|nesdis\n"
-               "       peristat_bench action SCENE [REPS]\n");
+               "       peristat_bench action SCENE [REPS]\n"
+               "       peristat_bench partition SCENE P [--set KEY=VALUE]...\n");
   return 2;
 }
