@@ -468,6 +468,7 @@ void QuasiStaticProblem::update_fragments() {
   const Index n = m_model.particles.size();
   const std::vector<Index>& free = m_model.constraints.free_index;
   m_fragment_unknowns.clear();
+  m_fragment_unknown.assign(static_cast<std::size_t>(m_model.constraints.n_free), 0);
   m_fragment_components.clear();
   m_fragment_particles = 0;
   std::vector<Index> roots;
@@ -478,7 +479,10 @@ void QuasiStaticProblem::update_fragments() {
     roots.push_back(m_component[i]);
     for (int d = 0; d < 2; ++d) {
       m_fragment_components.push_back(2 * i + d);
-      if (free[2 * i + d] >= 0) m_fragment_unknowns.push_back(free[2 * i + d]);
+      if (free[2 * i + d] >= 0) {
+        m_fragment_unknowns.push_back(free[2 * i + d]);
+        m_fragment_unknown[free[2 * i + d]] = 1;
+      }
     }
   }
   std::sort(roots.begin(), roots.end());
@@ -503,21 +507,14 @@ void QuasiStaticProblem::decouple_fragments(SparseMatrix& K) const {
   // on every rank, as in one process).
   double d = K.diagonal().cwiseAbs().maxCoeff();
   if (m_options.max_over_ranks) d = m_options.max_over_ranks(d);
-  // Entry (row, col) of K, or null when K does not store it (never inserted).
-  const auto stored = [&K](Index row, Index col) -> double* {
-    const Index* begin = K.innerIndexPtr() + K.outerIndexPtr()[col];
-    const Index* end = K.innerIndexPtr() + K.outerIndexPtr()[col + 1];
-    const Index* at = std::lower_bound(begin, end, row);
-    return at != end && *at == row ? K.valuePtr() + (at - K.innerIndexPtr()) : nullptr;
-  };
-  for (const Index f : m_fragment_unknowns) {
-    for (SparseMatrix::InnerIterator it(K, f); it; ++it) {
-      // The pattern is symmetric: row f holds column it.row() where K stores row f.
-      if (it.row() != f)
-        if (double* v = stored(f, static_cast<Index>(it.row()))) *v = 0.0;
-      it.valueRef() = it.row() == f ? d : 0.0;
-    }
-  }
+  // The fragments' rows and columns zero, their diagonal d. Every stored entry is visited: a
+  // rank's K holds row f only in the columns of f's couplings, which column f (holding the
+  // rank's rows only) does not list.
+  const std::vector<char>& fragment = m_fragment_unknown;
+#pragma omp parallel for schedule(static)
+  for (Index col = 0; col < static_cast<Index>(K.outerSize()); ++col)
+    for (SparseMatrix::InnerIterator it(K, col); it; ++it)
+      if (fragment[col] || fragment[it.row()]) it.valueRef() = it.row() == col ? d : 0.0;
 }
 
 void QuasiStaticProblem::family_displacements(Index i, Vec2* eta) const {

@@ -235,6 +235,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   // the fragments now, scratch; the fragments' unknowns.
   std::vector<char> m_initially_unsupported, m_fragment, m_unsupported;
   std::vector<Index> m_component, m_fragment_unknowns, m_fragment_components;
+  std::vector<char> m_fragment_unknown;  ///< per unknown, with failure: 1 for a fragment's
   Index m_fragment_particles = 0, m_fragments = 0;
   double m_fragment_reaction = 0.0;
 

@@ -205,16 +205,19 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
 }
 
 TEST(Assembly, OwnedRowsAreTheWholeMatricesRows) {
-  // The notched plate with failure and contact; one interior particle moved by 10 dx breaks
-  // every bond of its family (verification.Fragments) and is held as a fragment, and its
-  // broken bonds become contact candidates.
-  const Scene scene =
-      test::scene_from_yaml(test::notch_yaml(2e-5, true, "{linear: umfpack}", "contact: {friction: 0.3}\n"));
+  // The notched plate (40 x 20 mm) with failure and contact; one particle moved by 10 dx
+  // breaks every bond of its family (verification.Fragments) and is held as a fragment, and
+  // its broken bonds become contact candidates. The particle sits next to the cut of two RCB
+  // parts (x = 20 mm), and the matrices are evaluated with it back home, where its pairs with
+  // its former neighbours on both sides of the cut are closed (contact radius 1.2 dx): its
+  // row then has entries in the other rank's columns, which must be zero like the rest of it.
+  const Scene scene = test::scene_from_yaml(
+      test::notch_yaml(2e-5, true, "{linear: umfpack}", "contact: {friction: 0.3, radius_factor: 1.2}\n"));
   const Model model = discretise(scene);
   const Particles& p = model.particles;
   Index moved = -1;
   for (Index i = 0; i < p.size(); ++i)
-    if (!p.fictitious[i] && (p.position[i] - Vec2(0.03, 0.015)).norm() < 1e-3) moved = i;
+    if (!p.fictitious[i] && (p.position[i] - Vec2(0.0205, 0.0155)).norm() < 1e-4) moved = i;
   ASSERT_GE(moved, 0);
   VectorXd held = VectorXd::Zero(model.constraints.n_free);
   held[model.constraints.free_index[2 * moved]] = 1e-2;
@@ -223,15 +226,19 @@ TEST(Assembly, OwnedRowsAreTheWholeMatricesRows) {
     while (problem.advance_irreversible_state(held) > 0) problem.commit(held);
     problem.set_load_factor(1.0);
   };
+  VectorXd x = test::random_vector(model.constraints.n_free, 1e-6, 21u);
+  x[model.constraints.free_index[2 * moved]] = -1e-4;  // 0.1 dx towards its left neighbour, on the other part
   {
     QuasiStaticProblem probe(model, problem_options(scene));
     prepare(probe);
     ASSERT_EQ(probe.fragment_particles(), 1);
     ASSERT_NE(probe.contact(), nullptr);
     ASSERT_GT(probe.contact()->size(), 0) << "broken bonds are contact candidates";
+    SparseMatrix K = probe.make_tangent();
+    VectorXd r;
+    probe.evaluate(x, r, &K);
+    ASSERT_GT(probe.fragment_contacts(), 0) << "the fragment's pairs carry forces at x";
   }
-  VectorXd x = test::random_vector(model.constraints.n_free, 1e-6, 21u);
-  x += held;
   expect_ranks_hold_the_whole(scene, model, prepare, x, true);
 }
 
