@@ -134,9 +134,10 @@ class TpetraCopy {
     d = distribute(n, layout, comm->getRank(), comm->getSize());
     const LO local = d.local_rows();
     map = rcp(new map_t(static_cast<Tpetra::global_size_t>(d.n_rows), static_cast<std::size_t>(local), GO(0), comm));
-    // The unknowns of the local rows lie in [k_first, k_end) (row_of increases with the
-    // unknown; owns() is checked all the same). Each thread reads every column of A for the
-    // entries in its share of that range, so that each local row is one thread's.
+    // The unknowns of the local rows lie in [k_first, k_end), with other ranks' unknowns
+    // between them when the owners are not strips (owns() is checked per entry). Each thread
+    // reads every column of A for the entries in its share of that range, so that each local
+    // row is one thread's.
     Index k_first = n, k_end = 0;
     for (LO r = 0; r < local; ++r)
       if (const Index k = d.unknown_of_local[r]; k >= 0) {

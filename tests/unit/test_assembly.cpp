@@ -273,8 +273,8 @@ TEST(Assembly, OwnedRowsWithMirrorGrips) {
 
 TEST(Assembly, OwnedRowsWithContactAcrossTheStrips) {
   // A plate cut through by a vertical crack and compressed across it (derivative.ContactTangent):
-  // the strips are bands of lattice rows, so the crack crosses their boundaries, and a
-  // contact radius of 1.6 dx closes diagonal pairs between particles of two strips.
+  // the pairs across the crack join particles of two ranks wherever a strip or cut boundary
+  // meets the crack, and a contact radius of 1.6 dx closes diagonal pairs among them.
   test::PlateSpec spec;
   spec.nx = 12;
   spec.ny = 8;
