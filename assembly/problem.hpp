@@ -79,6 +79,14 @@ class Problem {
   /// and does nothing, when the problem has no such pairs.
   virtual bool set_touching_closed(bool /*on*/) { return false; }
 
+  /// Distributed ADR (docs/guide/distributed.md): while on, evaluate() without a tangent
+  /// computes the residual only in this process's rows (its own unknowns), and zero in the
+  /// others; force_scale() stays the norm over every component (summed over the ranks), and
+  /// every other result of that evaluate() (energy, reactions) is undefined until the next
+  /// evaluate() with it off. Returns false, and does nothing, for a problem that is not split
+  /// among ranks.
+  virtual bool set_own_rows_only(bool /*on*/) { return false; }
+
   /// A hash of the discrete state of the last evaluate() (e.g. an active set); 0 for a
   /// smooth problem. Newton counts the iterations that change it and detects cycling.
   virtual std::uint64_t state_signature() const { return 0; }

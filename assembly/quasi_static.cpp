@@ -336,15 +336,17 @@ void QuasiStaticProblem::restore_state(const StateArchive& archive, const Vector
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {
   m_pending = false;  // a check measured an earlier evaluation
   expand(x, m_u);
+  if (m_own_rows_only && K)
+    throw std::logic_error("QuasiStaticProblem::evaluate: own rows only, with a tangent");
   compute_families(K != nullptr);
   gather_forces();
   if (m_contact) {
     const double t0 = wall_seconds();
     m_contact->evaluate(m_u, K != nullptr);
     m_contact->add_internal_force(m_force);
-    m_force_scale = m_force.norm();
     m_contact_seconds += wall_seconds() - t0;
   }
+  m_force_scale = force_norm();
   Vec2 reaction = Vec2::Zero();  // bonds inside a fragment cancel: what remains is contact
   for (const Index c : m_fragment_components) {
     reaction[c % 2] += m_force[c];
@@ -352,6 +354,8 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   }
   m_fragment_reaction = reaction.norm();
   m_model.constraints.gather(m_force, r);
+  if (m_own_rows_only)
+    for (const Index f : m_other_unknowns) r[f] = 0.0;
   if (K && m_options.matrix_free) {
     pair_stiffness();
     if (m_contact) {
@@ -538,6 +542,7 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
     Vec2* eta = m_eta_scratch.data() + static_cast<std::size_t>(omp_get_thread_num()) * m_largest_family;
 #pragma omp for schedule(static)
     for (Index i = 0; i < n; ++i) {
+      if (m_own_rows_only && !m_family_needed[static_cast<std::size_t>(i)]) continue;
       const Index b0 = bonds.start[i], nb = bonds.family_size(i);
       family_displacements(i, eta);
       const FamilyOutputs out{std::span(m_t).subspan(b0, nb), std::span(m_direction).subspan(b0, nb),
@@ -555,7 +560,8 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
       }
     }
   }
-  m_energy = energy;
+  // Own rows only: a part of the families, not the energy of the model.
+  m_energy = m_own_rows_only ? std::numeric_limits<double>::quiet_NaN() : energy;
 }
 
 void QuasiStaticProblem::gather_forces() {
@@ -567,6 +573,10 @@ void QuasiStaticProblem::gather_forces() {
 #pragma omp parallel for schedule(static)
   for (Index q = 0; q < n; ++q) {
     Vec2 f = Vec2::Zero();
+    if (m_own_rows_only && !m_force_needed[static_cast<std::size_t>(q)]) {
+      m_force[2 * q] = m_force[2 * q + 1] = 0.0;  // another rank's: its families are not computed here
+      continue;
+    }
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
       const Index j = bonds.neighbour[b], r = bonds.reverse[b];
       f += p.volume[j] * m_t[r] * m_direction[r] - p.volume[q] * m_t[b] * m_direction[b];
@@ -574,7 +584,50 @@ void QuasiStaticProblem::gather_forces() {
     m_force[2 * q] = f.x();
     m_force[2 * q + 1] = f.y();
   }
-  m_force_scale = m_force.norm();
+}
+
+double QuasiStaticProblem::force_norm() const {
+  if (!m_own_rows_only) return m_force.norm();
+  // Each rank's own particles, summed over the ranks, and the particles without a row (every
+  // rank computes those alike), added once.
+  const OwnedRows& rows = m_options.rows;
+  double own = 0.0, unowned = 0.0;
+  for (Index q = 0; q < m_model.particles.size(); ++q) {
+    const int owner = rows.owner[static_cast<std::size_t>(q)];
+    const double f2 = m_force[2 * q] * m_force[2 * q] + m_force[2 * q + 1] * m_force[2 * q + 1];
+    if (owner == rows.rank)
+      own += f2;
+    else if (owner < 0)
+      unowned += f2;
+  }
+  return std::sqrt(m_options.sum_over_ranks(own) + unowned);
+}
+
+bool QuasiStaticProblem::set_own_rows_only(bool on) {
+  if (m_options.rows.all() || !m_options.sum_over_ranks) return false;
+  if (on && m_force_needed.empty()) {
+    // The forces this rank computes: its particles' and those of the particles without a row
+    // (fictitious layers, mirror ghosts: a mirror condition folds their forces into the
+    // unknowns of their images). Their forces read the families of their neighbours.
+    const OwnedRows& rows = m_options.rows;
+    const Bonds& bonds = m_model.bonds;
+    const Index n = m_model.particles.size();
+    m_force_needed.assign(static_cast<std::size_t>(n), 0);
+    m_family_needed.assign(static_cast<std::size_t>(n), 0);
+    for (Index q = 0; q < n; ++q) {
+      const int owner = rows.owner[static_cast<std::size_t>(q)];
+      if (owner != rows.rank && owner >= 0) continue;
+      m_force_needed[static_cast<std::size_t>(q)] = 1;
+      m_family_needed[static_cast<std::size_t>(q)] = 1;
+      for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b)
+        m_family_needed[static_cast<std::size_t>(bonds.neighbour[b])] = 1;
+    }
+    const std::vector<Index>& free = m_model.constraints.free_index;
+    for (std::size_t c = 0; c < free.size(); ++c)
+      if (free[c] >= 0 && !rows.contains(static_cast<Index>(c / 2))) m_other_unknowns.push_back(free[c]);
+  }
+  m_own_rows_only = on;
+  return true;
 }
 
 void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {

@@ -58,6 +58,9 @@ struct ProblemOptions {
   /// With `rows` a strip: the largest of a number over the ranks (every rank calls it at the
   /// same point), so that the matrices' values are those of one process.
   std::function<double(double)> max_over_ranks;
+  /// With `rows` a part: the sum of a number over the ranks, the same on every rank (for the
+  /// force scale of an evaluation of the own rows only, set_own_rows_only()).
+  std::function<double(double)> sum_over_ranks;
 };
 
 class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
@@ -89,6 +92,11 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
     if (m_contact) m_contact->set_touching_closed(on);
     return m_contact != nullptr;
   }
+  /// Distributed ADR: the residual of this rank's rows only, from the families of its
+  /// particles and their neighbours (and of the particles without a row, which every rank
+  /// computes); the contact pairs stay whole on every rank. The rows it computes are bit for
+  /// bit the whole evaluation's (unit.Assembly.OwnRowsResidual*). False in one process.
+  bool set_own_rows_only(bool on) override;
   /// The contact and friction active set.
   std::uint64_t state_signature() const override { return m_contact ? m_contact->signature() : 0; }
   /// The `bond` preconditioner (assembly/bond_preconditioner.hpp), built on first request.
@@ -180,6 +188,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void family_displacements(Index i, Vec2* eta) const;
   void compute_families(bool want_tangent);
   void gather_forces();
+  /// The norm of m_force over every component; with own rows only, summed over the ranks.
+  double force_norm() const;
   void gather_tangent(SparseMatrix& K) const;
   /// The particles holding a bond of `pairs` (their families change), into m_changed_families.
   void collect_changed_families(const std::vector<std::pair<Index, Index>>& pairs);
@@ -238,6 +248,12 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   std::vector<char> m_fragment_unknown;  ///< per unknown, with failure: 1 for a fragment's
   Index m_fragment_particles = 0, m_fragments = 0;
   double m_fragment_reaction = 0.0;
+
+  // Own rows only (set_own_rows_only()): per particle, whether this rank computes its force
+  // and its family; the unknowns of other ranks (zero in the residual).
+  bool m_own_rows_only = false;
+  std::vector<char> m_force_needed, m_family_needed;
+  std::vector<Index> m_other_unknowns;
 
   // State of the last evaluate.
   VectorXd m_u, m_force;

@@ -4,8 +4,11 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <stdexcept>
+#include <utility>
 
 #include "core/clock.hpp"
+#include "core/scope_exit.hpp"
 
 namespace peristat {
 
@@ -25,8 +28,12 @@ int clamp_to_int(long iteration) {
 }
 }  // namespace
 
-AdrSolver::AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocityInput* velocity)
-    : m_problem(problem), m_velocity(velocity), m_options(options) {}
+AdrSolver::AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocityInput* velocity,
+                     UnknownShare share)
+    : m_problem(problem), m_velocity(velocity), m_options(options), m_share(std::move(share)) {
+  if (m_share.distributed() && static_cast<Index>(m_share.owned.size()) != problem.n_unknowns())
+    throw std::logic_error("AdrSolver: the shared unknowns are not the problem's");
+}
 
 void AdrSolver::prepare(const VectorXd& x) {
   if (m_have_density && m_problem.tangent_constant() && m_structure == m_problem.structure_version()) return;
@@ -42,7 +49,8 @@ void AdrSolver::prepare(const VectorXd& x) {
   for (Index col = 0; col < m_K.outerSize(); ++col)
     for (SparseMatrix::InnerIterator it(m_K, col); it; ++it) rows[it.row()] += std::abs(it.value());
   m_problem.add_stiffness_bound(rows);
-  const double largest = rows.maxCoeff();
+  // Distributed, a rank's rows hold only its own unknowns' sums: the largest over the ranks.
+  const double largest = m_share.distributed() ? m_share.max(rows.maxCoeff()) : rows.maxCoeff();
   m_density = 0.25 * m_options.density_factor * rows.cwiseMax(kRowSumFloor * largest);
   m_have_density = true;
 }
@@ -59,12 +67,55 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   m_r_old.resize(n);
   if (m_velocity) m_velocity->set_velocity(m_v);
 
+  // Distributed: the rank's rows only while relaxing, the whole residual again after (the
+  // load stepping recomputes it from scratch, and checks, commits and writes from it).
+  const bool distributed = m_share.distributed();
+  if (distributed && !m_problem.set_own_rows_only(true))
+    throw std::logic_error("AdrSolver: the problem cannot evaluate its own rows only");
+  const ScopeExit whole_rows_after([&] {
+    if (distributed) m_problem.set_own_rows_only(false);
+  });
+  // After an update of the own unknowns: every rank's into every rank's copy.
+  const auto share = [&] {
+    if (!distributed) return;
+    m_share.share(x);
+    if (m_velocity) m_share.share(m_v);
+  };
+  // ||r|| and the Rayleigh quotient's sums (below) at x, over the ranks' own rows in one sum.
+  double num = 0.0, den = 0.0;
+  const auto measure = [&](bool damping) {
+    if (!distributed) {
+      if (damping) {
+        num = den = 0.0;
+        for (Index i = 0; i < n; ++i) {
+          const double xi2 = x[i] * x[i];
+          den += xi2;
+          if (m_v[i] != 0.0) num += xi2 * (m_r[i] - m_r_old[i]) / (m_density[i] * m_v[i]);
+        }
+      }
+      return m_r.norm();
+    }
+    double sums[3] = {0.0, 0.0, 0.0};  // r.r, num, den
+    for (Index i = 0; i < n; ++i) {
+      if (!m_share.owned[static_cast<std::size_t>(i)]) continue;
+      sums[0] += m_r[i] * m_r[i];
+      if (!damping) continue;
+      const double xi2 = x[i] * x[i];
+      sums[2] += xi2;
+      if (m_v[i] != 0.0) sums[1] += xi2 * (m_r[i] - m_r_old[i]) / (m_density[i] * m_v[i]);
+    }
+    m_share.sum(sums, damping ? 3 : 1);
+    num = sums[1];
+    den = sums[2];
+    return std::sqrt(sums[0]);
+  };
+
   double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, nullptr);
   report.seconds_evaluate += wall_seconds() - t0;
   const auto tolerance = [&] { return residual_tolerance(m_problem.force_scale()); };
   const auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kForceFloor); };
-  double norm = m_r.norm();
+  double norm = measure(false);
   report.residuals.push_back(relative(norm));
   if (monitor) monitor(0, report.residuals.back(), 0.0);
   if (norm <= tolerance()) {
@@ -76,8 +127,9 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   // Central differences with unit time step, from rest: v^{1/2} = F^0 / (2 Lambda), then
   // v^{n+1/2} = ((2 - c) v^{n-1/2} + 2 F^n / Lambda) / (2 + c), u^{n+1} = u^n + v^{n+1/2},
   // with F = -r and c from the local Rayleigh quotient (docs/theory/adr.md).
-  m_v = -0.5 * m_r.cwiseQuotient(m_density);
+  m_v = -0.5 * m_r.cwiseQuotient(m_density);  // zero in other ranks' rows: their r is
   x += m_v;
+  share();
   double c = 0.0;
   for (long it = 1; it <= o.max_iterations; ++it) {
     m_r_old.swap(m_r);
@@ -86,7 +138,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
     m_problem.evaluate(x, m_r, nullptr);
     report.seconds_evaluate += wall_seconds() - t0;
     report.iterations = clamp_to_int(it);
-    norm = m_r.norm();
+    norm = measure(true);
     const bool done = norm <= tolerance();
     if (!std::isfinite(norm)) {
       report.reason = "ADR diverged (non-finite residual) at iteration " + std::to_string(it);
@@ -103,18 +155,14 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
     }
     if (it == o.max_iterations) break;
     // Local stiffness K1_ii = (r_i^n - r_i^{n-1}) / (Lambda_ii v_i^{n-1/2}); damping
-    // c = 2 sqrt(u.K1 u / u.u), zero when the quotient is not positive.
-    double num = 0.0, den = 0.0;
-    for (Index i = 0; i < n; ++i) {
-      const double xi2 = x[i] * x[i];
-      den += xi2;
-      if (m_v[i] != 0.0) num += xi2 * (m_r[i] - m_r_old[i]) / (m_density[i] * m_v[i]);
-    }
+    // c = 2 sqrt(u.K1 u / u.u) (num / den, from measure()), zero when the quotient is not
+    // positive.
     c = (num > 0.0 && den > 0.0) ? std::min(2.0 * std::sqrt(num / den), kMaxDamping) : 0.0;
-    for (Index i = 0; i < n; ++i) {
+    for (Index i = 0; i < n; ++i) {  // other ranks' rows: r = 0 and v = 0, x is theirs
       m_v[i] = ((2.0 - c) * m_v[i] - 2.0 * m_r[i] / m_density[i]) / (2.0 + c);
       x[i] += m_v[i];
     }
+    share();
   }
   char buf[200];
   std::snprintf(buf, sizeof buf, "ADR budget of %ld iterations reached at relative residual %.3e (rtol %.1e)",

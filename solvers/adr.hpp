@@ -6,6 +6,7 @@
 
 #include "assembly/pseudo_velocity.hpp"
 #include "core/options.hpp"
+#include "solvers/distribution.hpp"
 #include "solvers/step_solver.hpp"
 
 namespace peristat {
@@ -14,7 +15,11 @@ class AdrSolver final : public StepSolver {
  public:
   /// `velocity`: where the pseudo-velocity goes when the problem's residual reads one (the
   /// paper's velocity-sign friction); null otherwise.
-  AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocityInput* velocity = nullptr);
+  /// `share`: under mpirun, the unknowns this rank updates (docs/guide/distributed.md); each
+  /// pseudo-time step then evaluates the rank's rows only (Problem::set_own_rows_only), updates
+  /// its own unknowns, and shares them with every rank.
+  AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocityInput* velocity = nullptr,
+            UnknownShare share = {});
 
   /// Relaxes from x (at rest) to r(x) = 0 at the problem's current load factor.
   SolveReport solve(VectorXd& x, const SolveMonitor& monitor = {}) override;
@@ -33,6 +38,7 @@ class AdrSolver final : public StepSolver {
   Problem& m_problem;
   PseudoVelocityInput* m_velocity;
   AdrOptions m_options;
+  UnknownShare m_share;
   VectorXd m_density;
   SparseMatrix m_K;  ///< tangent for the row sums (pattern kept across load steps)
   bool m_have_density = false;

@@ -4,6 +4,7 @@
 #include <limits>
 
 #include "core/clock.hpp"
+#include "core/scope_exit.hpp"
 
 namespace peristat {
 
@@ -138,13 +139,9 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
   // 11 -> 5 Newton iterations). It replaces the factor when it differs from it.
   const bool closes = !reuse_factor() && m_problem.set_touching_closed(true);
   {
-    struct Reopen {
-      Problem& problem;
-      bool on;
-      ~Reopen() {
-        if (on) problem.set_touching_closed(false);
-      }
-    } reopen{m_problem, closes};
+    const ScopeExit reopen([&] {
+      if (closes) m_problem.set_touching_closed(false);
+    });
     m_problem.evaluate(x, m_r, closes ? &m_K : nullptr);
   }
   if (closes) m_K_symmetric = m_problem.tangent_symmetric();

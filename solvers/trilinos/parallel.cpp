@@ -1,10 +1,12 @@
 #include "solvers/trilinos/parallel.hpp"
 
+#include <array>
 #include <cstdlib>
-
-#include <mpi.h>
+#include <stdexcept>
+#include <vector>
 
 #include <Tpetra_Core.hpp>
+#include <mpi.h>
 
 namespace peristat::parallel {
 
@@ -77,6 +79,55 @@ long long sum_over_ranks(long long value) {
   long long result = value;
   MPI_Allreduce(&value, &result, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
   return result;
+}
+
+void sum_in_rank_order(double* values, int n) {
+  const int ranks = size();
+  if (ranks <= 1 || n <= 0) return;
+  // A few numbers per call, every ADR iteration: on the stack unless they are many.
+  const std::size_t total = static_cast<std::size_t>(n) * static_cast<std::size_t>(ranks);
+  std::array<double, 512> small;
+  std::vector<double> large(total > small.size() ? total : 0);
+  double* all = total > small.size() ? large.data() : small.data();
+  MPI_Allgather(values, n, MPI_DOUBLE, all, n, MPI_DOUBLE, MPI_COMM_WORLD);
+  for (int k = 0; k < n; ++k) {
+    double s = 0.0;
+    for (int p = 0; p < ranks; ++p) s += all[static_cast<std::size_t>(p) * static_cast<std::size_t>(n) + k];
+    values[k] = s;
+  }
+}
+
+double sum_over_ranks(double value) {
+  sum_in_rank_order(&value, 1);
+  return value;
+}
+
+OwnedExchange::OwnedExchange(const std::vector<int>& owner) : m_rank(rank()) {
+  const int ranks = size();
+  m_counts.assign(static_cast<std::size_t>(ranks), 0);
+  for (const int p : owner) {
+    if (p < 0 || p >= ranks) throw std::invalid_argument("OwnedExchange: an entry without an owner rank");
+    ++m_counts[static_cast<std::size_t>(p)];
+  }
+  m_displs.assign(static_cast<std::size_t>(ranks), 0);
+  for (int p = 1; p < ranks; ++p)
+    m_displs[static_cast<std::size_t>(p)] =
+        m_displs[static_cast<std::size_t>(p - 1)] + m_counts[static_cast<std::size_t>(p - 1)];
+  m_order.resize(owner.size());
+  std::vector<int> next = m_displs;
+  for (std::size_t k = 0; k < owner.size(); ++k)
+    m_order[static_cast<std::size_t>(next[static_cast<std::size_t>(owner[k])]++)] = static_cast<long long>(k);
+  m_send.resize(static_cast<std::size_t>(m_counts[static_cast<std::size_t>(m_rank)]));
+  m_received.resize(owner.size());
+}
+
+void OwnedExchange::share(double* x) {
+  if (m_counts.size() <= 1) return;
+  const std::size_t first = static_cast<std::size_t>(m_displs[static_cast<std::size_t>(m_rank)]);
+  for (std::size_t k = 0; k < m_send.size(); ++k) m_send[k] = x[m_order[first + k]];
+  MPI_Allgatherv(m_send.data(), static_cast<int>(m_send.size()), MPI_DOUBLE, m_received.data(),
+                 m_counts.data(), m_displs.data(), MPI_DOUBLE, MPI_COMM_WORLD);
+  for (std::size_t k = 0; k < m_order.size(); ++k) x[m_order[k]] = m_received[k];
 }
 
 void abort_if_distributed(int code) {

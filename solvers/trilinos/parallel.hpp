@@ -4,6 +4,8 @@
 // In a plain process MPI starts only when a belos solver is made (an MPI singleton).
 #pragma once
 
+#include <vector>
+
 namespace peristat::parallel {
 
 /// True when this process was launched by mpirun (Open MPI's or another's environment).
@@ -30,6 +32,25 @@ int ranks_on_this_machine();
 /// same point); the value itself in one process.
 double max_over_ranks(double value);
 long long sum_over_ranks(long long value);
+/// Sums values[0 .. n) over the ranks in place, adding the ranks' values in rank order on
+/// every rank, so that every rank gets the same bits (an MPI_Allreduce need not).
+void sum_in_rank_order(double* values, int n);
+double sum_over_ranks(double value);
+
+/// Copies every rank's own entries of a vector into every rank's copy (distributed ADR):
+/// entry k belongs to rank owner[k], a table every rank holds alike. Buffers are made once;
+/// share() is collective.
+class OwnedExchange {
+ public:
+  explicit OwnedExchange(const std::vector<int>& owner);
+  void share(double* x);
+
+ private:
+  int m_rank = 0;
+  std::vector<int> m_counts, m_displs;  ///< entries per rank, and where each rank's begin
+  std::vector<long long> m_order;       ///< the entries, rank by rank, ascending within a rank
+  std::vector<double> m_send, m_received;
+};
 /// Ends every rank with `code` when more than one runs (an error that one rank meets alone
 /// would leave the others waiting in a collective operation); returns otherwise.
 void abort_if_distributed(int code);

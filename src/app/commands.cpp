@@ -107,6 +107,7 @@ ProblemOptions process_problem_options(const Scene& scene, const Model& model) {
   if (const int ranks = parallel::size(); ranks > 1) {
     options.rows = owned_rows(scene, model, parallel::rank(), ranks);
     options.max_over_ranks = parallel::max_over_ranks;
+    options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
   }
   return options;
 }
@@ -144,21 +145,20 @@ int run_command(const RunArguments& args) {
   std::vector<Override> overrides = parse_overrides(args.overrides);
   if (!args.solver.empty()) overrides.push_back({"solver.type", args.solver});
   Scene scene = parse_scene(args.scene, overrides);
-  // Under mpirun every rank runs the same model and only the linear solves are distributed
-  // (docs/guide/distributed.md); rank 0 alone writes and prints.
+  // Under mpirun every rank holds the same model; Newton distributes its linear solves, ADR
+  // its pseudo-time steps (docs/guide/distributed.md); rank 0 alone writes and prints.
   const int ranks = parallel::size();
   const bool root = parallel::rank() == 0;
   // solver.linear: auto becomes a solver here, from the size estimate, before the preflight
   // estimates its memory (an explicit choice is kept).
   const std::string linear_choice = resolve_linear_solver(scene, ranks);
   if (!linear_choice.empty() && !args.quiet && root) std::printf("peristat: solver.linear auto: %s\n", linear_choice.c_str());
-  if (ranks > 1 && (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::belos))
+  if (ranks > 1 && scene.solver.type == SolverKind::newton &&
+      scene.solver.linear.type != LinearSolverKind::belos)
     throw InputError("solver.linear: under mpirun with " + std::to_string(ranks) +
-                     " ranks only Newton with solver.linear=belos distributes the work (this run has " +
-                     std::string(to_string(scene.solver.type)) +
-                     (scene.solver.type == SolverKind::newton ? " with " + std::string(to_string(scene.solver.linear.type))
-                                                              : std::string()) +
-                     "); add --set solver.linear=belos, or run without mpirun");
+                     " ranks Newton distributes its work only with solver.linear=belos (this run has " +
+                     std::string(to_string(scene.solver.linear.type)) +
+                     "); add --set solver.linear=belos, run ADR (--solver adr), or run without mpirun");
   if (args.threads > 0)
     omp_set_num_threads(args.threads);
   else if (ranks > 1)  // the ranks share the machine's cores

@@ -1,11 +1,13 @@
 #include "app/setup.hpp"
 
 #include <cstdio>
+#include <memory>
 #include <stdexcept>
 
 #include "app/preflight.hpp"
 #include "solvers/adr.hpp"
 #include "solvers/newton.hpp"
+#include "solvers/trilinos/parallel.hpp"
 #include "solvers/trilinos/partition.hpp"
 
 namespace peristat {
@@ -108,10 +110,28 @@ std::string resolve_linear_solver(Scene& scene, int ranks) {
   return scene.solver.linear.auto_choice;
 }
 
+UnknownShare unknown_share(const QuasiStaticProblem& problem) {
+  const OwnedRows& rows = problem.owned_rows();
+  UnknownShare share;
+  if (rows.all()) return share;
+  const std::vector<Index>& free = problem.model().constraints.free_index;
+  std::vector<int> owner(static_cast<std::size_t>(problem.n_unknowns()), -1);
+  for (std::size_t c = 0; c < free.size(); ++c)
+    if (free[c] >= 0) owner[static_cast<std::size_t>(free[c])] = rows.owner[c / 2];
+  share.owned.resize(owner.size());
+  for (std::size_t f = 0; f < owner.size(); ++f) share.owned[f] = owner[f] == rows.rank;
+  share.sum = parallel::sum_in_rank_order;
+  share.max = parallel::max_over_ranks;
+  auto exchange = std::make_shared<parallel::OwnedExchange>(owner);  // throws for an unknown without owner
+  share.share = [exchange](VectorXd& x) { exchange->share(x.data()); };
+  return share;
+}
+
 std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProblem& problem,
                                              std::unique_ptr<LinearSolver>& linear) {
   if (scene.solver.type == SolverKind::adr)
-    return std::make_unique<AdrSolver>(problem, scene.solver.adr, problem.pseudo_velocity_input());
+    return std::make_unique<AdrSolver>(problem, scene.solver.adr, problem.pseudo_velocity_input(),
+                                       unknown_share(problem));
   LinearOptions options = scene.solver.linear;
   if (options.type == LinearSolverKind::automatic) {  // callers that did not resolve it (tests)
     options.type = choose_linear_solver(scene, static_cast<double>(problem.n_unknowns()), 1).kind;

@@ -7,6 +7,7 @@
 
 #include "assembly/quasi_static.hpp"
 #include "scene/scene.hpp"
+#include "solvers/distribution.hpp"
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/step_solver.hpp"
 
@@ -52,6 +53,10 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
 
 /// Each unknown's particle and direction, and the particles' positions (LinearSolver's hint).
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
+
+/// Under mpirun (problem.owned_rows() a part): the unknowns of this rank's particles, and the
+/// MPI operations distributed ADR needs; empty in one process.
+UnknownShare unknown_share(const QuasiStaticProblem& problem);
 
 /// The step solver the scene asks for (Newton or ADR); `linear` receives Newton's linear
 /// solver (it must outlive the step solver) and stays empty for ADR.

@@ -101,6 +101,11 @@ TEST(Discretise, BlockSelectorAddsTheFreeLatticePointsOfItsBox) {
 struct RankedMatrices {
   SparseMatrix K, P;
   VectorXd r;
+  double scale = 0.0;  ///< force_scale() of the whole evaluation
+  /// With ProblemOptions::sum_over_ranks (distributed ADR, set_own_rows_only()): the residual
+  /// of the own rows only, its force scale, and the whole residual evaluated after it again.
+  VectorXd own_r, r_after;
+  double own_scale = 0.0;
 };
 
 // Puts the problem in the test's state: x, and (with failure) the bonds that break at x.
@@ -110,9 +115,23 @@ RankedMatrices assemble(const Model& model, ProblemOptions options, const Prepar
                         const VectorXd& x) {
   QuasiStaticProblem problem(model, options);
   prepare(problem);
-  RankedMatrices m{problem.make_tangent(), problem.make_preconditioner(), {}};
+  RankedMatrices m;
+  m.K = problem.make_tangent();
+  m.P = problem.make_preconditioner();
   problem.evaluate(x, m.r, &m.K);
+  m.scale = problem.force_scale();
   problem.assemble_preconditioner(m.P);
+  if (problem.set_own_rows_only(true)) {
+    // First elsewhere, so that a family the own rows need and that is not computed holds
+    // another state's values (the whole evaluation above left x's in every family).
+    problem.set_own_rows_only(false);
+    problem.evaluate(1.7 * x, m.own_r, nullptr);
+    problem.set_own_rows_only(true);
+    problem.evaluate(x, m.own_r, nullptr);
+    m.own_scale = problem.force_scale();
+    problem.set_own_rows_only(false);
+    problem.evaluate(x, m.r_after, nullptr);
+  }
   return m;
 }
 
@@ -173,13 +192,18 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
     if (cuts && cuts_differ) {
       EXPECT_NE(owner, strip_owners(model.constraints, ranks)) << "the cuts are not the strips here";
     }
-    // MPI_Allreduce(MAX) emulated: every rank's local maxima, call by call, then their max.
-    std::vector<std::vector<double>> local(static_cast<std::size_t>(ranks));
+    // MPI_Allreduce(MAX) and the sum in rank order emulated: every rank's local values, call
+    // by call, then their max or sum.
+    std::vector<std::vector<double>> local(static_cast<std::size_t>(ranks)), local_sums(local);
     for (int rank = 0; rank < ranks; ++rank) {
       ProblemOptions options = problem_options(scene);
       options.rows = owners(rank);
       options.max_over_ranks = [&, rank](double v) {
         local[static_cast<std::size_t>(rank)].push_back(v);
+        return v;
+      };
+      options.sum_over_ranks = [&, rank](double v) {
+        local_sums[static_cast<std::size_t>(rank)].push_back(v);
         return v;
       };
       assemble(model, options, prepare, x);
@@ -189,12 +213,18 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
     for (int rank = 0; rank < ranks; ++rank) {
       ProblemOptions options = problem_options(scene);
       options.rows = owners(rank);
-      std::size_t call = 0;
+      std::size_t call = 0, sum_call = 0;
       options.max_over_ranks = [&](double) {
         double m = 0.0;
         for (const auto& values : local) m = std::max(m, values.at(call));
         ++call;
         return m;
+      };
+      options.sum_over_ranks = [&](double) {
+        double sum = 0.0;
+        for (const auto& values : local_sums) sum += values.at(sum_call);
+        ++sum_call;
+        return sum;
       };
       const RankedMatrices part = assemble(model, options, prepare, x);
       std::vector<char> mine(static_cast<std::size_t>(whole.K.rows()), 0);
@@ -207,6 +237,14 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
       EXPECT_GT(rows, 0) << "rank " << rank << " of " << ranks << " owns rows";
       all_rows += rows;
       EXPECT_TRUE((part.r.array() == whole.r.array()).all()) << "the residual stays whole on every rank";
+      // Own rows only (distributed ADR): the rank's rows bit for bit, zero elsewhere; the force
+      // scale over every component, its squares summed rank by rank instead of in one pass
+      // (round-off: 1e-14 relative); the whole residual again once switched off.
+      ASSERT_EQ(part.own_r.size(), whole.r.size()) << "a rank's problem evaluates its own rows";
+      for (Index f = 0; f < whole.r.size(); ++f)
+        EXPECT_EQ(part.own_r[f], mine[f] ? whole.r[f] : 0.0) << "unknown " << f << (mine[f] ? " (own)" : "");
+      EXPECT_NEAR(part.own_scale, whole.scale, 1e-14 * whole.scale);
+      EXPECT_TRUE((part.r_after.array() == whole.r.array()).all()) << "whole again after own rows only";
       const long long k = expect_rows_of(whole.K, part.K, mine, "tangent");
       const long long pc = expect_rows_of(whole.P, part.P, mine, "bond preconditioner");
       EXPECT_EQ(part.K.nonZeros(), k) << "the rank stores its rows only";
