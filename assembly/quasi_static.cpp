@@ -382,6 +382,9 @@ void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
   m_model.constraints.scatter(m_v_free, m_v_full);
   m_dilatation_rate.resize(static_cast<std::size_t>(n));
   m_y_full.resize(2 * n);
+  // Distributed: this rank's rows only, from the families they read (as the own-rows residual).
+  const bool own = distributed();
+  if (own) build_own_masks();
   const auto w = [&](Index q) { return Vec2(m_v_full[2 * q], m_v_full[2 * q + 1]); };
   const auto times = [](const Sym2& k, const Vec2& a) {
     return Vec2(k[0] * a.x() + k[1] * a.y(), k[1] * a.x() + k[2] * a.y());
@@ -390,12 +393,17 @@ void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
   {
 #pragma omp for schedule(static)
     for (Index i = 0; i < n; ++i) {
+      if (own && !m_family_needed[static_cast<std::size_t>(i)]) continue;
       double g = m_s_self[i].dot(w(i));
       for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) g += m_s[b].dot(w(bonds.neighbour[b]));
       m_dilatation_rate[i] = m_beta_volume[i] * g;
     }
 #pragma omp for schedule(static)
     for (Index q = 0; q < n; ++q) {
+      if (own && !m_force_needed[static_cast<std::size_t>(q)]) {
+        m_y_full[2 * q] = m_y_full[2 * q + 1] = 0.0;
+        continue;
+      }
       const Vec2 wq = w(q);
       Vec2 y_q = m_dilatation_rate[q] * m_s_self[q];
       for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
@@ -412,6 +420,8 @@ void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
   }
   m_model.constraints.gather(m_y_full, y);
   for (const Index f : m_fragment_unknowns) y[f] = m_fragment_diagonal * v[f];
+  if (own)
+    for (const Index f : m_other_unknowns) y[f] = 0.0;
 }
 
 void QuasiStaticProblem::pair_stiffness() {
@@ -604,30 +614,33 @@ double QuasiStaticProblem::force_norm() const {
 }
 
 bool QuasiStaticProblem::set_own_rows_only(bool on) {
-  if (m_options.rows.all() || !m_options.sum_over_ranks) return false;
-  if (on && m_force_needed.empty()) {
-    // The forces this rank computes: its particles' and those of the particles without a row
-    // (fictitious layers, mirror ghosts: a mirror condition folds their forces into the
-    // unknowns of their images). Their forces read the families of their neighbours.
-    const OwnedRows& rows = m_options.rows;
-    const Bonds& bonds = m_model.bonds;
-    const Index n = m_model.particles.size();
-    m_force_needed.assign(static_cast<std::size_t>(n), 0);
-    m_family_needed.assign(static_cast<std::size_t>(n), 0);
-    for (Index q = 0; q < n; ++q) {
-      const int owner = rows.owner[static_cast<std::size_t>(q)];
-      if (owner != rows.rank && owner >= 0) continue;
-      m_force_needed[static_cast<std::size_t>(q)] = 1;
-      m_family_needed[static_cast<std::size_t>(q)] = 1;
-      for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b)
-        m_family_needed[static_cast<std::size_t>(bonds.neighbour[b])] = 1;
-    }
-    const std::vector<Index>& free = m_model.constraints.free_index;
-    for (std::size_t c = 0; c < free.size(); ++c)
-      if (free[c] >= 0 && !rows.contains(static_cast<Index>(c / 2))) m_other_unknowns.push_back(free[c]);
-  }
+  if (!distributed()) return false;
+  if (on) build_own_masks();
   m_own_rows_only = on;
   return true;
+}
+
+void QuasiStaticProblem::build_own_masks() {
+  if (!m_force_needed.empty()) return;
+  // The forces this rank computes: its particles' and those of the particles without a row
+  // (fictitious layers, mirror ghosts: a mirror condition folds their forces into the
+  // unknowns of their images). Their forces read the families of their neighbours.
+  const OwnedRows& rows = m_options.rows;
+  const Bonds& bonds = m_model.bonds;
+  const Index n = m_model.particles.size();
+  m_force_needed.assign(static_cast<std::size_t>(n), 0);
+  m_family_needed.assign(static_cast<std::size_t>(n), 0);
+  for (Index q = 0; q < n; ++q) {
+    const int owner = rows.owner[static_cast<std::size_t>(q)];
+    if (owner != rows.rank && owner >= 0) continue;
+    m_force_needed[static_cast<std::size_t>(q)] = 1;
+    m_family_needed[static_cast<std::size_t>(q)] = 1;
+    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b)
+      m_family_needed[static_cast<std::size_t>(bonds.neighbour[b])] = 1;
+  }
+  const std::vector<Index>& free = m_model.constraints.free_index;
+  for (std::size_t c = 0; c < free.size(); ++c)
+    if (free[c] >= 0 && !rows.contains(static_cast<Index>(c / 2))) m_other_unknowns.push_back(free[c]);
 }
 
 void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {

@@ -82,6 +82,9 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// families' factored Hessians (bond stiffnesses and dilatation vectors, docs/theory/osb.md
   /// "Assembly") and the contact pairs' Jacobians without forming K: O(bonds) per product,
   /// the same K the assembled path writes (tests MatrixFree.ActionEqualsTheAssembledTangent*).
+  /// Distributed (rows a part, with sum_over_ranks): only this rank's rows of y, bit for bit
+  /// the whole product's, from the whole v; the other rows are zero (solver.belos.tangent:
+  /// matrix_free reads its own rows only).
   void apply_tangent(const VectorXd& v, VectorXd& y) override;
   /// The contact candidates' version: a partner search that adds pairs grows the pattern.
   std::uint64_t structure_version() const override { return m_contact ? m_contact->version() : 0; }
@@ -190,6 +193,10 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void gather_forces();
   /// The norm of m_force over every component; with own rows only, summed over the ranks.
   double force_norm() const;
+  /// A rank of a distributed run: rows a part and a sum over the ranks given.
+  bool distributed() const { return !m_options.rows.all() && m_options.sum_over_ranks != nullptr; }
+  /// m_force_needed, m_family_needed and m_other_unknowns, once.
+  void build_own_masks();
   void gather_tangent(SparseMatrix& K) const;
   /// The particles holding a bond of `pairs` (their families change), into m_changed_families.
   void collect_changed_families(const std::vector<std::pair<Index, Index>>& pairs);

@@ -344,6 +344,55 @@ class BlockFactor final : public op_t {
   mutable VectorXd m_in, m_out;
 };
 
+/// The tangent as a Tpetra operator (solver.belos.tangent: matrix_free): each apply gathers
+/// the vector on every rank (the import that gathers the solution), applies the problem's
+/// tangent action (on a rank of a distributed run it computes that rank's rows only,
+/// QuasiStaticProblem::apply_tangent), and keeps this rank's rows. A padding row is `padding`
+/// times its entry, as in the assembled copy.
+class TangentOperator final : public op_t {
+ public:
+  TangentOperator(RCP<const map_t> map, const RCP<const map_t>& replicated, RCP<import_t> import,
+                  const Distribution& d, LinearSolver::Operator apply, const double& padding)
+      : m_map(std::move(map)),
+        m_import(std::move(import)),
+        m_all(rcp(new mv_t(replicated, 1))),
+        m_d(d),
+        m_apply(std::move(apply)),
+        m_padding(padding),
+        m_v(static_cast<Index>(d.row_of.size())),
+        m_y(static_cast<Index>(d.row_of.size())) {}
+
+  RCP<const map_t> getDomainMap() const override { return m_map; }
+  RCP<const map_t> getRangeMap() const override { return m_map; }
+  void apply(const mv_t& X, mv_t& Y, Teuchos::ETransp /*mode*/, double alpha, double beta) const override {
+    const LO local = m_d.local_rows();
+    for (std::size_t c = 0; c < X.getNumVectors(); ++c) {
+      m_all->getVectorNonConst(0)->doImport(*X.getVector(c), *m_import, Tpetra::INSERT);
+      {
+        const Teuchos::ArrayRCP<const double> all = m_all->getData(0);
+        for (Index k = 0; k < m_v.size(); ++k) m_v[k] = all[m_d.row_of[k]];
+      }
+      m_apply(m_v, m_y);
+      const Teuchos::ArrayRCP<const double> x = X.getData(c);
+      const Teuchos::ArrayRCP<double> y = Y.getDataNonConst(c);
+      for (LO r = 0; r < local; ++r) {
+        const Index k = m_d.unknown_of_local[r];
+        const double ax = alpha * (k >= 0 ? m_y[k] : m_padding * x[r]);
+        y[r] = beta == 0.0 ? ax : ax + beta * y[r];
+      }
+    }
+  }
+
+ private:
+  RCP<const map_t> m_map;
+  RCP<import_t> m_import;
+  RCP<mv_t> m_all;
+  const Distribution& m_d;
+  LinearSolver::Operator m_apply;
+  const double& m_padding;
+  mutable VectorXd m_v, m_y;
+};
+
 /// One V-cycle of MueLu's smoothed aggregation on a matrix P, as the preconditioner "solve"
 /// of factor-preconditioned Krylov (solver.krylov.preconditioner: bond_amg): the bond matrix
 /// approximated instead of factorised. In this process only (a serial communicator), the
@@ -522,7 +571,11 @@ class BelosSolver final : public LinearSolver {
 
   void analyzePattern(const SparseMatrix& A) override {
     m_info = Eigen::Success;
-    m_copy.analyze(A, m_layout, m_comm);
+    if (matrix_free() && m_P == nullptr) {  // the copy is the bond matrix's: it comes first
+      m_info = Eigen::InvalidInput;
+      return;
+    }
+    m_copy.analyze(matrix_free() ? *m_P : A, m_layout, m_comm);
     m_replicated =
         rcp(new map_t(static_cast<Tpetra::global_size_t>(m_copy.d.n_rows), GO(0), m_comm, Tpetra::LocallyReplicated));
     m_import = rcp(new import_t(m_copy.map, m_replicated));
@@ -530,6 +583,9 @@ class BelosSolver final : public LinearSolver {
     m_B = rcp(new mv_t(m_copy.map, 1));
     m_X_all = rcp(new mv_t(m_replicated, 1));
     m_problem = rcp(new Belos::LinearProblem<double, mv_t, op_t>());
+    if (matrix_free())
+      m_tangent =
+          rcp(new TangentOperator(m_copy.map, m_replicated, m_import, m_copy.d, m_apply, m_copy.padding));
     m_preconditioner = Teuchos::null;
     m_muelu = Teuchos::null;
     m_ifpack2 = Teuchos::null;
@@ -540,7 +596,8 @@ class BelosSolver final : public LinearSolver {
   void factorize(const SparseMatrix& A) override {
     m_info = Eigen::Success;
     if (m_copy.matrix.is_null()) analyzePattern(A);
-    m_copy.fill(A);
+    if (m_info != Eigen::Success) return;
+    m_copy.fill(matrix_free() ? *m_P : A);
     if (m_reuse.due()) build_preconditioner();
   }
 
@@ -560,7 +617,8 @@ class BelosSolver final : public LinearSolver {
 
   Eigen::ComputationInfo info() const override { return m_info; }
   std::string name() const override {
-    return "belos-" + std::string(to_string(m_options.method)) + "+" + std::string(to_string(m_options.preconditioner));
+    return "belos-" + std::string(to_string(m_options.method)) + "+" +
+           std::string(to_string(m_options.preconditioner)) + (matrix_free() ? "+matrix_free" : "");
   }
   bool needs_symmetric() const override { return m_options.method == BelosMethod::cg; }
   bool iterative() const override { return true; }
@@ -568,9 +626,12 @@ class BelosSolver final : public LinearSolver {
   int iterations() const override { return m_iterations; }
   double error() const override { return m_error; }
   long factorizations() const override { return m_builds; }
+  /// The bond matrix: the bond factor's, and with a matrix-free tangent every preconditioner's.
   bool uses_preconditioner_matrix() const override {
-    return m_options.preconditioner == BelosPreconditioner::bond_factor;
+    return m_options.preconditioner == BelosPreconditioner::bond_factor || matrix_free();
   }
+  bool needs_operator() const override { return matrix_free(); }
+  void set_operator(Operator apply) override { m_apply = std::move(apply); }
   void set_preconditioner_matrix(const SparseMatrix& P) override { m_P = &P; }
   void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
   void renew_preconditioner() override { m_reuse.renew(); }
@@ -578,6 +639,8 @@ class BelosSolver final : public LinearSolver {
   void set_unknown_layout(const UnknownLayout& layout) override { m_layout = layout; }
 
  private:
+  bool matrix_free() const { return m_options.tangent == BelosTangent::matrix_free; }
+
   void build_preconditioner() {
     m_reuse.built();
     m_info = Eigen::Success;
@@ -686,7 +749,7 @@ class BelosSolver final : public LinearSolver {
         Belos::SolverFactory<double, mv_t, op_t> factory;
         solver = factory.create(cg ? "CG" : "GMRES", p);
       }
-      m_problem->setOperator(m_copy.matrix);
+      m_problem->setOperator(matrix_free() ? RCP<op_t>(m_tangent) : RCP<op_t>(m_copy.matrix));
       m_problem->setRightPrec(m_preconditioner);
       m_problem->setProblem(m_X, m_B);
       solver->setProblem(m_problem);
@@ -708,7 +771,9 @@ class BelosSolver final : public LinearSolver {
   Teuchos::ParameterList m_muelu_parameters;  ///< solver.belos.muelu_parameters, or empty
   RCP<const Teuchos::Comm<int>> m_comm;
   UnknownLayout m_layout;
-  TpetraCopy m_copy;
+  TpetraCopy m_copy;  ///< of the tangent, or with a matrix-free tangent of the bond matrix
+  Operator m_apply;   ///< the tangent's action (matrix-free)
+  RCP<TangentOperator> m_tangent;
   RCP<const map_t> m_replicated;
   RCP<import_t> m_import;
   RCP<mv_t> m_X, m_B, m_X_all;

@@ -96,7 +96,10 @@ SizeEstimate estimate_size(const Scene& scene) {
                                     ? choose_linear_solver(scene, estimated_unknowns(e), parallel::size()).kind
                                     : lin.type;
   const double n = e.particles + e.fictitious;
-  if (scene.solver.type == SolverKind::newton && kind == LinearSolverKind::matrix_free) {
+  // solver.belos.tangent: matrix_free applies the tangent like matrix_free and assembles the
+  // bond matrix only (its copy in Tpetra is what MueLu, Ifpack2 or the factor work on).
+  const bool belos_free = kind == LinearSolverKind::belos && lin.belos.tangent == BelosTangent::matrix_free;
+  if (scene.solver.type == SolverKind::newton && (kind == LinearSolverKind::matrix_free || belos_free)) {
     // No tangent and no pattern: the model and the families' tangent data only.
     e.memory_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
   }
@@ -104,7 +107,20 @@ SizeEstimate estimate_size(const Scene& scene) {
     const bool cg = kind == LinearSolverKind::cg || kind == LinearSolverKind::matrix_free;
     const PreconditionerKind pc = lin.preconditioner;
     const bool belos = kind == LinearSolverKind::belos;
-    if (belos && lin.belos.preconditioner != BelosPreconditioner::bond_factor) {
+    if (belos_free) {
+      const double nnz = kBondNonzeroShare * e.nonzeros;  // the default bond radius
+      if (lin.belos.preconditioner == BelosPreconditioner::bond_factor) {
+        e.factor_of = "the bond preconditioner, with its copy in Tpetra";
+        e.factor_nonzeros = factor_fill(n, true) * nnz;
+        e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + 2.0 * kBytesPerCopiedNonzero * nnz;
+      } else if (lin.belos.preconditioner == BelosPreconditioner::muelu) {
+        e.factor_of = "the bond matrix, its copy in Tpetra and MueLu's hierarchy";
+        e.factor_bytes = kBytesPerAmgNonzero * nnz;
+      } else {
+        e.factor_of = "the bond matrix and its copy in Tpetra (Ifpack2's own storage not estimated)";
+        e.factor_bytes = 2.0 * kBytesPerCopiedNonzero * nnz;
+      }
+    } else if (belos && lin.belos.preconditioner != BelosPreconditioner::bond_factor) {
       // MueLu's hierarchy and Ifpack2's incomplete factors are not estimated; the tangent's
       // copy in Tpetra is (added below).
       e.factor_of = "the tangent's copy in Tpetra (the preconditioner's own storage not estimated)";
@@ -130,13 +146,20 @@ SizeEstimate estimate_size(const Scene& scene) {
         e.factor_nonzeros = factor_fill(n, true) * nnz;
         e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * nnz;
       }
-    } else if ((!cg && !belos && kind != LinearSolverKind::bicgstab) || (cg && pc == PreconditionerKind::cholmod)) {
+    } else if ((!cg && !belos && kind != LinearSolverKind::bicgstab) ||
+               (cg && pc == PreconditionerKind::cholmod)) {
       e.factor_of = "the tangent";
       const double lu = kind == LinearSolverKind::umfpack || kind == LinearSolverKind::klu ? 2.0 : 1.0;
       e.factor_nonzeros = lu * factor_fill(n, false) * e.nonzeros;
       e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * e.nonzeros;
     }
-    if (belos) {  // the tangent's copy in Tpetra
+    if (belos_free) {
+      // Under mpirun every rank holds the whole model and its share of the bond matrix.
+      if (const int ranks = parallel::size(); ranks > 1) {
+        e.factor_bytes /= ranks;
+        e.factor_nonzeros /= ranks;
+      }
+    } else if (belos) {  // the tangent's copy in Tpetra
       e.factor_bytes += kBytesPerCopiedNonzero * e.nonzeros;
       if (lin.belos.preconditioner == BelosPreconditioner::bond_factor)
         e.factor_of = "the bond preconditioner, with the tangent's copy in Tpetra";
@@ -205,11 +228,16 @@ std::vector<std::string> preflight(const Scene& scene, const SizeEstimate& e) {
   }
   if (e.available_bytes > 0.0 && e.memory_bytes > e.available_bytes) {
     // Without an assembled tangent the model may fit: say so, with its size.
-    const bool matrix_free = scene.solver.linear.type == LinearSolverKind::matrix_free;
+    const bool matrix_free = scene.solver.linear.type == LinearSolverKind::matrix_free ||
+                             (scene.solver.linear.type == LinearSolverKind::belos &&
+                              scene.solver.linear.belos.tangent == BelosTangent::matrix_free);
     const double free_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
     const std::string hint =
         !matrix_free && scene.solver.type == SolverKind::newton && free_bytes < e.available_bytes
-            ? " or solver.linear=matrix_free (no assembled tangent: about " + format_bytes(free_bytes) +
+            ? std::string(scene.solver.linear.type == LinearSolverKind::belos
+                              ? " or solver.belos.tangent=matrix_free"
+                              : " or solver.linear=matrix_free") +
+                  " (no assembled tangent: about " + format_bytes(free_bytes) +
                   " before the bond preconditioner's factor)"
             : "";
     std::snprintf(buf, sizeof buf,

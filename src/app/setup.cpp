@@ -18,8 +18,11 @@ ProblemOptions problem_options(const Scene& scene) {
   options.failure = scene.failure;
   options.bond_preconditioner = scene.solver.bond_preconditioner;
   options.surface_correction = scene.discretization.surface_correction;
+  const LinearOptions& lin = scene.solver.linear;
   options.matrix_free =
-      scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::matrix_free;
+      scene.solver.type == SolverKind::newton &&
+      (lin.type == LinearSolverKind::matrix_free ||
+       (lin.type == LinearSolverKind::belos && lin.belos.tangent == BelosTangent::matrix_free));
   return options;
 }
 
@@ -92,7 +95,10 @@ std::string resolve_linear_solver(Scene& scene, int ranks) {
   LinearChoice choice = choose_linear_solver(scene, unknowns, ranks);
   scene.solver.linear.type = choice.kind;
   BondPreconditionerOptions& bond = scene.solver.bond_preconditioner;
-  if (choice.kind == LinearSolverKind::matrix_free && !bond.radius_given) {
+  const bool tangent_action = choice.kind == LinearSolverKind::matrix_free ||
+                              (choice.kind == LinearSolverKind::belos &&
+                               scene.solver.linear.belos.tangent == BelosTangent::matrix_free);
+  if (tangent_action && !bond.radius_given) {
     // The bond matrix's preconditioner dominates memory on large plates; a shorter radius
     // makes it sparser for a few more iterations (docs/performance.md, "Matrix-free": with the
     // bond factor, 700 x 700 at 2.25 / 2.0 / 1.42: 112 / 91 / 93 s, 7.1 / 5.6 / 4.4 GB; with
@@ -138,7 +144,10 @@ std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProb
     // The problem was built before the choice: with its tangent assembled, the same method on it.
     if (options.type == LinearSolverKind::matrix_free && !problem.matrix_free()) options.type = LinearSolverKind::cg;
   }
-  if ((options.type == LinearSolverKind::matrix_free) != problem.matrix_free())
+  const bool free =
+      options.type == LinearSolverKind::matrix_free ||
+      (options.type == LinearSolverKind::belos && options.belos.tangent == BelosTangent::matrix_free);
+  if (free != problem.matrix_free())
     throw std::logic_error("make_step_solver: solver.linear matrix_free needs a problem built with "
                            "ProblemOptions::matrix_free (problem_options() of the same scene)");
   linear = make_linear_solver(options);

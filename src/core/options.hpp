@@ -82,13 +82,22 @@ enum class BelosPartition {
   rcb      ///< Zoltan2's recursive coordinate bisection of those particles' positions
 };
 
+/// solver.belos.tangent: how Belos applies the tangent (docs/guide/distributed.md).
+enum class BelosTangent {
+  assembled,   ///< each rank's rows of the assembled two-horizon matrix, copied into Tpetra
+  matrix_free  ///< the problem's apply_tangent() on each rank's rows; only the bond matrix assembled
+};
+
 /// The Trilinos path (solver.linear: belos; solver.belos.*).
 struct BelosOptions {
   BelosMethod method = BelosMethod::automatic;
-  BelosPreconditioner preconditioner = BelosPreconditioner::bond_factor;
+  /// muelu with a matrix-free tangent: the fastest pair, and the smallest, on every scene
+  /// measured on two ranks (docs/guide/distributed.md, "Matrix-free tangent").
+  BelosPreconditioner preconditioner = BelosPreconditioner::muelu;
   /// rcb: equal or fewer Krylov iterations than strips on every case measured on two ranks
   /// (case 4.1: 200 against 693, docs/guide/distributed.md "Partition").
   BelosPartition partition = BelosPartition::rcb;
+  BelosTangent tangent = BelosTangent::matrix_free;
   double rtol = 1e-10;        ///< relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;  ///< Krylov iterations per solve
   int restart = 100;          ///< GMRES basis vectors before a restart
@@ -135,6 +144,7 @@ std::string_view to_string(PreconditionerKind kind);
 std::string_view to_string(BelosMethod kind);
 std::string_view to_string(BelosPreconditioner kind);
 std::string_view to_string(BelosPartition kind);
+std::string_view to_string(BelosTangent kind);
 
 // ---- physics ---------------------------------------------------------------------------
 

@@ -1,7 +1,7 @@
 // The distributed linear algebra (issue 16; docs/guide/distributed.md): a run on two MPI
 // ranks with solver.linear=belos gives the serial run's answer. Each test runs the scene
-// twice, serially with the case's own solver and under `mpirun -n 2` with belos (its default
-// preconditioner, the bond factor of each rank's block), and compares the final steps with
+// twice, serially with the case's own solver and under `mpirun -n 2` with belos (its defaults:
+// a matrix-free tangent, MueLu on the bond matrix), and compares the final steps with
 // `peristat compare`. 1e-8 relative L2 is the issue's bound: both runs stop at Newton's
 // residual tolerance (rtol 1e-10 of the force scale) with Krylov solves to 1e-10, so they
 // may differ by a few times 1e-10 of the displacement; measured differences are 1e-13 to
@@ -9,6 +9,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <string>
 
@@ -33,7 +34,9 @@ struct Pair {
 Pair run_both(const std::string& c, const std::string& name, const std::string& extra) {
   Pair p;
   p.name = name;
-  p.dir = test::fresh_directory("distributed_" + name);
+  // A directory per scene and settings: tests of one scene may run at once (ctest -j).
+  p.dir = test::fresh_directory("distributed_" + name + "_" +
+                                std::to_string(std::hash<std::string>{}(extra) % 1000000));
   const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/" + c + "/scene.yaml";
   p.serial = test::run_cli("run " + scene + " --quiet --out " + (p.dir / "serial").string() + extra);
   p.distributed = test::run_mpi(
@@ -68,19 +71,7 @@ void expect_same_answer(const Pair& p) {
 }
 
 TEST(Distributed, TensionPlateOnTwoRanksEqualsSerial) {
-  const Pair p = run_both("tension_plate", "tension_plate", " --set discretization.spacing=2e-3");
-  expect_same_answer(p);
-  // Each rank assembles only its rows of the tangent; summary.json counts them over the
-  // ranks, which must give the one-process tangent's count exactly (the strips own every
-  // row once; unit.Assembly.OwnedRows* check the entries themselves).
-  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
-  const test::CliResult one = test::run_cli("run " + scene + " --quiet --out " + (p.dir / "one").string() +
-                                            " --set discretization.spacing=2e-3 --set solver.linear=belos");
-  ASSERT_EQ(one.exit_code, 0) << one.err;
-  const long long whole = test::read_json(p.dir / "one" / "summary.json")["run"]["tangent_nonzeros"];
-  const long long ranks = test::read_json(p.dir / "mpi" / "summary.json")["run"]["tangent_nonzeros"];
-  EXPECT_GT(whole, 0);
-  EXPECT_EQ(ranks, whole);
+  expect_same_answer(run_both("tension_plate", "tension_plate", " --set discretization.spacing=2e-3"));
 }
 
 TEST(Distributed, SlidingPlatesOnTwoRanksEqualSerial) {
@@ -105,11 +96,10 @@ TEST(Distributed, PrecrackedPlateOnTwoRanksEqualsSerial) {
   expect_same_answer(p);
 }
 
-TEST(Distributed, CrackGrowthOnTwoRanksBreaksTheSameBonds) {
-  // Case 4.4 at dx = 0.05 m: bonds break in the later steps; the two runs must break the
-  // same ones (equal damage at every particle, to the last bit: damage is a count of broken
-  // bonds over the family's), step by step.
-  const Pair p = run_both("paper_4_4_crack_growth", "paper_4_4_crack_growth", " --set discretization.spacing=0.05");
+// Case 4.4 at dx = 0.05 m: bonds break in the later steps; the two runs must break the
+// same ones (equal damage at every particle, to the last bit: damage is a count of broken
+// bonds over the family's), step by step.
+void expect_same_bonds_broken(const Pair& p) {
   expect_same_answer(p);
   const ResultsReader serial(p.h5("serial").string()), mpi(p.h5("mpi").string());
   ASSERT_EQ(serial.steps(), mpi.steps());
@@ -121,6 +111,46 @@ TEST(Distributed, CrackGrowthOnTwoRanksBreaksTheSameBonds) {
     broken_somewhere = std::max(broken_somewhere, a.maxCoeff());
   }
   EXPECT_GT(broken_somewhere, 0.0) << "the scene must break bonds for this test to mean anything";
+}
+
+TEST(Distributed, CrackGrowthOnTwoRanksBreaksTheSameBonds) {
+  expect_same_bonds_broken(
+      run_both("paper_4_4_crack_growth", "paper_4_4_crack_growth", " --set discretization.spacing=0.05"));
+}
+
+// The tests above run the defaults, a matrix-free tangent (Belos applies the problem's action,
+// each rank its rows from the whole vector) preconditioned by MueLu on the bond matrix. The
+// assembled tangent with the factor of each rank's block of the bond matrix (the defaults
+// before 2026-11-26) stays an option: the same bounds, since the answers stop at the same
+// Newton and Krylov tolerances.
+const char* const kAssembled =
+    " --set solver.belos.tangent=assembled --set solver.belos.preconditioner=bond_factor";
+
+TEST(Distributed, AssembledTangentOnTwoRanksEqualsSerial) {
+  const Pair p = run_both("tension_plate", "tension_plate",
+                          std::string(" --set discretization.spacing=2e-3") + kAssembled);
+  expect_same_answer(p);
+  // Each rank assembles only its rows of the tangent; summary.json counts them over the
+  // ranks, which must give the one-process tangent's count exactly (the ranks own every
+  // row once; unit.Assembly.OwnedRows* check the entries themselves).
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+  const test::CliResult one =
+      test::run_cli("run " + scene + " --quiet --out " + (p.dir / "one").string() +
+                    " --set discretization.spacing=2e-3 --set solver.linear=belos" + kAssembled);
+  ASSERT_EQ(one.exit_code, 0) << one.err;
+  const long long whole = test::read_json(p.dir / "one" / "summary.json")["run"]["tangent_nonzeros"];
+  const long long ranks = test::read_json(p.dir / "mpi" / "summary.json")["run"]["tangent_nonzeros"];
+  EXPECT_GT(whole, 0);
+  EXPECT_EQ(ranks, whole);
+  expect_same_answer(run_both("paper_4_1_sliding_plates", "paper_4_1_sliding_plates",
+                              std::string(" --set discretization.spacing=1e-3") + kAssembled));
+  expect_same_answer(run_both("paper_4_3_precracked_plate", "paper_4_3_precracked_plate",
+                              std::string(" --set discretization.spacing=0.02") + kAssembled));
+}
+
+TEST(Distributed, AssembledTangentOnTwoRanksBreaksTheSameBonds) {
+  expect_same_bonds_broken(run_both("paper_4_4_crack_growth", "paper_4_4_crack_growth",
+                                    std::string(" --set discretization.spacing=0.05") + kAssembled));
 }
 
 // Distributed ADR (docs/guide/distributed.md): each rank relaxes its own unknowns, from the

@@ -180,6 +180,23 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
                                  const VectorXd& x, bool cuts_differ = false) {
   const RankedMatrices whole = assemble(model, problem_options(scene), prepare, x);
   ASSERT_GT(whole.r.norm(), 0.0);
+  // The matrix-free tangent action at x (solver.belos.tangent: matrix_free): a rank computes
+  // its rows only, bit for bit the whole action's (the same loops over the same families).
+  const VectorXd direction = test::random_vector(model.constraints.n_free, 1.0, 31u);
+  const auto action = [&](ProblemOptions options) {
+    options.matrix_free = true;
+    options.max_over_ranks = nullptr;
+    if (!options.rows.all()) options.sum_over_ranks = [](double s) { return s; };  // a rank's (unused here)
+    QuasiStaticProblem problem(model, options);
+    prepare(problem);
+    SparseMatrix none;
+    VectorXd r, y;
+    problem.evaluate(x, r, &none);
+    problem.apply_tangent(direction, y);
+    return y;
+  };
+  const VectorXd whole_action = action(problem_options(scene));
+  ASSERT_GT(whole_action.norm(), 0.0);
   const std::vector<Index>& free = model.constraints.free_index;
   for (const auto& [cuts, ranks] :
        {std::pair{false, 2}, std::pair{false, 3}, std::pair{true, 2}, std::pair{true, 3}}) {
@@ -245,6 +262,10 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
         EXPECT_EQ(part.own_r[f], mine[f] ? whole.r[f] : 0.0) << "unknown " << f << (mine[f] ? " (own)" : "");
       EXPECT_NEAR(part.own_scale, whole.scale, 1e-14 * whole.scale);
       EXPECT_TRUE((part.r_after.array() == whole.r.array()).all()) << "whole again after own rows only";
+      const VectorXd y = action(options);
+      for (Index f = 0; f < whole.r.size(); ++f)
+        EXPECT_EQ(y[f], mine[f] ? whole_action[f] : 0.0)
+            << "action, unknown " << f << (mine[f] ? " (own)" : "");
       const long long k = expect_rows_of(whole.K, part.K, mine, "tangent");
       const long long pc = expect_rows_of(whole.P, part.P, mine, "bond preconditioner");
       EXPECT_EQ(part.K.nonZeros(), k) << "the rank stores its rows only";

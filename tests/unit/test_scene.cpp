@@ -923,20 +923,26 @@ TEST(Scene, BelosKeys) {
   const Scene d = parse(k_minimal, {parse_override("solver.linear=belos")});
   EXPECT_EQ(d.solver.linear.type, LinearSolverKind::belos);
   EXPECT_EQ(d.solver.linear.belos.method, BelosMethod::automatic);
-  EXPECT_EQ(d.solver.linear.belos.preconditioner, BelosPreconditioner::bond_factor);
+  EXPECT_EQ(d.solver.linear.belos.preconditioner, BelosPreconditioner::muelu);
   EXPECT_EQ(d.solver.linear.belos.partition, BelosPartition::rcb);
+  EXPECT_EQ(d.solver.linear.belos.tangent, BelosTangent::matrix_free);
   const Scene s =
       parse(k_minimal,
             {parse_override("solver.linear=belos"), parse_override("solver.belos.method=gmres"),
-             parse_override("solver.belos.preconditioner=muelu"),
-             parse_override("solver.belos.partition=strips"), parse_override("solver.belos.rtol=1e-8"),
+             parse_override("solver.belos.preconditioner=ifpack2_ilut"),
+             parse_override("solver.belos.partition=strips"),
+             parse_override("solver.belos.tangent=assembled"), parse_override("solver.belos.rtol=1e-8"),
              parse_override("solver.belos.max_iterations=50"), parse_override("solver.belos.restart=30")});
   EXPECT_EQ(s.solver.linear.belos.method, BelosMethod::gmres);
-  EXPECT_EQ(s.solver.linear.belos.preconditioner, BelosPreconditioner::muelu);
+  EXPECT_EQ(s.solver.linear.belos.preconditioner, BelosPreconditioner::ifpack2_ilut);
   EXPECT_EQ(s.solver.linear.belos.rtol, 1e-8);
   EXPECT_EQ(s.solver.linear.belos.max_iterations, 50);
   EXPECT_EQ(s.solver.linear.belos.restart, 30);
   EXPECT_EQ(s.solver.linear.belos.partition, BelosPartition::strips);
+  EXPECT_EQ(s.solver.linear.belos.tangent, BelosTangent::assembled);
+  const std::string tangent = error_of(k_minimal, {parse_override("solver.belos.tangent=free")});
+  EXPECT_NE(tangent.find("solver.belos.tangent"), std::string::npos) << tangent;
+  EXPECT_NE(tangent.find("matrix_free"), std::string::npos) << "the choices are listed: " << tangent;
   const std::string partition = error_of(k_minimal, {parse_override("solver.belos.partition=metis")});
   EXPECT_NE(partition.find("solver.belos.partition"), std::string::npos) << partition;
   EXPECT_NE(partition.find("rcb"), std::string::npos) << "the choices are listed: " << partition;

@@ -51,16 +51,18 @@ TEST_P(LinearSolvers, AgreeWithCholmod) {
 
 INSTANTIATE_TEST_SUITE_P(Kinematics, LinearSolvers, ::testing::Values("finite", "small"));
 
-// solver.linear: belos in one process (an MPI singleton): every preconditioner, and each
-// Krylov method, reaches cholmod's equilibrium. The same 1e-8 as above.
+// solver.linear: belos in one process (an MPI singleton): every preconditioner, each Krylov
+// method and both tangents (assembled, and matrix-free with the preconditioner built from the
+// bond matrix) reach cholmod's equilibrium. The same 1e-8 as above.
 TEST(LinearSolvers, BelosAgreesWithCholmod) {
   const VectorXd ref = solve_with("finite", "  linear: cholmod\n");
-  for (const std::string pc : {"bond_factor", "muelu", "ifpack2_ilut", "ifpack2_relaxation"})
-    for (const std::string method : {"auto", "cg", "gmres"}) {
-      const std::string yaml = "  linear: belos\n  belos: {rtol: 1.0e-12, method: " + method +
-                               ", preconditioner: " + pc + "}\n";
-      expect_same(solve_with("finite", yaml), ref, "belos " + method + "+" + pc);
-    }
+  for (const std::string tangent : {"assembled", "matrix_free"})
+    for (const std::string pc : {"bond_factor", "muelu", "ifpack2_ilut", "ifpack2_relaxation"})
+      for (const std::string method : {"auto", "cg", "gmres"}) {
+        const std::string yaml = "  linear: belos\n  belos: {rtol: 1.0e-12, method: " + method +
+                                 ", preconditioner: " + pc + ", tangent: " + tangent + "}\n";
+        expect_same(solve_with("finite", yaml), ref, "belos " + method + "+" + pc + "+" + tangent);
+      }
 }
 
 // The reused factor is the point of cg+cholmod: fewer factorisations than Newton iterations.
