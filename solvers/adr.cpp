@@ -127,8 +127,8 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   // Central differences with unit time step, from rest: v^{1/2} = F^0 / (2 Lambda), then
   // v^{n+1/2} = ((2 - c) v^{n-1/2} + 2 F^n / Lambda) / (2 + c), u^{n+1} = u^n + v^{n+1/2},
   // with F = -r and c from the local Rayleigh quotient (docs/theory/adr.md).
-  m_v = -0.5 * m_r.cwiseQuotient(m_density);  // zero in other ranks' rows: their r is
-  x += m_v;
+  m_v = -0.5 * m_r.cwiseQuotient(m_density);
+  x += m_v;  // distributed: other ranks' entries are replaced by share()
   share();
   double c = 0.0;
   for (long it = 1; it <= o.max_iterations; ++it) {
@@ -158,7 +158,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
     // c = 2 sqrt(u.K1 u / u.u) (num / den, from measure()), zero when the quotient is not
     // positive.
     c = (num > 0.0 && den > 0.0) ? std::min(2.0 * std::sqrt(num / den), kMaxDamping) : 0.0;
-    for (Index i = 0; i < n; ++i) {  // other ranks' rows: r = 0 and v = 0, x is theirs
+    for (Index i = 0; i < n; ++i) {  // distributed: other ranks' entries replaced by share()
       m_v[i] = ((2.0 - c) * m_v[i] - 2.0 * m_r[i] / m_density[i]) / (2.0 + c);
       x[i] += m_v[i];
     }

@@ -32,7 +32,7 @@ void print_size(const ModelSize& s) {
   if (s.nonzeros > 0)
     std::printf("  tangent        %lld nonzeros\n", s.nonzeros);
   else
-    std::printf("  tangent        not assembled (solver.linear matrix_free: its action is computed)\n");
+    std::printf("  tangent        not assembled (matrix-free: its action is computed)\n");
   if (s.correction == SurfaceCorrectionMethod::moments) {
     const SurfaceCorrectionStats& c = s.correction_stats;
     std::printf("  surface        moments correction: %ld cut families, influence factors %.3g .. %.3g, %ld at a "
@@ -43,12 +43,12 @@ void print_size(const ModelSize& s) {
     std::printf("  surface        no correction (discretization.surface_correction: none)\n");
   }
   if (parallel::size() > 1)
-    std::printf("  memory         %.1f MB on rank 0: model, problem state and its own rows of the tangent "
-                "(factorisation not included)\n",
-                s.memory_bytes / 1e6);
+    std::printf(
+        "  memory         %.1f MB on rank 0: model and problem state%s (factorisation not included)\n",
+        s.memory_bytes / 1e6, s.nonzeros > 0 ? ", its own rows of the tangent" : "");
   else
-    std::printf("  memory         %.1f MB for model, problem state and tangent (factorisation not included)\n",
-                s.memory_bytes / 1e6);
+    std::printf("  memory         %.1f MB for model and problem state%s (factorisation not included)\n",
+                s.memory_bytes / 1e6, s.nonzeros > 0 ? ", tangent" : "");
 }
 
 }  // namespace peristat
