@@ -42,13 +42,12 @@ void print_size(const ModelSize& s) {
   } else {
     std::printf("  surface        no correction (discretization.surface_correction: none)\n");
   }
-  if (parallel::size() > 1)
-    std::printf(
-        "  memory         %.1f MB on rank 0: model and problem state%s (factorisation not included)\n",
-        s.memory_bytes / 1e6, s.nonzeros > 0 ? ", its own rows of the tangent" : "");
-  else
-    std::printf("  memory         %.1f MB for model and problem state%s (factorisation not included)\n",
-                s.memory_bytes / 1e6, s.nonzeros > 0 ? ", tangent" : "");
+  const char* held = s.nonzeros > 0
+                         ? (parallel::size() > 1 ? "model, problem state and its own rows of the tangent"
+                                                 : "model, problem state and tangent")
+                         : "model and problem state";
+  std::printf("  memory         %.1f MB %s %s (factorisation not included)\n", s.memory_bytes / 1e6,
+              parallel::size() > 1 ? "on rank 0:" : "for", held);
 }
 
 }  // namespace peristat
