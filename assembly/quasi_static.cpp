@@ -400,7 +400,7 @@ void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
     }
 #pragma omp for schedule(static)
     for (Index q = 0; q < n; ++q) {
-      if (own && !m_force_needed[static_cast<std::size_t>(q)]) {
+      if (own && !m_options.rows.contains(q)) {  // another rank's, or a row of no unknown
         m_y_full[2 * q] = m_y_full[2 * q + 1] = 0.0;
         continue;
       }
@@ -618,6 +618,44 @@ bool QuasiStaticProblem::set_own_rows_only(bool on) {
   if (on) build_own_masks();
   m_own_rows_only = on;
   return true;
+}
+
+std::vector<Index> QuasiStaticProblem::action_reads() const {
+  // The particles whose displacement the own rows' action reads: each own particle, its
+  // neighbours and theirs (the dilatation rates of its neighbours' families), and its contact
+  // partners; a mirror ghost among them reads its source.
+  const OwnedRows& rows = m_options.rows;
+  const Bonds& bonds = m_model.bonds;
+  const Constraints& cons = m_model.constraints;
+  const Index n = m_model.particles.size();
+  std::vector<char> read(static_cast<std::size_t>(n), 0), near(read);
+  for (Index q = 0; q < n; ++q) {
+    if (!rows.contains(q)) continue;
+    near[static_cast<std::size_t>(q)] = 1;
+    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b)
+      near[static_cast<std::size_t>(bonds.neighbour[b])] = 1;
+    if (m_contact)
+      for (auto e = m_contact->incident_begin(q); e != m_contact->incident_end(q); ++e)
+        read[static_cast<std::size_t>(e->other)] = 1;
+  }
+  for (Index i = 0; i < n; ++i) {
+    if (!near[static_cast<std::size_t>(i)]) continue;
+    read[static_cast<std::size_t>(i)] = 1;
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+      read[static_cast<std::size_t>(bonds.neighbour[b])] = 1;
+  }
+  // (A plane mirror puts a read ghost's source within the same reach, by symmetry; the rule
+  // holds for any image.)
+  for (const MirrorImage& im : cons.images)
+    if (read[static_cast<std::size_t>(im.ghost)]) read[static_cast<std::size_t>(im.source)] = 1;
+  std::vector<Index> unknowns;
+  for (Index p = 0; p < n; ++p)
+    if (read[static_cast<std::size_t>(p)])
+      for (int c = 0; c < 2; ++c)
+        if (const Index f = cons.free_index[static_cast<std::size_t>(2 * p + c)]; f >= 0)
+          unknowns.push_back(f);
+  std::sort(unknowns.begin(), unknowns.end());
+  return unknowns;
 }
 
 void QuasiStaticProblem::build_own_masks() {

@@ -83,9 +83,13 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// "Assembly") and the contact pairs' Jacobians without forming K: O(bonds) per product,
   /// the same K the assembled path writes (tests MatrixFree.ActionEqualsTheAssembledTangent*).
   /// Distributed (rows a part, with sum_over_ranks): only this rank's rows of y, bit for bit
-  /// the whole product's, from the whole v; the other rows are zero (solver.belos.tangent:
-  /// matrix_free reads its own rows only).
+  /// the whole product's, reading v only at action_reads(); the other rows are zero
+  /// (solver.belos.tangent: matrix_free reads its own rows only).
   void apply_tangent(const VectorXd& v, VectorXd& y) override;
+  /// Distributed: the unknowns (ascending) whose entries of v the action of this rank's rows
+  /// reads: the ghosts of its rows, two horizons deep, with contact partners and mirror
+  /// sources. Changes with structure_version(). Every unknown in one process.
+  std::vector<Index> action_reads() const;
   /// The contact candidates' version: a partner search that adds pairs grows the pattern.
   std::uint64_t structure_version() const override { return m_contact ? m_contact->version() : 0; }
   /// False while a pair slips with friction (the Jacobian of eq 14 is not symmetric).

@@ -104,6 +104,11 @@ class LinearSolver {
   /// the matrices passed to analyzePattern() and factorize() are then empty placeholders.
   virtual bool needs_operator() const { return false; }
   virtual void set_operator(Operator /*apply*/) {}
+  /// The unknowns (ascending) whose entries of v the operator reads for this process's rows
+  /// (a rank of a distributed run: its ghosts); asked again after each change of pattern. A
+  /// distributed solver then sends each rank those entries only. Without it, every entry.
+  using OperatorReads = std::function<std::vector<Index>()>;
+  virtual void set_operator_reads(OperatorReads /*reads*/) {}
 
   /// True when the solver wants set_unknown_layout() before analyzePattern().
   virtual bool needs_unknown_layout() const { return false; }

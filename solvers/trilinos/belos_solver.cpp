@@ -344,33 +344,43 @@ class BlockFactor final : public op_t {
   mutable VectorXd m_in, m_out;
 };
 
-/// The tangent as a Tpetra operator (solver.belos.tangent: matrix_free): each apply gathers
-/// the vector on every rank (the import that gathers the solution), applies the problem's
+/// The tangent as a Tpetra operator (solver.belos.tangent: matrix_free): each apply imports
+/// the entries of the vector that this rank's rows read (`reads`, unknowns: its ghosts two
+/// horizons deep with its own rows; every unknown when not given), applies the problem's
 /// tangent action (on a rank of a distributed run it computes that rank's rows only,
 /// QuasiStaticProblem::apply_tangent), and keeps this rank's rows. A padding row is `padding`
 /// times its entry, as in the assembled copy.
 class TangentOperator final : public op_t {
  public:
-  TangentOperator(RCP<const map_t> map, const RCP<const map_t>& replicated, RCP<import_t> import,
-                  const Distribution& d, LinearSolver::Operator apply, const double& padding)
+  TangentOperator(RCP<const map_t> map, std::vector<Index> reads, const Distribution& d,
+                  LinearSolver::Operator apply, const double& padding)
       : m_map(std::move(map)),
-        m_import(std::move(import)),
-        m_all(rcp(new mv_t(replicated, 1))),
+        m_reads(std::move(reads)),
         m_d(d),
         m_apply(std::move(apply)),
         m_padding(padding),
-        m_v(static_cast<Index>(d.row_of.size())),
-        m_y(static_cast<Index>(d.row_of.size())) {}
+        m_v(VectorXd::Zero(static_cast<Index>(d.row_of.size()))),
+        m_y(static_cast<Index>(d.row_of.size())) {
+    std::vector<GO> rows(m_reads.size());
+    for (std::size_t k = 0; k < m_reads.size(); ++k) rows[k] = m_d.row_of[m_reads[k]];
+    const RCP<const map_t> ghosts =
+        rcp(new map_t(Teuchos::OrdinalTraits<Tpetra::global_size_t>::invalid(),
+                      Teuchos::ArrayView<const GO>(rows), GO(0), m_map->getComm()));
+    m_import = rcp(new import_t(m_map, ghosts));
+    m_ghosts = rcp(new mv_t(ghosts, 1));
+  }
+  /// Entries of v imported per apply (this rank's reads).
+  std::size_t reads() const { return m_reads.size(); }
 
   RCP<const map_t> getDomainMap() const override { return m_map; }
   RCP<const map_t> getRangeMap() const override { return m_map; }
   void apply(const mv_t& X, mv_t& Y, Teuchos::ETransp /*mode*/, double alpha, double beta) const override {
     const LO local = m_d.local_rows();
     for (std::size_t c = 0; c < X.getNumVectors(); ++c) {
-      m_all->getVectorNonConst(0)->doImport(*X.getVector(c), *m_import, Tpetra::INSERT);
+      m_ghosts->getVectorNonConst(0)->doImport(*X.getVector(c), *m_import, Tpetra::INSERT);
       {
-        const Teuchos::ArrayRCP<const double> all = m_all->getData(0);
-        for (Index k = 0; k < m_v.size(); ++k) m_v[k] = all[m_d.row_of[k]];
+        const Teuchos::ArrayRCP<const double> ghosts = m_ghosts->getData(0);
+        for (std::size_t k = 0; k < m_reads.size(); ++k) m_v[m_reads[k]] = ghosts[static_cast<LO>(k)];
       }
       m_apply(m_v, m_y);
       const Teuchos::ArrayRCP<const double> x = X.getData(c);
@@ -385,8 +395,9 @@ class TangentOperator final : public op_t {
 
  private:
   RCP<const map_t> m_map;
+  std::vector<Index> m_reads;
   RCP<import_t> m_import;
-  RCP<mv_t> m_all;
+  RCP<mv_t> m_ghosts;
   const Distribution& m_d;
   LinearSolver::Operator m_apply;
   const double& m_padding;
@@ -583,9 +594,16 @@ class BelosSolver final : public LinearSolver {
     m_B = rcp(new mv_t(m_copy.map, 1));
     m_X_all = rcp(new mv_t(m_replicated, 1));
     m_problem = rcp(new Belos::LinearProblem<double, mv_t, op_t>());
-    if (matrix_free())
-      m_tangent =
-          rcp(new TangentOperator(m_copy.map, m_replicated, m_import, m_copy.d, m_apply, m_copy.padding));
+    if (matrix_free()) {
+      std::vector<Index> reads;
+      if (m_reads) {
+        reads = m_reads();
+      } else {
+        reads.resize(m_copy.d.row_of.size());
+        std::iota(reads.begin(), reads.end(), Index(0));
+      }
+      m_tangent = rcp(new TangentOperator(m_copy.map, std::move(reads), m_copy.d, m_apply, m_copy.padding));
+    }
     m_preconditioner = Teuchos::null;
     m_muelu = Teuchos::null;
     m_ifpack2 = Teuchos::null;
@@ -632,6 +650,7 @@ class BelosSolver final : public LinearSolver {
   }
   bool needs_operator() const override { return matrix_free(); }
   void set_operator(Operator apply) override { m_apply = std::move(apply); }
+  void set_operator_reads(OperatorReads reads) override { m_reads = std::move(reads); }
   void set_preconditioner_matrix(const SparseMatrix& P) override { m_P = &P; }
   void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
   void renew_preconditioner() override { m_reuse.renew(); }
@@ -773,6 +792,7 @@ class BelosSolver final : public LinearSolver {
   UnknownLayout m_layout;
   TpetraCopy m_copy;  ///< of the tangent, or with a matrix-free tangent of the bond matrix
   Operator m_apply;   ///< the tangent's action (matrix-free)
+  OperatorReads m_reads;  ///< the entries of v it reads for this rank's rows (every entry if unset)
   RCP<TangentOperator> m_tangent;
   RCP<const map_t> m_replicated;
   RCP<import_t> m_import;

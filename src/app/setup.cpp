@@ -151,8 +151,10 @@ std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProb
     throw std::logic_error("make_step_solver: solver.linear matrix_free needs a problem built with "
                            "ProblemOptions::matrix_free (problem_options() of the same scene)");
   linear = make_linear_solver(options);
-  if (linear->needs_operator())
+  if (linear->needs_operator()) {
     linear->set_operator([&problem](const VectorXd& v, VectorXd& y) { problem.apply_tangent(v, y); });
+    linear->set_operator_reads([&problem] { return problem.action_reads(); });
+  }
   if (linear->needs_unknown_layout()) {
     UnknownLayout layout = unknown_layout(problem.model(), problem.n_unknowns());
     layout.owner = problem.owned_rows().owner;  // the ranks' rows, as the problem assembles them
