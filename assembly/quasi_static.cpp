@@ -661,8 +661,8 @@ std::vector<Index> QuasiStaticProblem::action_reads() const {
 void QuasiStaticProblem::build_own_masks() {
   if (!m_force_needed.empty()) return;
   // The forces this rank computes: its particles' and those of the particles without a row
-  // (fictitious layers, mirror ghosts: a mirror condition folds their forces into the
-  // unknowns of their images). Their forces read the families of their neighbours.
+  // (fictitious layers, mirror ghosts: no unknown reads them, but the force scale counts their
+  // reactions, force_norm()). Their forces read the families of their neighbours.
   const OwnedRows& rows = m_options.rows;
   const Bonds& bonds = m_model.bonds;
   const Index n = m_model.particles.size();

@@ -102,7 +102,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// Distributed ADR: the residual of this rank's rows only, from the families of its
   /// particles and their neighbours (and of the particles without a row, which every rank
   /// computes); the contact pairs stay whole on every rank. The rows it computes are bit for
-  /// bit the whole evaluation's (unit.Assembly.OwnRowsResidual*). False in one process.
+  /// bit the whole evaluation's (unit.Assembly.OwnedRows*). False in one process.
   bool set_own_rows_only(bool on) override;
   /// The contact and friction active set.
   std::uint64_t state_signature() const override { return m_contact ? m_contact->signature() : 0; }

@@ -369,9 +369,6 @@ class TangentOperator final : public op_t {
     m_import = rcp(new import_t(m_map, ghosts));
     m_ghosts = rcp(new mv_t(ghosts, 1));
   }
-  /// Entries of v imported per apply (this rank's reads).
-  std::size_t reads() const { return m_reads.size(); }
-
   RCP<const map_t> getDomainMap() const override { return m_map; }
   RCP<const map_t> getRangeMap() const override { return m_map; }
   void apply(const mv_t& X, mv_t& Y, Teuchos::ETransp /*mode*/, double alpha, double beta) const override {
