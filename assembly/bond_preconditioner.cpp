@@ -39,6 +39,9 @@ void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weigh
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
         if (bonds.xi[b].squaredNorm() > r2) continue;
         const Index j = bonds.neighbour[b], r = bonds.reverse[b];
+        // Partitioned bonds: no reverse when j's family is not held; then neither p nor j is
+        // this rank's row (a row's neighbours' families are held), so the block is not its.
+        if (r < 0) continue;
         const double k = m_alpha_volume[p] * weight[b] + m_alpha_volume[j] * weight[r];
         const Vec2& M = direction[b];
         col.add_outer(p, k, M, M);

@@ -1,11 +1,12 @@
 #include "assembly/quasi_static.hpp"
 
 #include <algorithm>
-#include <stdexcept>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include <omp.h>
 
@@ -34,6 +35,16 @@ std::unique_ptr<ContactSystem> make_contact(const Model& model, const ContactOpt
   seconds = wall_seconds() - t0;
   return contact;
 }
+
+/// Partitioned bonds: the families whose surface correction a rank counts in its stats, each
+/// family on one rank (its owner's; those without a row on rank 0). Empty: every family.
+std::vector<char> counted_families(const Model& model, const OwnedRows& rows) {
+  if (model.holds_every_family()) return {};
+  std::vector<char> counted(rows.owner.size(), 0);
+  for (std::size_t p = 0; p < counted.size(); ++p)
+    counted[p] = rows.owner[p] == rows.rank || (rows.owner[p] < 0 && rows.rank == 0);
+  return counted;
+}
 }  // namespace
 
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions& options)
@@ -44,7 +55,7 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
       m_pattern(options.matrix_free
                     ? TangentPattern{}
                     : build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get(), options.rows)),
-      m_correction(model, options.surface_correction) {
+      m_correction(model, options.surface_correction, counted_families(model, options.rows)) {
   m_small_kinematics = true;
   for (const BodyInfo& body : model.bodies) {
     m_kernels.push_back(make_family_kernel(body.material));
@@ -80,6 +91,23 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
     m_mirror_zone.assign(n, 0);
     for (const MirrorImage& im : model.constraints.images) m_mirror_zone[im.ghost] = m_mirror_zone[im.source] = 1;
   }
+  if (partitioned()) check_partition();
+}
+
+void QuasiStaticProblem::check_partition() const {
+  // What the partitioned path supports (docs/guide/distributed.md, "Partitioned bonds"): the
+  // matrix-free action (an assembled column reads families two horizons from its rows), no
+  // failure (breaking reads and changes every family), forces shared after each evaluation.
+  if (!distributed() || !m_options.share_forces || !m_options.matrix_free || m_failure)
+    throw std::logic_error(
+        "QuasiStaticProblem: partitioned bonds need a distributed, matrix-free problem without failure and "
+        "a force exchange");
+  const_cast<QuasiStaticProblem*>(this)->build_own_masks();
+  const std::vector<char>& held = m_model.family_held;
+  for (std::size_t i = 0; i < held.size(); ++i)
+    if (m_family_needed[i] && !held[i])
+      throw std::logic_error("QuasiStaticProblem: the family of particle " + std::to_string(i) +
+                             " is needed by this rank's rows and not held by its model");
 }
 
 Vec2 QuasiStaticProblem::reaction(std::size_t k) const {
@@ -210,8 +238,7 @@ std::string QuasiStaticProblem::measure_increment(const VectorXd& x, bool check)
     double rule = bond_work;
     if (!m_small_kinematics) {
       m_u = 0.5 * (m_u_accepted + m_u_next);
-      compute_families(false);
-      gather_forces();
+      bond_forces(false);
       rule = 0.0;
       for (Index d = 0; d < n2; ++d)
         rule += (m_fbond_accepted[d] + 4.0 * m_force[d] + m_fbond_next[d]) * (m_u_next[d] - m_u_accepted[d]);
@@ -338,8 +365,7 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   expand(x, m_u);
   if (m_own_rows_only && K)
     throw std::logic_error("QuasiStaticProblem::evaluate: own rows only, with a tangent");
-  compute_families(K != nullptr);
-  gather_forces();
+  bond_forces(K != nullptr);
   if (m_contact) {
     const double t0 = wall_seconds();
     m_contact->evaluate(m_u, K != nullptr);
@@ -544,15 +570,20 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
   const Index n = p.size();
-  double energy = 0.0;
+  // Partitioned: the energy of the rank's own families and of those without a row (which every
+  // rank computes), to be summed over the ranks once each; a neighbour's family counts on its owner.
+  double energy = 0.0, own_energy = 0.0, unowned_energy = 0.0;
+  const bool restrict = restricted(), split = partitioned();
+  const std::vector<int>& owner = m_options.rows.owner;
+  const int rank = m_options.rows.rank;
   const std::size_t scratch = static_cast<std::size_t>(omp_get_max_threads()) * m_largest_family;
   if (m_eta_scratch.size() < scratch) m_eta_scratch.resize(scratch);  // more threads than at the start
-#pragma omp parallel reduction(+ : energy)
+#pragma omp parallel reduction(+ : energy, own_energy, unowned_energy)
   {
     Vec2* eta = m_eta_scratch.data() + static_cast<std::size_t>(omp_get_thread_num()) * m_largest_family;
 #pragma omp for schedule(static)
     for (Index i = 0; i < n; ++i) {
-      if (m_own_rows_only && !m_family_needed[static_cast<std::size_t>(i)]) continue;
+      if (restrict && !m_family_needed[static_cast<std::size_t>(i)]) continue;
       const Index b0 = bonds.start[i], nb = bonds.family_size(i);
       family_displacements(i, eta);
       const FamilyOutputs out{std::span(m_t).subspan(b0, nb), std::span(m_direction).subspan(b0, nb),
@@ -561,7 +592,15 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
           m_correction.weighted_volume()[i], std::span(bonds.xi).subspan(b0, nb),
           m_correction.weights().subspan(b0, nb), std::span<const Vec2>(eta, static_cast<std::size_t>(nb)), out,
           want_tangent);
-      energy += p.volume[i] * res.energy_density;
+      const double e = p.volume[i] * res.energy_density;
+      energy += e;
+      if (split) {
+        const int o = owner[static_cast<std::size_t>(i)];
+        if (o == rank)
+          own_energy += e;
+        else if (o < 0)
+          unowned_energy += e;
+      }
       if (want_tangent) {
         Vec2 s = Vec2::Zero();
         for (Index b = b0; b < b0 + nb; ++b) s -= m_s[b];
@@ -571,7 +610,16 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
     }
   }
   // Own rows only: a part of the families, not the energy of the model.
-  m_energy = m_own_rows_only ? std::numeric_limits<double>::quiet_NaN() : energy;
+  if (split)
+    m_energy = m_options.sum_over_ranks(own_energy) + unowned_energy;
+  else
+    m_energy = m_own_rows_only ? std::numeric_limits<double>::quiet_NaN() : energy;
+}
+
+void QuasiStaticProblem::bond_forces(bool want_tangent) {
+  compute_families(want_tangent);
+  gather_forces();
+  if (partitioned()) m_options.share_forces(m_force);
 }
 
 void QuasiStaticProblem::gather_forces() {
@@ -580,10 +628,11 @@ void QuasiStaticProblem::gather_forces() {
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
   const Index n = p.size();
+  const bool restrict = restricted();
 #pragma omp parallel for schedule(static)
   for (Index q = 0; q < n; ++q) {
     Vec2 f = Vec2::Zero();
-    if (m_own_rows_only && !m_force_needed[static_cast<std::size_t>(q)]) {
+    if (restrict && !m_force_needed[static_cast<std::size_t>(q)]) {
       m_force[2 * q] = m_force[2 * q + 1] = 0.0;  // another rank's: its families are not computed here
       continue;
     }
@@ -614,7 +663,7 @@ double QuasiStaticProblem::force_norm() const {
 }
 
 bool QuasiStaticProblem::set_own_rows_only(bool on) {
-  if (!distributed()) return false;
+  if (!distributed() || partitioned()) return false;
   if (on) build_own_masks();
   m_own_rows_only = on;
   return true;

@@ -61,6 +61,11 @@ struct ProblemOptions {
   /// With `rows` a part: the sum of a number over the ranks, the same on every rank (for the
   /// force scale of an evaluation of the own rows only, set_own_rows_only()).
   std::function<double(double)> sum_over_ranks;
+  /// With partitioned bonds (the model holds some families only, Model::family_held): copies
+  /// each rank's own particles' forces (both components, in place) into every rank's vector of
+  /// 2N forces. Every evaluate() computes the forces of the rank's particles and of those
+  /// without a row, then shares them, so that the residual is whole on every rank.
+  std::function<void(VectorXd& force)> share_forces;
 };
 
 class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
@@ -199,6 +204,16 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   double force_norm() const;
   /// A rank of a distributed run: rows a part and a sum over the ranks given.
   bool distributed() const { return !m_options.rows.all() && m_options.sum_over_ranks != nullptr; }
+  /// The model holds some families only (Model::family_held): every evaluation computes the
+  /// families m_family_needed names and shares the forces (ProblemOptions::share_forces).
+  bool partitioned() const { return !m_model.holds_every_family(); }
+  /// The families and forces evaluated are those of m_family_needed and m_force_needed.
+  bool restricted() const { return m_own_rows_only || partitioned(); }
+  /// The families' forces (and with want_tangent their Hessians' factors) at m_u into
+  /// m_force and m_energy; partitioned: the rank's, then shared and summed over the ranks.
+  void bond_forces(bool want_tangent);
+  /// Partitioned: refuses a problem that would read a family the model does not hold.
+  void check_partition() const;
   /// m_force_needed, m_family_needed and m_other_unknowns, once.
   void build_own_masks();
   void gather_tangent(SparseMatrix& K) const;

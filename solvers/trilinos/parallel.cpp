@@ -102,23 +102,28 @@ double sum_over_ranks(double value) {
   return value;
 }
 
-OwnedExchange::OwnedExchange(const std::vector<int>& owner) : m_rank(rank()) {
+OwnedExchange::OwnedExchange(const std::vector<int>& owner, bool keep_unowned) : m_rank(rank()) {
   const int ranks = size();
   m_counts.assign(static_cast<std::size_t>(ranks), 0);
+  std::size_t owned = 0;
   for (const int p : owner) {
+    if (p < 0 && keep_unowned) continue;
     if (p < 0 || p >= ranks) throw std::invalid_argument("OwnedExchange: an entry without an owner rank");
     ++m_counts[static_cast<std::size_t>(p)];
+    ++owned;
   }
   m_displs.assign(static_cast<std::size_t>(ranks), 0);
   for (int p = 1; p < ranks; ++p)
     m_displs[static_cast<std::size_t>(p)] =
         m_displs[static_cast<std::size_t>(p - 1)] + m_counts[static_cast<std::size_t>(p - 1)];
-  m_order.resize(owner.size());
+  m_order.resize(owned);
   std::vector<int> next = m_displs;
   for (std::size_t k = 0; k < owner.size(); ++k)
-    m_order[static_cast<std::size_t>(next[static_cast<std::size_t>(owner[k])]++)] = static_cast<long long>(k);
+    if (owner[k] >= 0)
+      m_order[static_cast<std::size_t>(next[static_cast<std::size_t>(owner[k])]++)] =
+          static_cast<long long>(k);
   m_send.resize(static_cast<std::size_t>(m_counts[static_cast<std::size_t>(m_rank)]));
-  m_received.resize(owner.size());
+  m_received.resize(owned);
 }
 
 void OwnedExchange::share(double* x) {

@@ -37,12 +37,13 @@ long long sum_over_ranks(long long value);
 void sum_in_rank_order(double* values, int n);
 double sum_over_ranks(double value);
 
-/// Copies every rank's own entries of a vector into every rank's copy (distributed ADR):
-/// entry k belongs to rank owner[k], a table every rank holds alike. Buffers are made once;
-/// share() is collective.
+/// Copies every rank's own entries of a vector into every rank's copy (distributed ADR; the
+/// forces of partitioned bonds): entry k belongs to rank owner[k], a table every rank holds
+/// alike. An entry without an owner (-1) is refused, or with `keep_unowned` left as each rank
+/// has it. Buffers are made once; share() is collective.
 class OwnedExchange {
  public:
-  explicit OwnedExchange(const std::vector<int>& owner);
+  explicit OwnedExchange(const std::vector<int>& owner, bool keep_unowned = false);
   void share(double* x);
 
  private:

@@ -100,14 +100,39 @@ void check_same_run(const StateArchive& checkpoint, const std::string& path, con
   }
 }
 
-/// The problem's options for this process: under mpirun, the rank's own rows
-/// (docs/guide/distributed.md), so that `check` measures what `run` will hold.
-ProblemOptions process_problem_options(const Scene& scene, const Model& model) {
+/// This process's model and the rows it owns: under mpirun with partitioned bonds, the model
+/// holds the families of the rank's rows and their neighbours only (docs/guide/distributed.md),
+/// so that `check` measures what `run` will hold.
+struct ProcessModel {
+  Model model;
+  OwnedRows rows;
+  BondsChoice bonds;
+};
+
+ProcessModel process_model(const Scene& scene) {
+  ProcessModel m;
+  const int ranks = parallel::size();
+  m.bonds = partitioned_bonds(scene, ranks);
+  if (m.bonds.partitioned) {
+    m.model = discretise(scene, [&](const Model& unbonded) {
+      m.rows = owned_rows(scene, unbonded, parallel::rank(), ranks);
+      return families_to_hold(unbonded, m.rows);
+    });
+  } else {
+    m.model = discretise(scene);
+    m.rows = owned_rows(scene, m.model, parallel::rank(), ranks);
+  }
+  return m;
+}
+
+/// The problem's options for this process: under mpirun, the rank's own rows.
+ProblemOptions process_problem_options(const Scene& scene, const ProcessModel& m) {
   ProblemOptions options = problem_options(scene);
-  if (const int ranks = parallel::size(); ranks > 1) {
-    options.rows = owned_rows(scene, model, parallel::rank(), ranks);
+  if (parallel::size() > 1) {
+    options.rows = m.rows;
     options.max_over_ranks = parallel::max_over_ranks;
     options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
+    if (m.bonds.partitioned) options.share_forces = force_exchange(m.rows);
   }
   return options;
 }
@@ -120,8 +145,9 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
       resolve_linear_solver(scene, parallel::size());
   const SizeEstimate estimate = estimate_size(scene);
   for (const std::string& w : preflight(scene, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
-  const Model model = discretise(scene);
-  const QuasiStaticProblem problem(model, process_problem_options(scene, model));
+  const ProcessModel pm = process_model(scene);
+  const Model& model = pm.model;
+  const QuasiStaticProblem problem(model, process_problem_options(scene, pm));
   std::printf("%s: scene '%s' is valid\n", scene_path.c_str(), scene.name.c_str());
   std::printf("  bodies         %zu, materials %zu, pre-cracks %zu, conditions %zu\n", scene.bodies.size(),
               scene.materials.size(), scene.cracks.size(), scene.boundary.size());
@@ -129,6 +155,9 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
               model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
   print_size(measure(model, problem));
   if (!linear_choice.empty()) std::printf("  solver.linear  auto: %s\n", linear_choice.c_str());
+  if (parallel::size() > 1)
+    std::printf("  bonds          %s: %s\n", pm.bonds.partitioned ? "partitioned" : "whole",
+                pm.bonds.reason.c_str());
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
               estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,
               estimate.available_bytes / 1e6);
@@ -167,8 +196,12 @@ int run_command(const RunArguments& args) {
   const std::vector<std::string> warnings = preflight(scene, estimate_size(scene));
   for (const std::string& w : warnings) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
 
-  const Model model = discretise(scene);
-  QuasiStaticProblem problem(model, process_problem_options(scene, model));
+  const ProcessModel pm = process_model(scene);
+  const Model& model = pm.model;
+  QuasiStaticProblem problem(model, process_problem_options(scene, pm));
+  if (ranks > 1 && !args.quiet && root)
+    std::printf("peristat: bonds %s: %s\n", pm.bonds.partitioned ? "partitioned" : "whole",
+                pm.bonds.reason.c_str());
   const ModelSize size = measure(model, problem);
   std::unique_ptr<LinearSolver> linear;
   const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear);

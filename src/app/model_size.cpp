@@ -11,7 +11,7 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
   const Particles& p = model.particles;
   s.particles = p.size();
   for (char f : p.fictitious) s.fictitious += f;
-  s.bonds = model.bonds.n_bonds() / 2;
+  s.bonds = model.n_bonds_whole / 2;  // a rank with partitioned bonds holds some families only
   s.cut_bonds = model.n_cut_bonds;
   s.unknowns = model.constraints.n_free;
   s.prescribed = 2 * p.size() - s.unknowns;
@@ -20,6 +20,19 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
                                          : problem.pattern().nonzeros;
   s.correction = problem.surface_correction().method();
   s.correction_stats = problem.surface_correction().stats();
+  if (!model.holds_every_family()) {  // each rank counted its own families
+    s.bonds_partitioned = true;
+    s.largest_rank_bonds =
+        static_cast<long long>(parallel::max_over_ranks(static_cast<double>(model.bonds.n_bonds())));
+    SurfaceCorrectionStats& c = s.correction_stats;
+    c.families = parallel::sum_over_ranks(static_cast<long long>(c.families));
+    c.corrected = parallel::sum_over_ranks(static_cast<long long>(c.corrected));
+    c.clipped = parallel::sum_over_ranks(static_cast<long long>(c.clipped));
+    c.unmatched = parallel::sum_over_ranks(static_cast<long long>(c.unmatched));
+    c.min_influence = -parallel::max_over_ranks(-c.min_influence);
+    c.max_influence = parallel::max_over_ranks(c.max_influence);
+    c.seconds = parallel::max_over_ranks(c.seconds);
+  }
   s.memory_bytes =
       static_cast<double>(model.memory_bytes() + problem.memory_bytes() + problem.pattern().matrix_bytes());
   return s;
@@ -28,6 +41,11 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
 void print_size(const ModelSize& s) {
   std::printf("  particles      %d (%d fictitious)\n", s.particles, s.fictitious);
   std::printf("  bonds          %d (%d cut by pre-cracks)\n", s.bonds, s.cut_bonds);
+  if (s.bonds_partitioned)
+    std::printf(
+        "                 partitioned: a rank holds at most %lld of the %lld directed bonds (%.1f%%)\n",
+        s.largest_rank_bonds, 2LL * s.bonds,
+        100.0 * static_cast<double>(s.largest_rank_bonds) / (2.0 * s.bonds));
   std::printf("  unknowns       %d (%d prescribed components)\n", s.unknowns, s.prescribed);
   if (s.nonzeros > 0)
     std::printf("  tangent        %lld nonzeros\n", s.nonzeros);

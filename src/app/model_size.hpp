@@ -12,6 +12,9 @@ struct ModelSize {
   double memory_bytes = 0.0;  ///< model + problem state + one tangent (factorisation excluded)
   SurfaceCorrectionMethod correction = SurfaceCorrectionMethod::none;
   SurfaceCorrectionStats correction_stats;  ///< of the factors computed when the problem was built
+  /// Under mpirun with partitioned bonds: the most directed bonds one rank holds (of 2 x bonds).
+  bool bonds_partitioned = false;
+  long long largest_rank_bonds = 0;
 };
 
 ModelSize measure(const Model& model, const QuasiStaticProblem& problem);

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "app/preflight.hpp"
+#include "core/error.hpp"
 #include "solvers/adr.hpp"
 #include "solvers/newton.hpp"
 #include "solvers/trilinos/parallel.hpp"
@@ -49,6 +50,41 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
   for (std::size_t k = 0; k < node_particle.size(); ++k)
     rows.owner[static_cast<std::size_t>(node_particle[k])] = part[k];
   return rows;
+}
+
+BondsChoice partitioned_bonds(const Scene& scene, int ranks) {
+  const BelosBonds asked = scene.solver.linear.belos.bonds;
+  if (ranks <= 1 || asked == BelosBonds::whole)
+    return {false, ranks <= 1 ? "one process" : "solver.belos.bonds: whole"};
+  std::string why_not;
+  if (scene.solver.type != SolverKind::newton)
+    why_not = "ADR evaluates its rows with every family held (solver.type: adr)";
+  else if (scene.solver.linear.type != LinearSolverKind::belos)
+    why_not = "solver.linear is not belos";
+  else if (scene.solver.linear.belos.tangent != BelosTangent::matrix_free)
+    why_not =
+        "an assembled tangent's columns read families two horizons from a rank's rows "
+        "(solver.belos.tangent: assembled)";
+  else if (scene.failure.enabled)
+    why_not = "breaking bonds changes families on every rank (the scene has a failure criterion)";
+  if (why_not.empty()) return {true, "each rank holds the families of its rows and of their neighbours"};
+  if (asked == BelosBonds::partitioned)
+    throw InputError("solver.belos.bonds: partitioned is not available for this run: " + why_not +
+                     "; use solver.belos.bonds: auto or whole");
+  return {false, "every rank holds every family: " + why_not};
+}
+
+std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows) {
+  std::vector<char> seeds(static_cast<std::size_t>(model.particles.size()), 0);
+  for (std::size_t p = 0; p < seeds.size(); ++p) seeds[p] = rows.owner[p] == rows.rank || rows.owner[p] < 0;
+  return within_stencil(model, seeds);
+}
+
+std::function<void(VectorXd&)> force_exchange(const OwnedRows& rows) {
+  std::vector<int> owner(2 * rows.owner.size());
+  for (std::size_t p = 0; p < rows.owner.size(); ++p) owner[2 * p] = owner[2 * p + 1] = rows.owner[p];
+  auto exchange = std::make_shared<parallel::OwnedExchange>(owner, true);
+  return [exchange](VectorXd& force) { exchange->share(force.data()); };
 }
 
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {

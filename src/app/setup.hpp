@@ -51,6 +51,25 @@ ProblemOptions problem_options(const Scene& scene);
 /// (every rank computes the same owners). Every row when ranks <= 1.
 OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks);
 
+/// Whether each rank of a distributed run holds only the bond families it evaluates
+/// (solver.belos.bonds, docs/guide/distributed.md "Partitioned bonds"), and why. Needs Newton
+/// with solver.linear belos and its matrix-free tangent, and no failure criterion; `auto` falls
+/// back to the whole model otherwise, an explicit `partitioned` is refused (InputError). Call
+/// after resolve_linear_solver(). False in one process.
+struct BondsChoice {
+  bool partitioned = false;
+  std::string reason;
+};
+BondsChoice partitioned_bonds(const Scene& scene, int ranks);
+
+/// The families a rank with `rows` evaluates, and a margin: its particles and those without a
+/// row, and every particle within their stencil (Model::family_held, from lattice offsets).
+std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows);
+
+/// ProblemOptions::share_forces for a rank with `rows`: the forces of its particles, both
+/// components, to every rank (an MPI_Allgatherv); those without a row stay as computed.
+std::function<void(VectorXd&)> force_exchange(const OwnedRows& rows);
+
 /// Each unknown's particle and direction, and the particles' positions (LinearSolver's hint).
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
 

@@ -45,7 +45,11 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                        {"solver", solver},
                                        {"checks", checks}};
   // Under mpirun: how the rows were split (solver.belos.partition).
-  if (parallel::size() > 1) info["partition"] = to_string(scene.solver.linear.belos.partition);
+  if (parallel::size() > 1) {
+    info["partition"] = to_string(scene.solver.linear.belos.partition);
+    info["bonds_held"] = s.bonds_partitioned ? "partitioned" : "whole";
+    if (s.bonds_partitioned) info["largest_rank_bonds"] = s.largest_rank_bonds;
+  }
   {
     const SurfaceCorrectionStats& c = s.correction_stats;
     nlohmann::ordered_json sc = {

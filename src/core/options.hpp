@@ -88,6 +88,14 @@ enum class BelosTangent {
   matrix_free  ///< the problem's apply_tangent() on each rank's rows; only the bond matrix assembled
 };
 
+/// solver.belos.bonds: which bond families a rank of a distributed run holds
+/// (docs/guide/distributed.md, "Partitioned bonds").
+enum class BelosBonds {
+  automatic,    ///< `partitioned` where the run allows it (partitioned_bonds()), else `whole`
+  partitioned,  ///< the families its rows and their neighbours' read, built on the rank alone
+  whole         ///< every family on every rank
+};
+
 /// The Trilinos path (solver.linear: belos; solver.belos.*).
 struct BelosOptions {
   BelosMethod method = BelosMethod::automatic;
@@ -98,6 +106,7 @@ struct BelosOptions {
   /// (case 4.1: 200 against 693, docs/guide/distributed.md "Partition").
   BelosPartition partition = BelosPartition::rcb;
   BelosTangent tangent = BelosTangent::matrix_free;
+  BelosBonds bonds = BelosBonds::automatic;
   double rtol = 1e-10;        ///< relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;  ///< Krylov iterations per solve
   int restart = 100;          ///< GMRES basis vectors before a restart
@@ -145,6 +154,7 @@ std::string_view to_string(BelosMethod kind);
 std::string_view to_string(BelosPreconditioner kind);
 std::string_view to_string(BelosPartition kind);
 std::string_view to_string(BelosTangent kind);
+std::string_view to_string(BelosBonds kind);
 
 // ---- physics ---------------------------------------------------------------------------
 

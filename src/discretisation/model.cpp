@@ -57,7 +57,8 @@ double distance_to_boundary(const Polygon& polygon, const Vec2& p) {
 /// Builder state shared by the steps of discretise().
 class Builder {
  public:
-  explicit Builder(const Scene& scene) : m_scene(scene), m_dx(scene.discretization.spacing) {
+  Builder(const Scene& scene, const FamilySelector& select)
+      : m_scene(scene), m_select(select), m_dx(scene.discretization.spacing) {
     for (const Body& body : scene.bodies)
       m_model.bodies.push_back({body.name, scene.materials.at(body.material), body.shape});
     m_model.cracks = scene.cracks;
@@ -89,15 +90,17 @@ class Builder {
     apply_constraints(selected);
     m_model.stencil =
         make_stencil(m_scene.discretization.horizon_factor, m_dx, m_scene.discretization.quadrature);
-    build_bonds();
     number_unknowns();
     index_images();
     record_condition_dofs();
+    if (m_select) m_model.family_held = m_select(m_model);
+    build_bonds();
     return std::move(m_model);
   }
 
  private:
   const Scene& m_scene;
+  const FamilySelector& m_select;
   double m_dx;
   Model m_model;
   std::vector<int> m_owner;  ///< per component, the condition that prescribes it (-1: free)
@@ -394,9 +397,13 @@ class Builder {
           std::find(s.offset.begin(), s.offset.end(), std::array<int, 2>{-s.offset[k][0], -s.offset[k][1]});
       mirror[k] = static_cast<int>(it - s.offset.begin());
     }
+    const std::vector<char>& hold = m_model.family_held;
+    const auto held = [&hold](Index i) { return hold.empty() || hold[static_cast<std::size_t>(i)]; };
     std::vector<int> stencil_index;  // per bond, while building
     std::vector<const Crack*> near;  // cracks whose box, grown by the reach, holds particle i
-    const std::size_t capacity = static_cast<std::size_t>(n) * s.offset.size();  // an upper bound
+    Index n_held = 0;
+    for (Index i = 0; i < n; ++i) n_held += held(i);
+    const std::size_t capacity = static_cast<std::size_t>(n_held) * s.offset.size();  // an upper bound
     bonds.neighbour.reserve(capacity);
     bonds.xi.reserve(capacity);
     bonds.weight.reserve(capacity);
@@ -421,6 +428,8 @@ class Builder {
           if (i < j) ++m_model.n_cut_bonds;
           continue;
         }
+        ++m_model.n_bonds_whole;
+        if (!held(i)) continue;
         bonds.neighbour.push_back(j);
         bonds.xi.push_back(p.position[j] - p.position[i]);
         bonds.weight.push_back(s.weight[k]);
@@ -435,6 +444,7 @@ class Builder {
     for (Index i = 0; i < n; ++i) {
       for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
         const Index j = bonds.neighbour[b];
+        if (!held(j)) continue;  // no reverse here (partitioned bonds)
         const auto first = stencil_index.begin() + bonds.start[j],
                    last = stencil_index.begin() + bonds.start[j + 1];
         const auto it = std::lower_bound(first, last, mirror[stencil_index[b]]);
@@ -525,7 +535,25 @@ bool inside_polygon(const Polygon& polygon, const Vec2& p) {
 }
 
 Model discretise(const Scene& scene) {
-  return Builder(scene).build();
+  return Builder(scene, FamilySelector{}).build();
+}
+
+Model discretise(const Scene& scene, const FamilySelector& select) {
+  return Builder(scene, select).build();
+}
+
+std::vector<char> within_stencil(const Model& model, const std::vector<char>& seeds) {
+  const Particles& p = model.particles;
+  const Index n = p.size();
+  std::vector<char> near(static_cast<std::size_t>(n), 0);
+  for (Index i = 0; i < n; ++i) {
+    if (!seeds[static_cast<std::size_t>(i)]) continue;
+    near[static_cast<std::size_t>(i)] = 1;
+    for (const auto& o : model.stencil.offset)
+      if (const Index j = model.lattice_index.at(p.lattice[i][0] + o[0], p.lattice[i][1] + o[1]); j >= 0)
+        near[static_cast<std::size_t>(j)] = 1;
+  }
+  return near;
 }
 
 void Constraints::expand(const VectorXd& x, double lambda, VectorXd& u) const {
@@ -558,8 +586,9 @@ std::size_t Model::memory_bytes() const {
   const Particles& p = particles;
   return bytes(p.position) + bytes(p.volume) + bytes(p.body) + bytes(p.fictitious) + bytes(p.lattice) +
          bytes(bonds.start) + bytes(bonds.neighbour) + bytes(bonds.xi) + bytes(bonds.weight) +
-         bytes(bonds.reverse) + bytes(constraints.prescribed) + bytes(constraints.value) +
-         bytes(constraints.free_index) + bytes(constraints.images) + bytes(constraints.image_start) +
+         bytes(bonds.reverse) + bytes(family_held) + bytes(constraints.prescribed) +
+         bytes(constraints.value) + bytes(constraints.free_index) + bytes(constraints.images) +
+         bytes(constraints.image_start) +
          [&] {
            std::size_t b = 0;
            for (const auto& dofs : constraints.condition_dofs) b += bytes(dofs);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -97,6 +98,16 @@ struct Model {
   std::vector<BodyInfo> bodies;  ///< per body, in Scene::bodies order (particles' body index)
   std::vector<Crack> cracks;     ///< the pre-crack segments
   LatticeIndex lattice_index;    ///< lattice point -> particle
+  /// Per particle: 1 when its family is held. Empty: every family (one process, or a rank
+  /// holding the whole model). A rank of a distributed run with partitioned bonds holds the
+  /// families it evaluates only (docs/guide/distributed.md, "Partitioned bonds"); the others
+  /// are empty, and a held family's bond to a particle whose family is not held has no
+  /// reverse (-1).
+  std::vector<char> family_held;
+  /// Directed bonds of the whole model (bonds.n_bonds() when every family is held).
+  Index n_bonds_whole = 0;
+
+  bool holds_every_family() const { return family_held.empty(); }
 
   /// Bytes held by the particles, bonds, constraints and lattice index.
   std::size_t memory_bytes() const;
@@ -106,6 +117,18 @@ struct Model {
 /// bodies overlap, a condition selects no particle, or two conditions prescribe the same
 /// component of one particle.
 Model discretise(const Scene& scene);
+
+/// Chooses the families to hold (Model::family_held) from a model whose particles, constraints
+/// and stencil are built and whose bonds are not; an empty result holds every family.
+using FamilySelector = std::function<std::vector<char>(const Model&)>;
+
+/// discretise() holding only the families `select` names: the bonds of the others are never
+/// built (the whole model's counts, n_bonds_whole and n_cut_bonds, are still those of every family).
+Model discretise(const Scene& scene, const FamilySelector& select);
+
+/// The particles within the stencil of a particle in `seeds` (the seeds among them): a
+/// superset of the seeds and their bond neighbours, from lattice offsets alone.
+std::vector<char> within_stencil(const Model& model, const std::vector<char>& seeds);
 
 /// True when segment [p, q] crosses the crack [a, b] (docs/theory/osb.md, "Pre-cracks").
 bool bond_crosses_crack(const Vec2& p, const Vec2& q, const Vec2& a, const Vec2& b);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include <Eigen/Dense>
 
@@ -27,8 +28,9 @@ std::array<double, 5> quartic_monomials(const Vec2& n) {
   return {c * c * c * c, c * c * c * s, c * c * s * s, c * s * s * s, s * s * s * s};
 }
 
-SurfaceCorrection::SurfaceCorrection(const Model& model, SurfaceCorrectionMethod method)
-    : m_model(model), m_method(method) {
+SurfaceCorrection::SurfaceCorrection(const Model& model, SurfaceCorrectionMethod method,
+                                     std::vector<char> counted)
+    : m_model(model), m_method(method), m_counted(std::move(counted)) {
   const Stencil& st = model.stencil;
   Vec5 q0 = Vec5::Zero();
   for (std::size_t k = 0; k < st.offset.size(); ++k) {
@@ -64,9 +66,13 @@ void SurfaceCorrection::update(std::span<const double> intact, std::span<const I
   const Index count = static_cast<Index>(particles.size());
 #pragma omp parallel
   {
-    SurfaceCorrectionStats local;
+    SurfaceCorrectionStats local, uncounted;
 #pragma omp for schedule(dynamic, 64)
-    for (Index k = 0; k < count; ++k) compute_family(particles[k], intact, local);
+    for (Index k = 0; k < count; ++k) {
+      const Index i = particles[k];
+      compute_family(i, intact,
+                     m_counted.empty() || m_counted[static_cast<std::size_t>(i)] ? local : uncounted);
+    }
 #pragma omp critical
     {
       total.families += local.families;

@@ -40,8 +40,10 @@ struct SurfaceCorrectionStats {
 
 class SurfaceCorrection {
  public:
-  /// Factors of every family from the model's bond weights (pre-cracks already cut).
-  SurfaceCorrection(const Model& model, SurfaceCorrectionMethod method);
+  /// Factors of every family from the model's bond weights (pre-cracks already cut). The
+  /// stats count the families of the particles `counted` names (empty: every one; a rank of a
+  /// distributed run counts its own, so that the sum over the ranks counts each family once).
+  SurfaceCorrection(const Model& model, SurfaceCorrectionMethod method, std::vector<char> counted = {});
 
   /// Recomputes the families of `particles` from `intact` (per bond, 0 when broken). Under
   /// `none` the families keep the weighted volume they were built with (bond breaking then
@@ -69,6 +71,7 @@ class SurfaceCorrection {
   std::vector<double> m_weight;  ///< per bond
   std::vector<double> m_volume;  ///< per particle
   SurfaceCorrectionStats m_stats;
+  std::vector<char> m_counted;  ///< per particle, or empty: every family counts in m_stats
 };
 
 /// The five quartic monomials of a unit direction n: (c^4, c^3 s, c^2 s^2, c s^3, s^4).

@@ -472,7 +472,7 @@ AdrOptions read_adr(const Field& field) {
 }
 
 BelosOptions read_belos(const Field& field) {
-  const Map m = checked_map(field, {"method", "preconditioner", "partition", "tangent", "rtol",
+  const Map m = checked_map(field, {"method", "preconditioner", "partition", "tangent", "bonds", "rtol",
                                     "max_iterations", "restart", "muelu_parameters"});
   BelosOptions o;
   if (auto f = m.find("method")) o.method = read_kind(*f, {BelosMethod::automatic, BelosMethod::cg, BelosMethod::gmres});
@@ -483,6 +483,8 @@ BelosOptions read_belos(const Field& field) {
     o.partition = read_kind(*f, {BelosPartition::strips, BelosPartition::rcb});
   if (auto f = m.find("tangent"))
     o.tangent = read_kind(*f, {BelosTangent::assembled, BelosTangent::matrix_free});
+  if (auto f = m.find("bonds"))
+    o.bonds = read_kind(*f, {BelosBonds::automatic, BelosBonds::partitioned, BelosBonds::whole});
   if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
   if (auto f = m.find("max_iterations")) o.max_iterations = schema::int_at_least(*f, 1);
   if (auto f = m.find("restart")) o.restart = schema::int_at_least(*f, 1);

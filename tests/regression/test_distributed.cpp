@@ -58,7 +58,9 @@ double relative_difference(const Pair& p) {
   return test::json_number(c.out, "relative_l2");
 }
 
-void expect_same_answer(const Pair& p) {
+/// `bonds`: the families each rank held (solver.belos.bonds: auto picks partitioned for
+/// Newton with the matrix-free tangent and no failure criterion, whole otherwise).
+void expect_same_answer(const Pair& p, const std::string& bonds = "partitioned") {
   ASSERT_EQ(p.serial.exit_code, 0) << p.serial.err;
   ASSERT_EQ(p.distributed.exit_code, 0) << p.distributed.out << p.distributed.err;
   const double d = relative_difference(p);
@@ -66,6 +68,14 @@ void expect_same_answer(const Pair& p) {
   const nlohmann::json summary = test::read_json(p.dir / "mpi" / "summary.json");
   EXPECT_EQ(summary["status"], "completed");
   EXPECT_TRUE(summary["run"].contains("partition")) << "the run records how its rows were split";
+  EXPECT_EQ(summary["run"]["bonds_held"], bonds);
+  if (bonds == "partitioned") {
+    // The bonds a rank holds: fewer than the model's, and at least half of them (the largest part).
+    const long long held = summary["run"]["largest_rank_bonds"],
+                    all = 2 * summary["run"]["bonds"].get<long long>();
+    EXPECT_LT(held, all);
+    EXPECT_GE(2 * held, all);
+  }
   EXPECT_NE(summary["run"].dump().find("belos"), std::string::npos) << "the run names its linear solver";
   EXPECT_EQ(listing(p.dir / "mpi"), listing(p.dir / "serial")) << "the files of a serial run, no more";
 }
@@ -100,7 +110,7 @@ TEST(Distributed, PrecrackedPlateOnTwoRanksEqualsSerial) {
 // same ones (equal damage at every particle, to the last bit: damage is a count of broken
 // bonds over the family's), step by step.
 void expect_same_bonds_broken(const Pair& p) {
-  expect_same_answer(p);
+  expect_same_answer(p, "whole");  // failure: every rank holds every family
   const ResultsReader serial(p.h5("serial").string()), mpi(p.h5("mpi").string());
   ASSERT_EQ(serial.steps(), mpi.steps());
   double broken_somewhere = 0.0;
@@ -129,7 +139,7 @@ const char* const kAssembled =
 TEST(Distributed, AssembledTangentOnTwoRanksEqualsSerial) {
   const Pair p = run_both("tension_plate", "tension_plate",
                           std::string(" --set discretization.spacing=2e-3") + kAssembled);
-  expect_same_answer(p);
+  expect_same_answer(p, "whole");
   // Each rank assembles only its rows of the tangent; summary.json counts them over the
   // ranks, which must give the one-process tangent's count exactly (the ranks own every
   // row once; unit.Assembly.OwnedRows* check the entries themselves).
@@ -143,14 +153,52 @@ TEST(Distributed, AssembledTangentOnTwoRanksEqualsSerial) {
   EXPECT_GT(whole, 0);
   EXPECT_EQ(ranks, whole);
   expect_same_answer(run_both("paper_4_1_sliding_plates", "paper_4_1_sliding_plates",
-                              std::string(" --set discretization.spacing=1e-3") + kAssembled));
+                              std::string(" --set discretization.spacing=1e-3") + kAssembled),
+                     "whole");
   expect_same_answer(run_both("paper_4_3_precracked_plate", "paper_4_3_precracked_plate",
-                              std::string(" --set discretization.spacing=0.02") + kAssembled));
+                              std::string(" --set discretization.spacing=0.02") + kAssembled),
+                     "whole");
 }
 
 TEST(Distributed, AssembledTangentOnTwoRanksBreaksTheSameBonds) {
   expect_same_bonds_broken(run_both("paper_4_4_crack_growth", "paper_4_4_crack_growth",
                                     std::string(" --set discretization.spacing=0.05") + kAssembled));
+}
+
+// Partitioned bonds (docs/guide/distributed.md): a rank's model holds the families its rows
+// read and its problem shares the forces after each evaluation. Every force, action entry and
+// bond-matrix entry is the whole model's to the bit (unit.Assembly.Partitioned*), so the run
+// must give the bits of the two-rank run with every family held: relative L2 exactly 0.
+TEST(Distributed, PartitionedBondsGiveTheWholeModelsBits) {
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_3_precracked_plate/scene.yaml";
+  const fs::path dir = test::fresh_directory("distributed_partitioned_bits");
+  const std::string run = "run " + scene + " --quiet --set discretization.spacing=0.02 --out ";
+  const test::CliResult part = test::run_mpi(2, run + (dir / "part").string());
+  const test::CliResult whole =
+      test::run_mpi(2, run + (dir / "whole").string() + " --set solver.belos.bonds=whole");
+  ASSERT_EQ(part.exit_code, 0) << part.out << part.err;
+  ASSERT_EQ(whole.exit_code, 0) << whole.out << whole.err;
+  EXPECT_EQ(test::read_json(dir / "part" / "summary.json")["run"]["bonds_held"], "partitioned");
+  EXPECT_EQ(test::read_json(dir / "whole" / "summary.json")["run"]["bonds_held"], "whole");
+  const test::CliResult cmp =
+      test::run_cli("compare " + (dir / "part" / "paper_4_3_precracked_plate.h5").string() + " " +
+                    (dir / "whole" / "paper_4_3_precracked_plate.h5").string() + " --json");
+  ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
+  EXPECT_EQ(test::json_number(cmp.out, "relative_l2"), 0.0);
+}
+
+TEST(Distributed, PartitionedBondsAreRefusedWhereTheRunNeedsEveryFamily) {
+  // ADR and failure need every family on every rank: an explicit `partitioned` is refused
+  // (exit 2, naming the key) before anything is written; `auto` holds the whole model.
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+  const fs::path dir = test::fresh_directory("distributed_partitioned_refused");
+  const test::CliResult r =
+      test::run_mpi(2, "run " + scene + " --quiet --solver adr --out " + dir.string() +
+                           " --set discretization.spacing=5e-3 --set solver.belos.bonds=partitioned");
+  EXPECT_EQ(r.exit_code, 2);
+  EXPECT_NE(r.err.find("solver.belos.bonds"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ADR"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "tension_plate.h5")) << "nothing is written";
 }
 
 // Distributed ADR (docs/guide/distributed.md): each rank relaxes its own unknowns, from the
@@ -183,7 +231,9 @@ void expect_adr_as_accurate_as_serial(const std::string& c, const std::string& e
   const double e_serial = error("serial"), e_ranks = error("mpi");
   EXPECT_GT(e_serial, 0.0) << "ADR stops at its tolerance, not at Newton's answer";
   EXPECT_LE(e_ranks, 2.0 * e_serial) << "two-rank ADR " << e_ranks << ", serial ADR " << e_serial;
-  EXPECT_EQ(test::read_json(dir / "mpi" / "summary.json")["status"], "completed");
+  const nlohmann::json summary = test::read_json(dir / "mpi" / "summary.json");
+  EXPECT_EQ(summary["status"], "completed");
+  EXPECT_EQ(summary["run"]["bonds_held"], "whole") << "ADR holds every family (solver.belos.bonds: auto)";
   EXPECT_EQ(listing(dir / "mpi"), listing(dir / "serial")) << "the files of a serial run, no more";
 }
 

@@ -293,6 +293,99 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
   }
 }
 
+// Partitioned bonds (solver.belos.bonds: partitioned): each rank's model holds the families
+// families_to_hold() names, and its problem evaluates its rows and those without a row, then
+// shares the forces. On every rank the residual and the force scale must be the whole model's
+// bit for bit (each force is computed by one rank with the same loops), the energy its sum in
+// another order (round-off: 1e-13 relative), the tangent's action and the bond preconditioner
+// the whole model's rows bit for bit; and the rank must hold fewer bonds than the model.
+void expect_partitioned_ranks_equal_the_whole(const Scene& scene, const Model& model, const Prepare& prepare,
+                                              const VectorXd& x) {
+  const VectorXd direction = test::random_vector(model.constraints.n_free, 1.0, 41u);
+  ProblemOptions whole_options = problem_options(scene);
+  whole_options.matrix_free = true;
+  QuasiStaticProblem whole(model, whole_options);
+  prepare(whole);
+  SparseMatrix none;
+  VectorXd whole_r, whole_y;
+  whole.evaluate(x, whole_r, &none);
+  ASSERT_GT(whole_r.norm(), 0.0);
+  whole.apply_tangent(direction, whole_y);
+  SparseMatrix whole_P = whole.make_preconditioner();
+  whole.assemble_preconditioner(whole_P);
+  for (const auto& [cuts, ranks] :
+       {std::pair{false, 2}, std::pair{false, 3}, std::pair{true, 2}, std::pair{true, 3}}) {
+    SCOPED_TRACE(std::string(cuts ? "cuts across x" : "strips") + " on " + std::to_string(ranks) + " ranks");
+    const std::vector<int> owner = cuts ? x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
+    // The collective operations emulated as in expect_ranks_hold_the_whole: every rank's
+    // values, call by call, recorded in a first pass; the second pass combines them. The
+    // force exchange takes each particle's components from its owner's record.
+    std::vector<std::vector<double>> maxima(static_cast<std::size_t>(ranks)), sums(maxima);
+    std::vector<std::vector<VectorXd>> forces(static_cast<std::size_t>(ranks));
+    for (int pass = 0; pass < 2; ++pass) {
+      for (int rank = 0; rank < ranks; ++rank) {
+        const OwnedRows rows{rank, owner};
+        const Model part = discretise(scene, [&](const Model& m) { return families_to_hold(m, rows); });
+        ASSERT_FALSE(part.holds_every_family());
+        EXPECT_LT(part.bonds.n_bonds(), model.bonds.n_bonds())
+            << "rank " << rank << " holds some families only";
+        EXPECT_EQ(part.n_bonds_whole, model.bonds.n_bonds()) << "the whole model's count";
+        EXPECT_EQ(part.n_cut_bonds, model.n_cut_bonds);
+        ProblemOptions options = whole_options;
+        options.rows = rows;
+        std::size_t max_call = 0, sum_call = 0, share_call = 0;
+        const auto r_ = static_cast<std::size_t>(rank);
+        options.max_over_ranks = [&](double v) {
+          if (pass == 0) return maxima[r_].push_back(v), v;
+          double m = -std::numeric_limits<double>::infinity();
+          for (const auto& values : maxima) m = std::max(m, values.at(max_call));
+          ++max_call;
+          return m;
+        };
+        options.sum_over_ranks = [&](double v) {
+          if (pass == 0) return sums[r_].push_back(v), v;
+          double total = 0.0;
+          for (const auto& values : sums) total += values.at(sum_call);
+          ++sum_call;
+          return total;
+        };
+        options.share_forces = [&](VectorXd& f) {
+          if (pass == 0) return forces[r_].push_back(f);
+          for (std::size_t p = 0; p < owner.size(); ++p)
+            if (owner[p] >= 0)
+              for (int c = 0; c < 2; ++c)
+                f[2 * static_cast<Index>(p) + c] =
+                    forces[static_cast<std::size_t>(owner[p])].at(share_call)[2 * p + c];
+          ++share_call;
+        };
+        QuasiStaticProblem problem(part, options);
+        prepare(problem);
+        VectorXd r, y;
+        // First at another state, so that a family not evaluated here would hold stale values.
+        problem.evaluate(1.7 * x, r, &none);
+        problem.evaluate(x, r, &none);
+        if (pass == 0) continue;
+        EXPECT_TRUE((r.array() == whole_r.array()).all()) << "rank " << rank << ": the whole residual";
+        EXPECT_EQ(problem.force_scale(), whole.force_scale());
+        EXPECT_NEAR(problem.energy(), whole.energy(), 1e-13 * std::abs(whole.energy()));
+        VectorXd v = VectorXd::Constant(direction.size(), std::numeric_limits<double>::quiet_NaN());
+        for (const Index f : problem.action_reads()) v[f] = direction[f];
+        problem.apply_tangent(v, y);
+        std::vector<char> mine(static_cast<std::size_t>(whole_r.size()), 0);
+        const std::vector<Index>& free = model.constraints.free_index;
+        for (Index c = 0; c < static_cast<Index>(free.size()); ++c)
+          if (free[c] >= 0 && rows.contains(c / 2)) mine[free[c]] = 1;
+        for (Index f = 0; f < whole_r.size(); ++f)
+          EXPECT_EQ(y[f], mine[f] ? whole_y[f] : 0.0) << "action, unknown " << f << (mine[f] ? " (own)" : "");
+        SparseMatrix P = problem.make_preconditioner();
+        problem.assemble_preconditioner(P);
+        const long long entries = expect_rows_of(whole_P, P, mine, "bond preconditioner");
+        EXPECT_EQ(P.nonZeros(), entries) << "the rank stores its rows only";
+      }
+    }
+  }
+}
+
 TEST(Assembly, OwnedRowsAreTheWholeMatricesRows) {
   // The notched plate (40 x 20 mm) with failure and contact; one particle moved by 10 dx
   // breaks every bond of its family (verification.Fragments) and is held as a fragment, and
@@ -340,38 +433,63 @@ TEST(Assembly, OwnedRowsWithMirrorGrips) {
   const Model model = discretise(scene);
   ASSERT_TRUE(model.constraints.has_images());
   const Prepare prepare = [](QuasiStaticProblem& problem) { problem.set_load_factor(1.0); };
-  expect_ranks_hold_the_whole(scene, model, prepare,
-                               test::random_vector(model.constraints.n_free, 1e-6, 22u));
+  const VectorXd x = test::random_vector(model.constraints.n_free, 1e-6, 22u);
+  expect_ranks_hold_the_whole(scene, model, prepare, x);
+  expect_partitioned_ranks_equal_the_whole(scene, model, prepare, x);
+}
+
+// A plate of nx x ny particles cut through by a vertical crack at x = crack_x and compressed
+// across it (derivative.ContactTangent), held on its left edge by fictitious layers, with
+// contact radius 1.6 dx (diagonal pairs close too). Returns the scene, and at x a state in
+// which some pairs stick and some slip.
+struct CrackedPlate {
+  Scene scene;
+  Model model;
+  VectorXd x;
+};
+
+CrackedPlate compressed_cracked_plate(int nx, int ny, double crack_x, double squeeze, unsigned seed) {
+  test::PlateSpec spec;
+  spec.nx = nx;
+  spec.ny = ny;
+  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
+  spec.cracks = "  - {from: [" + std::to_string(crack_x) + ", -0.001], to: [" + std::to_string(crack_x) +
+                ", " + std::to_string((ny + 1) * spec.dx) + "]}\n";
+  CrackedPlate c{
+      test::scene_from_yaml(test::plate_yaml(spec) + "contact:\n  friction: 0.2\n  radius_factor: 1.6\n"),
+      {},
+      {}};
+  c.model = discretise(c.scene);
+  c.x = test::random_vector(c.model.constraints.n_free, 0.02 * spec.dx, seed);
+  for (Index p = 0; p < c.model.particles.size(); ++p)
+    if (const Index k = c.model.constraints.free_index[2 * p]; k >= 0)
+      c.x[k] -= squeeze * c.model.particles.position[p].x();
+  QuasiStaticProblem probe(c.model, problem_options(c.scene));
+  probe.set_load_factor(1.0);
+  SparseMatrix K = probe.make_tangent();
+  VectorXd r;
+  probe.evaluate(c.x, r, &K);
+  const ContactCounts counts = probe.contact()->counts();
+  EXPECT_GT(counts.stick, 0);
+  EXPECT_GT(counts.slip, 0);
+  return c;
 }
 
 TEST(Assembly, OwnedRowsWithContactAcrossTheStrips) {
-  // A plate cut through by a vertical crack and compressed across it (derivative.ContactTangent):
-  // the pairs across the crack join particles of two ranks wherever a strip or cut boundary
-  // meets the crack, and a contact radius of 1.6 dx closes diagonal pairs among them.
-  test::PlateSpec spec;
-  spec.nx = 12;
-  spec.ny = 8;
-  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
-  spec.cracks = "  - {from: [0.0061, -0.001], to: [0.0061, 0.009]}\n";
-  const Scene scene =
-      test::scene_from_yaml(test::plate_yaml(spec) + "contact:\n  friction: 0.2\n  radius_factor: 1.6\n");
-  const Model model = discretise(scene);
-  VectorXd x = test::random_vector(model.constraints.n_free, 0.02 * spec.dx, 23u);
-  for (Index p = 0; p < model.particles.size(); ++p)
-    if (const Index k = model.constraints.free_index[2 * p]; k >= 0)
-      x[k] -= 0.08 * model.particles.position[p].x();
+  // The pairs across the crack join particles of two ranks wherever a strip or cut boundary
+  // meets the crack.
+  const CrackedPlate c = compressed_cracked_plate(12, 8, 0.0061, 0.08, 23u);
   const Prepare prepare = [](QuasiStaticProblem& problem) { problem.set_load_factor(1.0); };
-  {
-    QuasiStaticProblem probe(model, problem_options(scene));
-    prepare(probe);
-    SparseMatrix K = probe.make_tangent();
-    VectorXd r;
-    probe.evaluate(x, r, &K);
-    const ContactCounts counts = probe.contact()->counts();
-    ASSERT_GT(counts.stick, 0);
-    ASSERT_GT(counts.slip, 0);
-  }
-  expect_ranks_hold_the_whole(scene, model, prepare, x, false, true);
+  expect_ranks_hold_the_whole(c.scene, c.model, prepare, c.x, false, true);
+}
+
+TEST(Assembly, PartitionedBondsWithContactAcrossTheParts) {
+  // 40 x 16, the crack near the middle, where the cuts across x fall on two ranks: the
+  // contact pairs join particles of two ranks; the grip's particles have no row, and every
+  // rank computes their forces.
+  const CrackedPlate c = compressed_cracked_plate(40, 16, 0.0201, 0.04, 24u);
+  const Prepare prepare = [](QuasiStaticProblem& problem) { problem.set_load_factor(1.0); };
+  expect_partitioned_ranks_equal_the_whole(c.scene, c.model, prepare, c.x);
 }
 
 }  // namespace

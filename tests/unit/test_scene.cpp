@@ -926,6 +926,14 @@ TEST(Scene, BelosKeys) {
   EXPECT_EQ(d.solver.linear.belos.preconditioner, BelosPreconditioner::muelu);
   EXPECT_EQ(d.solver.linear.belos.partition, BelosPartition::rcb);
   EXPECT_EQ(d.solver.linear.belos.tangent, BelosTangent::matrix_free);
+  EXPECT_EQ(d.solver.linear.belos.bonds, BelosBonds::automatic);
+  EXPECT_EQ(parse(k_minimal, {parse_override("solver.belos.bonds=whole")}).solver.linear.belos.bonds,
+            BelosBonds::whole);
+  EXPECT_EQ(parse(k_minimal, {parse_override("solver.belos.bonds=partitioned")}).solver.linear.belos.bonds,
+            BelosBonds::partitioned);
+  const std::string bonds = error_of(k_minimal, {parse_override("solver.belos.bonds=some")});
+  EXPECT_NE(bonds.find("solver.belos.bonds"), std::string::npos) << bonds;
+  EXPECT_NE(bonds.find("partitioned"), std::string::npos) << "the choices are listed: " << bonds;
   const Scene s =
       parse(k_minimal,
             {parse_override("solver.linear=belos"), parse_override("solver.belos.method=gmres"),
