@@ -95,19 +95,30 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
 }
 
 void QuasiStaticProblem::check_partition() const {
-  // What the partitioned path supports (docs/guide/distributed.md, "Partitioned bonds"): the
-  // matrix-free action (an assembled column reads families two horizons from its rows), no
-  // failure (breaking reads and changes every family), forces shared after each evaluation.
-  if (!distributed() || !m_options.share_forces || !m_options.matrix_free || m_failure)
+  // What the partitioned path supports (docs/guide/distributed.md, "Partitioned bonds"): no
+  // failure (breaking reads and changes every family), forces shared after each whole
+  // evaluation. The residual and the matrix-free action read the families of the rank's
+  // particles and their neighbours; an assembled tangent (and ADR's density from it) reads a
+  // column's families two horizons from its rows, so then the neighbours of those are held too.
+  if (!distributed() || !m_options.share_forces || m_failure)
     throw std::logic_error(
-        "QuasiStaticProblem: partitioned bonds need a distributed, matrix-free problem without failure and "
-        "a force exchange");
+        "QuasiStaticProblem: partitioned bonds need a distributed problem without failure and a force "
+        "exchange");
   const_cast<QuasiStaticProblem*>(this)->build_own_masks();
+  const Bonds& bonds = m_model.bonds;
   const std::vector<char>& held = m_model.family_held;
-  for (std::size_t i = 0; i < held.size(); ++i)
-    if (m_family_needed[i] && !held[i])
+  for (std::size_t i = 0; i < held.size(); ++i) {
+    if (!m_family_needed[i]) continue;
+    if (!held[i])
       throw std::logic_error("QuasiStaticProblem: the family of particle " + std::to_string(i) +
                              " is needed by this rank's rows and not held by its model");
+    if (!m_options.matrix_free)
+      for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+        if (!held[static_cast<std::size_t>(bonds.neighbour[b])])
+          throw std::logic_error("QuasiStaticProblem: an assembled tangent reads the family of particle " +
+                                 std::to_string(bonds.neighbour[b]) +
+                                 ", which this rank's model does not hold");
+  }
 }
 
 Vec2 QuasiStaticProblem::reaction(std::size_t k) const {
@@ -573,7 +584,8 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
   // Partitioned: the energy of the rank's own families and of those without a row (which every
   // rank computes), to be summed over the ranks once each; a neighbour's family counts on its owner.
   double energy = 0.0, own_energy = 0.0, unowned_energy = 0.0;
-  const bool restrict = restricted(), split = partitioned();
+  // (Own rows only: the rank's rows of a distributed ADR step, no energy and no exchange.)
+  const bool restrict = restricted(), split = partitioned() && !m_own_rows_only;
   const std::vector<int>& owner = m_options.rows.owner;
   const int rank = m_options.rows.rank;
   const std::size_t scratch = static_cast<std::size_t>(omp_get_max_threads()) * m_largest_family;
@@ -619,7 +631,7 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
 void QuasiStaticProblem::bond_forces(bool want_tangent) {
   compute_families(want_tangent);
   gather_forces();
-  if (partitioned()) m_options.share_forces(m_force);
+  if (partitioned() && !m_own_rows_only) m_options.share_forces(m_force);
 }
 
 void QuasiStaticProblem::gather_forces() {
@@ -663,7 +675,7 @@ double QuasiStaticProblem::force_norm() const {
 }
 
 bool QuasiStaticProblem::set_own_rows_only(bool on) {
-  if (!distributed() || partitioned()) return false;
+  if (!distributed()) return false;
   if (on) build_own_masks();
   m_own_rows_only = on;
   return true;
@@ -758,6 +770,9 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
       // Families of the neighbours of p.
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
         const Index i = bonds.neighbour[b], r = bonds.reverse[b];
+        // Partitioned bonds: no reverse when i's family is not held; then neither i nor any
+        // particle of its family is this rank's row (check_partition()), so nothing is lost.
+        if (r < 0) continue;
         const double Vi = part.volume[i], bVi = m_beta_volume[i];
         const Vec2& sr = m_s[r];
         col.add_sym(i, -Vi, m_kbond[r]);

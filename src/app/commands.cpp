@@ -116,7 +116,7 @@ ProcessModel process_model(const Scene& scene) {
   if (m.bonds.partitioned) {
     m.model = discretise(scene, [&](const Model& unbonded) {
       m.rows = owned_rows(scene, unbonded, parallel::rank(), ranks);
-      return families_to_hold(unbonded, m.rows);
+      return families_to_hold(unbonded, m.rows, m.bonds.rings);
     });
   } else {
     m.model = discretise(scene);

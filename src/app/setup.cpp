@@ -55,29 +55,31 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
 BondsChoice partitioned_bonds(const Scene& scene, int ranks) {
   const BelosBonds asked = scene.solver.linear.belos.bonds;
   if (ranks <= 1 || asked == BelosBonds::whole)
-    return {false, ranks <= 1 ? "one process" : "solver.belos.bonds: whole"};
-  std::string why_not;
-  if (scene.solver.type != SolverKind::newton)
-    why_not = "ADR evaluates its rows with every family held (solver.type: adr)";
-  else if (scene.solver.linear.type != LinearSolverKind::belos)
-    why_not = "solver.linear is not belos";
-  else if (scene.solver.linear.belos.tangent != BelosTangent::matrix_free)
-    why_not =
-        "an assembled tangent's columns read families two horizons from a rank's rows "
-        "(solver.belos.tangent: assembled)";
-  else if (scene.failure.enabled)
-    why_not = "breaking bonds changes families on every rank (the scene has a failure criterion)";
-  if (why_not.empty()) return {true, "each rank holds the families of its rows and of their neighbours"};
-  if (asked == BelosBonds::partitioned)
-    throw InputError("solver.belos.bonds: partitioned is not available for this run: " + why_not +
-                     "; use solver.belos.bonds: auto or whole");
-  return {false, "every rank holds every family: " + why_not};
+    return {false, 0, ranks <= 1 ? "one process" : "solver.belos.bonds: whole"};
+  if (scene.failure.enabled) {
+    const std::string why =
+        "breaking bonds changes families on every rank (the scene has a failure criterion)";
+    if (asked == BelosBonds::partitioned)
+      throw InputError("solver.belos.bonds: partitioned is not available for this run: " + why +
+                       "; use solver.belos.bonds: auto or whole");
+    return {false, 0, "every rank holds every family: " + why};
+  }
+  const bool action = scene.solver.type == SolverKind::newton &&
+                      scene.solver.linear.type == LinearSolverKind::belos &&
+                      scene.solver.linear.belos.tangent == BelosTangent::matrix_free;
+  if (action) return {true, 1, "each rank holds the families of its rows and of their neighbours"};
+  return {true, 2,
+          std::string(
+              "each rank holds the families of its rows and of the particles within two horizons of them (") +
+              (scene.solver.type == SolverKind::adr ? "ADR's density reads" : "the assembled tangent reads") +
+              " columns two horizons from its rows)"};
 }
 
-std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows) {
-  std::vector<char> seeds(static_cast<std::size_t>(model.particles.size()), 0);
-  for (std::size_t p = 0; p < seeds.size(); ++p) seeds[p] = rows.owner[p] == rows.rank || rows.owner[p] < 0;
-  return within_stencil(model, seeds);
+std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows, int rings) {
+  std::vector<char> held(static_cast<std::size_t>(model.particles.size()), 0);
+  for (std::size_t p = 0; p < held.size(); ++p) held[p] = rows.owner[p] == rows.rank || rows.owner[p] < 0;
+  for (int ring = 0; ring < rings; ++ring) held = within_stencil(model, held);
+  return held;
 }
 
 std::function<void(VectorXd&)> force_exchange(const OwnedRows& rows) {

@@ -52,19 +52,22 @@ ProblemOptions problem_options(const Scene& scene);
 OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks);
 
 /// Whether each rank of a distributed run holds only the bond families it evaluates
-/// (solver.belos.bonds, docs/guide/distributed.md "Partitioned bonds"), and why. Needs Newton
-/// with solver.linear belos and its matrix-free tangent, and no failure criterion; `auto` falls
-/// back to the whole model otherwise, an explicit `partitioned` is refused (InputError). Call
-/// after resolve_linear_solver(). False in one process.
+/// (solver.belos.bonds, docs/guide/distributed.md "Partitioned bonds"), how deep, and why.
+/// Needs no failure criterion (`auto` holds the whole model then, an explicit `partitioned` is
+/// refused: InputError). The matrix-free tangent (Newton with belos, the default under mpirun)
+/// reads the families of a rank's particles and of their neighbours: one ring; an assembled
+/// tangent (belos's `assembled`, or ADR's for its density) reads a column's families two
+/// horizons from its rows: two rings. Call after resolve_linear_solver(). False in one process.
 struct BondsChoice {
   bool partitioned = false;
+  int rings = 0;  ///< stencils around a rank's particles whose families it holds
   std::string reason;
 };
 BondsChoice partitioned_bonds(const Scene& scene, int ranks);
 
-/// The families a rank with `rows` evaluates, and a margin: its particles and those without a
-/// row, and every particle within their stencil (Model::family_held, from lattice offsets).
-std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows);
+/// The families a rank with `rows` evaluates: its particles and those without a row, and every
+/// particle within `rings` stencils of them (Model::family_held, from lattice offsets).
+std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows, int rings);
 
 /// ProblemOptions::share_forces for a rank with `rows`: the forces of its particles, both
 /// components, to every rank (an MPI_Allgatherv); those without a row stay as computed.

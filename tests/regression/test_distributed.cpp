@@ -58,8 +58,8 @@ double relative_difference(const Pair& p) {
   return test::json_number(c.out, "relative_l2");
 }
 
-/// `bonds`: the families each rank held (solver.belos.bonds: auto picks partitioned for
-/// Newton with the matrix-free tangent and no failure criterion, whole otherwise).
+/// `bonds`: the families each rank held (solver.belos.bonds: auto partitions every run
+/// without a failure criterion).
 void expect_same_answer(const Pair& p, const std::string& bonds = "partitioned") {
   ASSERT_EQ(p.serial.exit_code, 0) << p.serial.err;
   ASSERT_EQ(p.distributed.exit_code, 0) << p.distributed.out << p.distributed.err;
@@ -139,7 +139,7 @@ const char* const kAssembled =
 TEST(Distributed, AssembledTangentOnTwoRanksEqualsSerial) {
   const Pair p = run_both("tension_plate", "tension_plate",
                           std::string(" --set discretization.spacing=2e-3") + kAssembled);
-  expect_same_answer(p, "whole");
+  expect_same_answer(p);
   // Each rank assembles only its rows of the tangent; summary.json counts them over the
   // ranks, which must give the one-process tangent's count exactly (the ranks own every
   // row once; unit.Assembly.OwnedRows* check the entries themselves).
@@ -153,11 +153,9 @@ TEST(Distributed, AssembledTangentOnTwoRanksEqualsSerial) {
   EXPECT_GT(whole, 0);
   EXPECT_EQ(ranks, whole);
   expect_same_answer(run_both("paper_4_1_sliding_plates", "paper_4_1_sliding_plates",
-                              std::string(" --set discretization.spacing=1e-3") + kAssembled),
-                     "whole");
+                              std::string(" --set discretization.spacing=1e-3") + kAssembled));
   expect_same_answer(run_both("paper_4_3_precracked_plate", "paper_4_3_precracked_plate",
-                              std::string(" --set discretization.spacing=0.02") + kAssembled),
-                     "whole");
+                              std::string(" --set discretization.spacing=0.02") + kAssembled));
 }
 
 TEST(Distributed, AssembledTangentOnTwoRanksBreaksTheSameBonds) {
@@ -166,13 +164,16 @@ TEST(Distributed, AssembledTangentOnTwoRanksBreaksTheSameBonds) {
 }
 
 // Partitioned bonds (docs/guide/distributed.md): a rank's model holds the families its rows
-// read and its problem shares the forces after each evaluation. Every force, action entry and
-// bond-matrix entry is the whole model's to the bit (unit.Assembly.Partitioned*), so the run
-// must give the bits of the two-rank run with every family held: relative L2 exactly 0.
-TEST(Distributed, PartitionedBondsGiveTheWholeModelsBits) {
+// read and its problem shares the forces after each whole evaluation. Every force, action
+// entry, tangent and bond-matrix entry is the whole model's to the bit (unit.Assembly.Partitioned*),
+// so a run must give the bits of the two-rank run with every family held: relative L2
+// exactly 0. Case 4.3 with Newton's matrix-free tangent (one ring of families), the assembled
+// tangent and ADR (two rings).
+void expect_partitioned_bits(const std::string& label, const std::string& extra) {
+  SCOPED_TRACE(label);
   const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_3_precracked_plate/scene.yaml";
-  const fs::path dir = test::fresh_directory("distributed_partitioned_bits");
-  const std::string run = "run " + scene + " --quiet --set discretization.spacing=0.02 --out ";
+  const fs::path dir = test::fresh_directory("distributed_partitioned_bits_" + label);
+  const std::string run = "run " + scene + " --quiet --set discretization.spacing=0.02" + extra + " --out ";
   const test::CliResult part = test::run_mpi(2, run + (dir / "part").string());
   const test::CliResult whole =
       test::run_mpi(2, run + (dir / "whole").string() + " --set solver.belos.bonds=whole");
@@ -187,18 +188,24 @@ TEST(Distributed, PartitionedBondsGiveTheWholeModelsBits) {
   EXPECT_EQ(test::json_number(cmp.out, "relative_l2"), 0.0);
 }
 
+TEST(Distributed, PartitionedBondsGiveTheWholeModelsBits) {
+  expect_partitioned_bits("newton", "");
+  expect_partitioned_bits("assembled", " --set solver.belos.tangent=assembled");
+  expect_partitioned_bits("adr", " --solver adr");
+}
+
 TEST(Distributed, PartitionedBondsAreRefusedWhereTheRunNeedsEveryFamily) {
-  // ADR and failure need every family on every rank: an explicit `partitioned` is refused
-  // (exit 2, naming the key) before anything is written; `auto` holds the whole model.
-  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+  // A failure criterion needs every family on every rank: an explicit `partitioned` is
+  // refused (exit 2, naming the key) before anything is written; `auto` holds the whole model.
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_4_crack_growth/scene.yaml";
   const fs::path dir = test::fresh_directory("distributed_partitioned_refused");
   const test::CliResult r =
-      test::run_mpi(2, "run " + scene + " --quiet --solver adr --out " + dir.string() +
-                           " --set discretization.spacing=5e-3 --set solver.belos.bonds=partitioned");
+      test::run_mpi(2, "run " + scene + " --quiet --out " + dir.string() +
+                           " --set discretization.spacing=0.1 --set solver.belos.bonds=partitioned");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("solver.belos.bonds"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("ADR"), std::string::npos) << r.err;
-  EXPECT_FALSE(fs::exists(dir / "tension_plate.h5")) << "nothing is written";
+  EXPECT_NE(r.err.find("failure criterion"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "paper_4_4_crack_growth.h5")) << "nothing is written";
 }
 
 // Distributed ADR (docs/guide/distributed.md): each rank relaxes its own unknowns, from the
@@ -233,7 +240,7 @@ void expect_adr_as_accurate_as_serial(const std::string& c, const std::string& e
   EXPECT_LE(e_ranks, 2.0 * e_serial) << "two-rank ADR " << e_ranks << ", serial ADR " << e_serial;
   const nlohmann::json summary = test::read_json(dir / "mpi" / "summary.json");
   EXPECT_EQ(summary["status"], "completed");
-  EXPECT_EQ(summary["run"]["bonds_held"], "whole") << "ADR holds every family (solver.belos.bonds: auto)";
+  EXPECT_EQ(summary["run"]["bonds_held"], "partitioned") << "solver.belos.bonds: auto";
   EXPECT_EQ(listing(dir / "mpi"), listing(dir / "serial")) << "the files of a serial run, no more";
 }
 

@@ -297,91 +297,117 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
 // families_to_hold() names, and its problem evaluates its rows and those without a row, then
 // shares the forces. On every rank the residual and the force scale must be the whole model's
 // bit for bit (each force is computed by one rank with the same loops), the energy its sum in
-// another order (round-off: 1e-13 relative), the tangent's action and the bond preconditioner
-// the whole model's rows bit for bit; and the rank must hold fewer bonds than the model.
+// another order (round-off: 1e-13 relative), and the rank must hold fewer bonds than the model.
+// One ring (Newton's matrix-free tangent): the action's and the bond matrix's rows the whole
+// model's to the bit. Two rings (an assembled tangent: belos `assembled`, ADR's density): the
+// tangent's rows the whole one's to the bit, and ADR's own-rows residual its rows, zero elsewhere.
 void expect_partitioned_ranks_equal_the_whole(const Scene& scene, const Model& model, const Prepare& prepare,
                                               const VectorXd& x) {
   const VectorXd direction = test::random_vector(model.constraints.n_free, 1.0, 41u);
-  ProblemOptions whole_options = problem_options(scene);
-  whole_options.matrix_free = true;
-  QuasiStaticProblem whole(model, whole_options);
-  prepare(whole);
-  SparseMatrix none;
-  VectorXd whole_r, whole_y;
-  whole.evaluate(x, whole_r, &none);
-  ASSERT_GT(whole_r.norm(), 0.0);
-  whole.apply_tangent(direction, whole_y);
-  SparseMatrix whole_P = whole.make_preconditioner();
-  whole.assemble_preconditioner(whole_P);
-  for (const auto& [cuts, ranks] :
-       {std::pair{false, 2}, std::pair{false, 3}, std::pair{true, 2}, std::pair{true, 3}}) {
-    SCOPED_TRACE(std::string(cuts ? "cuts across x" : "strips") + " on " + std::to_string(ranks) + " ranks");
-    const std::vector<int> owner = cuts ? x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
-    // The collective operations emulated as in expect_ranks_hold_the_whole: every rank's
-    // values, call by call, recorded in a first pass; the second pass combines them. The
-    // force exchange takes each particle's components from its owner's record.
-    std::vector<std::vector<double>> maxima(static_cast<std::size_t>(ranks)), sums(maxima);
-    std::vector<std::vector<VectorXd>> forces(static_cast<std::size_t>(ranks));
-    for (int pass = 0; pass < 2; ++pass) {
-      for (int rank = 0; rank < ranks; ++rank) {
-        const OwnedRows rows{rank, owner};
-        const Model part = discretise(scene, [&](const Model& m) { return families_to_hold(m, rows); });
-        ASSERT_FALSE(part.holds_every_family());
-        EXPECT_LT(part.bonds.n_bonds(), model.bonds.n_bonds())
-            << "rank " << rank << " holds some families only";
-        EXPECT_EQ(part.n_bonds_whole, model.bonds.n_bonds()) << "the whole model's count";
-        EXPECT_EQ(part.n_cut_bonds, model.n_cut_bonds);
-        ProblemOptions options = whole_options;
-        options.rows = rows;
-        std::size_t max_call = 0, sum_call = 0, share_call = 0;
-        const auto r_ = static_cast<std::size_t>(rank);
-        options.max_over_ranks = [&](double v) {
-          if (pass == 0) return maxima[r_].push_back(v), v;
-          double m = -std::numeric_limits<double>::infinity();
-          for (const auto& values : maxima) m = std::max(m, values.at(max_call));
-          ++max_call;
-          return m;
-        };
-        options.sum_over_ranks = [&](double v) {
-          if (pass == 0) return sums[r_].push_back(v), v;
-          double total = 0.0;
-          for (const auto& values : sums) total += values.at(sum_call);
-          ++sum_call;
-          return total;
-        };
-        options.share_forces = [&](VectorXd& f) {
-          if (pass == 0) return forces[r_].push_back(f);
-          for (std::size_t p = 0; p < owner.size(); ++p)
-            if (owner[p] >= 0)
-              for (int c = 0; c < 2; ++c)
-                f[2 * static_cast<Index>(p) + c] =
-                    forces[static_cast<std::size_t>(owner[p])].at(share_call)[2 * p + c];
-          ++share_call;
-        };
-        QuasiStaticProblem problem(part, options);
-        prepare(problem);
-        VectorXd r, y;
-        // First at another state, so that a family not evaluated here would hold stale values.
-        problem.evaluate(1.7 * x, r, &none);
-        problem.evaluate(x, r, &none);
-        if (pass == 0) continue;
-        EXPECT_TRUE((r.array() == whole_r.array()).all()) << "rank " << rank << ": the whole residual";
-        EXPECT_EQ(problem.force_scale(), whole.force_scale());
-        EXPECT_NEAR(problem.energy(), whole.energy(), 1e-13 * std::abs(whole.energy()));
-        VectorXd v = VectorXd::Constant(direction.size(), std::numeric_limits<double>::quiet_NaN());
-        for (const Index f : problem.action_reads()) v[f] = direction[f];
-        problem.apply_tangent(v, y);
-        std::vector<char> mine(static_cast<std::size_t>(whole_r.size()), 0);
-        const std::vector<Index>& free = model.constraints.free_index;
-        for (Index c = 0; c < static_cast<Index>(free.size()); ++c)
-          if (free[c] >= 0 && rows.contains(c / 2)) mine[free[c]] = 1;
-        for (Index f = 0; f < whole_r.size(); ++f)
-          EXPECT_EQ(y[f], mine[f] ? whole_y[f] : 0.0) << "action, unknown " << f << (mine[f] ? " (own)" : "");
-        SparseMatrix P = problem.make_preconditioner();
-        problem.assemble_preconditioner(P);
-        const long long entries = expect_rows_of(whole_P, P, mine, "bond preconditioner");
-        EXPECT_EQ(P.nonZeros(), entries) << "the rank stores its rows only";
+  for (const int rings : {1, 2}) {
+    SCOPED_TRACE(std::to_string(rings) + " ring(s)");
+    ProblemOptions whole_options = problem_options(scene);
+    whole_options.matrix_free = rings == 1;
+    QuasiStaticProblem whole(model, whole_options);
+    prepare(whole);
+    SparseMatrix whole_K = whole.make_tangent();
+    VectorXd whole_r, whole_y;
+    whole.evaluate(x, whole_r, &whole_K);
+    ASSERT_GT(whole_r.norm(), 0.0);
+    if (rings == 1) whole.apply_tangent(direction, whole_y);
+    SparseMatrix whole_P = whole.make_preconditioner();
+    whole.assemble_preconditioner(whole_P);
+    for (const auto& [cuts, ranks] :
+         {std::pair{false, 2}, std::pair{false, 3}, std::pair{true, 2}, std::pair{true, 3}}) {
+      SCOPED_TRACE(std::string(cuts ? "cuts across x" : "strips") + " on " + std::to_string(ranks) +
+                   " ranks");
+      const std::vector<int> owner =
+          cuts ? x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
+      // The collective operations emulated as in expect_ranks_hold_the_whole: every rank's
+      // values, call by call, recorded in a first pass; the second pass combines them. The
+      // force exchange takes each particle's components from its owner's record.
+      std::vector<std::vector<double>> maxima(static_cast<std::size_t>(ranks)), sums(maxima);
+      std::vector<std::vector<VectorXd>> forces(static_cast<std::size_t>(ranks));
+      int fewer = 0;  // ranks holding fewer bonds than the model, over both passes
+      for (int pass = 0; pass < 2; ++pass) {
+        for (int rank = 0; rank < ranks; ++rank) {
+          const OwnedRows rows{rank, owner};
+          const Model part =
+              discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, rings); });
+          ASSERT_FALSE(part.holds_every_family());
+          // (A middle rank of a narrow plate may hold every family within two rings.)
+          EXPECT_LE(part.bonds.n_bonds(), model.bonds.n_bonds());
+          fewer += part.bonds.n_bonds() < model.bonds.n_bonds();
+          EXPECT_EQ(part.n_bonds_whole, model.bonds.n_bonds()) << "the whole model's count";
+          EXPECT_EQ(part.n_cut_bonds, model.n_cut_bonds);
+          ProblemOptions options = whole_options;
+          options.rows = rows;
+          std::size_t max_call = 0, sum_call = 0, share_call = 0;
+          const auto r_ = static_cast<std::size_t>(rank);
+          options.max_over_ranks = [&](double v) {
+            if (pass == 0) return maxima[r_].push_back(v), v;
+            double m = -std::numeric_limits<double>::infinity();
+            for (const auto& values : maxima) m = std::max(m, values.at(max_call));
+            ++max_call;
+            return m;
+          };
+          options.sum_over_ranks = [&](double v) {
+            if (pass == 0) return sums[r_].push_back(v), v;
+            double total = 0.0;
+            for (const auto& values : sums) total += values.at(sum_call);
+            ++sum_call;
+            return total;
+          };
+          options.share_forces = [&](VectorXd& f) {
+            if (pass == 0) return forces[r_].push_back(f);
+            for (std::size_t p = 0; p < owner.size(); ++p)
+              if (owner[p] >= 0)
+                for (int c = 0; c < 2; ++c)
+                  f[2 * static_cast<Index>(p) + c] =
+                      forces[static_cast<std::size_t>(owner[p])].at(share_call)[2 * p + c];
+            ++share_call;
+          };
+          QuasiStaticProblem problem(part, options);
+          prepare(problem);
+          SparseMatrix K = problem.make_tangent();
+          VectorXd r, y, own_r;
+          // First at another state, so that a family not evaluated here would hold stale values.
+          problem.evaluate(1.7 * x, r, &K);
+          problem.evaluate(x, r, &K);
+          const double scale = problem.force_scale(), energy = problem.energy();
+          SparseMatrix P = problem.make_preconditioner();
+          problem.assemble_preconditioner(P);
+          if (rings == 2) {  // distributed ADR's steps: its rows only, no exchange
+            ASSERT_TRUE(problem.set_own_rows_only(true));
+            problem.evaluate(x, own_r, nullptr);
+            problem.set_own_rows_only(false);
+          }
+          if (pass == 0) continue;
+          EXPECT_TRUE((r.array() == whole_r.array()).all()) << "rank " << rank << ": the whole residual";
+          EXPECT_EQ(scale, whole.force_scale());
+          EXPECT_NEAR(energy, whole.energy(), 1e-13 * std::abs(whole.energy()));
+          std::vector<char> mine(static_cast<std::size_t>(whole_r.size()), 0);
+          const std::vector<Index>& free = model.constraints.free_index;
+          for (Index c = 0; c < static_cast<Index>(free.size()); ++c)
+            if (free[c] >= 0 && rows.contains(c / 2)) mine[free[c]] = 1;
+          const long long entries = expect_rows_of(whole_P, P, mine, "bond preconditioner");
+          EXPECT_EQ(P.nonZeros(), entries) << "the rank stores its rows only";
+          if (rings == 1) {
+            VectorXd v = VectorXd::Constant(direction.size(), std::numeric_limits<double>::quiet_NaN());
+            for (const Index f : problem.action_reads()) v[f] = direction[f];
+            problem.apply_tangent(v, y);
+            for (Index f = 0; f < whole_r.size(); ++f)
+              EXPECT_EQ(y[f], mine[f] ? whole_y[f] : 0.0)
+                  << "action, unknown " << f << (mine[f] ? " (own)" : "");
+          } else {
+            const long long k = expect_rows_of(whole_K, K, mine, "tangent");
+            EXPECT_EQ(K.nonZeros(), k) << "the rank stores its rows only";
+            for (Index f = 0; f < whole_r.size(); ++f)
+              EXPECT_EQ(own_r[f], mine[f] ? whole_r[f] : 0.0) << "own rows, unknown " << f;
+          }
+        }
       }
+      EXPECT_GE(fewer, 2 * (ranks - 1)) << "the outer ranks hold some families only";
     }
   }
 }
