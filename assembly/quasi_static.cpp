@@ -36,6 +36,19 @@ std::unique_ptr<ContactSystem> make_contact(const Model& model, const ContactOpt
   return contact;
 }
 
+/// The free unknowns (ascending) of the particles `read` marks, with the sources of the mirror
+/// ghosts among them (a ghost's displacement is its source's image).
+std::vector<Index> read_unknowns(const Constraints& cons, std::vector<char>& read) {
+  for (const MirrorImage& im : cons.images)
+    if (read[static_cast<std::size_t>(im.ghost)]) read[static_cast<std::size_t>(im.source)] = 1;
+  std::vector<Index> unknowns;
+  for (std::size_t p = 0; p < read.size(); ++p)
+    if (read[p])
+      for (std::size_t c = 0; c < 2; ++c)
+        if (const Index f = cons.free_index[2 * p + c]; f >= 0) unknowns.push_back(f);
+  return unknowns;  // ascending: particles in order, and a particle's two unknowns in order
+}
+
 /// Partitioned bonds: the families whose surface correction a rank counts in its stats, each
 /// family on one rank (its owner's; those without a row on rank 0). Empty: every family.
 std::vector<char> counted_families(const Model& model, const OwnedRows& rows) {
@@ -707,16 +720,25 @@ std::vector<Index> QuasiStaticProblem::action_reads() const {
   }
   // (A plane mirror puts a read ghost's source within the same reach, by symmetry; the rule
   // holds for any image.)
-  for (const MirrorImage& im : cons.images)
-    if (read[static_cast<std::size_t>(im.ghost)]) read[static_cast<std::size_t>(im.source)] = 1;
-  std::vector<Index> unknowns;
-  for (Index p = 0; p < n; ++p)
-    if (read[static_cast<std::size_t>(p)])
-      for (int c = 0; c < 2; ++c)
-        if (const Index f = cons.free_index[static_cast<std::size_t>(2 * p + c)]; f >= 0)
-          unknowns.push_back(f);
-  std::sort(unknowns.begin(), unknowns.end());
-  return unknowns;
+  return read_unknowns(cons, read);
+}
+
+std::vector<Index> QuasiStaticProblem::residual_reads() const {
+  const_cast<QuasiStaticProblem*>(this)->build_own_masks();
+  const Bonds& bonds = m_model.bonds;
+  const Constraints& cons = m_model.constraints;
+  const Index n = m_model.particles.size();
+  std::vector<char> read(static_cast<std::size_t>(n), 0);
+  for (Index i = 0; i < n; ++i) {
+    if (!m_family_needed[static_cast<std::size_t>(i)]) continue;
+    read[static_cast<std::size_t>(i)] = 1;
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+      read[static_cast<std::size_t>(bonds.neighbour[b])] = 1;
+  }
+  if (m_contact)
+    for (const ContactPair& c : m_contact->pairs())
+      read[static_cast<std::size_t>(c.i)] = read[static_cast<std::size_t>(c.j)] = 1;
+  return read_unknowns(cons, read);
 }
 
 void QuasiStaticProblem::build_own_masks() {

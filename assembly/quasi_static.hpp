@@ -95,6 +95,11 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// reads: the ghosts of its rows, two horizons deep, with contact partners and mirror
   /// sources. Changes with structure_version(). Every unknown in one process.
   std::vector<Index> action_reads() const;
+  /// Distributed: the unknowns (ascending) whose entries of x the own-rows residual
+  /// (set_own_rows_only()) reads: the neighbours of every family it computes, every contact
+  /// pair's two particles (the pairs are evaluated whole) and the sources of mirror ghosts
+  /// among them. Changes with structure_version().
+  std::vector<Index> residual_reads() const;
   /// The contact candidates' version: a partner search that adds pairs grows the pattern.
   std::uint64_t structure_version() const override { return m_contact ? m_contact->version() : 0; }
   /// False while a pair slips with friction (the Jacobian of eq 14 is not symmetric).

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <limits>
 #include <stdexcept>
 #include <utility>
@@ -72,15 +73,21 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   const bool distributed = m_share.distributed();
   if (distributed && !m_problem.set_own_rows_only(true))
     throw std::logic_error("AdrSolver: the problem cannot evaluate its own rows only");
-  const ScopeExit whole_rows_after([&] {
-    if (distributed) m_problem.set_own_rows_only(false);
-  });
-  // After an update of the own unknowns: every rank's into every rank's copy.
+  // After an update of the own unknowns: each rank's ghosts from their owners (the entries
+  // its rows read), and every unknown on every rank once the solve ends, however it ends.
   const auto share = [&] {
     if (!distributed) return;
+    m_share.share_reads(x);
+    if (m_velocity) m_share.share_reads(m_v);
+  };
+  const ScopeExit whole_after([&] {
+    if (!distributed) return;
+    m_problem.set_own_rows_only(false);
+    // (Unwinding: no collective call, which the other ranks may not be making.)
+    if (std::uncaught_exceptions() > 0) return;
     m_share.share(x);
     if (m_velocity) m_share.share(m_v);
-  };
+  });
   // ||r|| and the Rayleigh quotient's sums (below) at x, over the ranks' own rows in one sum.
   double num = 0.0, den = 0.0;
   const auto measure = [&](bool damping) {
@@ -128,7 +135,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   // v^{n+1/2} = ((2 - c) v^{n-1/2} + 2 F^n / Lambda) / (2 + c), u^{n+1} = u^n + v^{n+1/2},
   // with F = -r and c from the local Rayleigh quotient (docs/theory/adr.md).
   m_v = -0.5 * m_r.cwiseQuotient(m_density);
-  x += m_v;  // distributed: other ranks' entries are replaced by share()
+  x += m_v;  // distributed: zero on other ranks' entries (their rows are zero here)
   share();
   double c = 0.0;
   for (long it = 1; it <= o.max_iterations; ++it) {
@@ -158,7 +165,11 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
     // c = 2 sqrt(u.K1 u / u.u) (num / den, from measure()), zero when the quotient is not
     // positive.
     c = (num > 0.0 && den > 0.0) ? std::min(2.0 * std::sqrt(num / den), kMaxDamping) : 0.0;
-    for (Index i = 0; i < n; ++i) {  // distributed: other ranks' entries replaced by share()
+    // Distributed: the own entries only; the ghosts come from their owners (share()), and the
+    // others, which this rank's rows never read, stay as they are until the solve ends (left
+    // to decay here, they would reach subnormal numbers and slow the loop).
+    for (Index i = 0; i < n; ++i) {
+      if (distributed && !m_share.owned[static_cast<std::size_t>(i)]) continue;
       m_v[i] = ((2.0 - c) * m_v[i] - 2.0 * m_r[i] / m_density[i]) / (2.0 + c);
       x[i] += m_v[i];
     }

@@ -19,6 +19,10 @@ struct UnknownShare {
   std::function<double(double)> max;
   /// Copies every rank's own entries of x into every rank's x.
   std::function<void(VectorXd& x)> share;
+  /// Copies into this rank's x only the entries its own-rows evaluation reads (its ghosts:
+  /// two horizons, contact pairs, mirror sources) from their owners; the others go stale until
+  /// the next share(). Between pseudo-time steps.
+  std::function<void(VectorXd& x)> share_reads;
 
   bool distributed() const { return !owned.empty(); }
 };

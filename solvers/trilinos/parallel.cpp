@@ -135,6 +135,47 @@ void OwnedExchange::share(double* x) {
   for (std::size_t k = 0; k < m_order.size(); ++k) x[m_order[k]] = m_received[k];
 }
 
+GhostExchange::GhostExchange(const std::vector<int>& owner, const std::vector<long long>& reads) {
+  const int ranks = size(), me = rank();
+  const auto R = static_cast<std::size_t>(ranks);
+  // What this rank receives: its reads that others own, grouped by owner (ascending within).
+  m_recv_counts.assign(R, 0);
+  for (const long long k : reads) {
+    const int p = owner.at(static_cast<std::size_t>(k));
+    if (p < 0 || p >= ranks) throw std::invalid_argument("GhostExchange: a read entry without an owner rank");
+    if (p != me) ++m_recv_counts[static_cast<std::size_t>(p)];
+  }
+  m_recv_displs.assign(R, 0);
+  for (std::size_t p = 1; p < R; ++p) m_recv_displs[p] = m_recv_displs[p - 1] + m_recv_counts[p - 1];
+  m_recv_index.resize(static_cast<std::size_t>(m_recv_displs[R - 1] + m_recv_counts[R - 1]));
+  std::vector<int> next = m_recv_displs;
+  for (const long long k : reads)
+    if (const int p = owner[static_cast<std::size_t>(k)]; p != me)
+      m_recv_index[static_cast<std::size_t>(next[static_cast<std::size_t>(p)]++)] = k;
+  // What it sends: each owner learns which of its entries every rank reads.
+  m_send_counts.assign(R, 0);
+  MPI_Alltoall(m_recv_counts.data(), 1, MPI_INT, m_send_counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  m_send_displs.assign(R, 0);
+  for (std::size_t p = 1; p < R; ++p) m_send_displs[p] = m_send_displs[p - 1] + m_send_counts[p - 1];
+  m_send_index.resize(static_cast<std::size_t>(m_send_displs[R - 1] + m_send_counts[R - 1]));
+  MPI_Alltoallv(m_recv_index.data(), m_recv_counts.data(), m_recv_displs.data(), MPI_LONG_LONG,
+                m_send_index.data(), m_send_counts.data(), m_send_displs.data(), MPI_LONG_LONG,
+                MPI_COMM_WORLD);
+  for (const long long k : m_send_index)
+    if (owner.at(static_cast<std::size_t>(k)) != me)
+      throw std::logic_error("GhostExchange: a rank asked for an entry this rank does not own");
+  m_send.resize(m_send_index.size());
+  m_received.resize(m_recv_index.size());
+}
+
+void GhostExchange::share(double* x) {
+  if (m_send_counts.size() <= 1) return;
+  for (std::size_t k = 0; k < m_send.size(); ++k) m_send[k] = x[m_send_index[k]];
+  MPI_Alltoallv(m_send.data(), m_send_counts.data(), m_send_displs.data(), MPI_DOUBLE, m_received.data(),
+                m_recv_counts.data(), m_recv_displs.data(), MPI_DOUBLE, MPI_COMM_WORLD);
+  for (std::size_t k = 0; k < m_received.size(); ++k) x[m_recv_index[k]] = m_received[k];
+}
+
 void abort_if_distributed(int code) {
   if (size() > 1) MPI_Abort(MPI_COMM_WORLD, code);
 }

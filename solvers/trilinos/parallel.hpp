@@ -52,6 +52,26 @@ class OwnedExchange {
   std::vector<long long> m_order;       ///< the entries, rank by rank, ascending within a rank
   std::vector<double> m_send, m_received;
 };
+/// Copies into each rank's copy of a vector the entries it reads and does not own, from their
+/// owners (distributed ADR between pseudo-time steps: a rank's rows read its ghosts, not every
+/// entry): entry k belongs to rank owner[k] (a table every rank holds alike), `reads` lists
+/// the entries this rank reads (its own among them are skipped). The construction is
+/// collective (each rank tells the owners what it reads); share() is collective, one
+/// MPI_Alltoallv of the ghosts' values.
+class GhostExchange {
+ public:
+  GhostExchange(const std::vector<int>& owner, const std::vector<long long>& reads);
+  void share(double* x);
+  /// Entries this rank receives and sends per share().
+  std::size_t received() const { return m_recv_index.size(); }
+  std::size_t sent() const { return m_send_index.size(); }
+
+ private:
+  std::vector<int> m_send_counts, m_send_displs, m_recv_counts, m_recv_displs;
+  std::vector<long long> m_send_index, m_recv_index;  ///< rank by rank
+  std::vector<double> m_send, m_received;
+};
+
 /// Ends every rank with `code` when more than one runs (an error that one rank meets alone
 /// would leave the others waiting in a collective operation); returns otherwise.
 void abort_if_distributed(int code);

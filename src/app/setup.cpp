@@ -168,6 +168,22 @@ UnknownShare unknown_share(const QuasiStaticProblem& problem) {
   share.max = parallel::max_over_ranks;
   auto exchange = std::make_shared<parallel::OwnedExchange>(owner);  // throws for an unknown without owner
   share.share = [exchange](VectorXd& x) { exchange->share(x.data()); };
+  // The ghosts, rebuilt (collectively: every rank sees the same contact version) when a
+  // partner search changed the pairs.
+  struct Ghosts {
+    std::uint64_t version = 0;
+    std::unique_ptr<parallel::GhostExchange> exchange;
+  };
+  auto ghosts = std::make_shared<Ghosts>();
+  share.share_reads = [ghosts, owner, &problem](VectorXd& x) {
+    if (!ghosts->exchange || ghosts->version != problem.structure_version()) {
+      const std::vector<Index> reads = problem.residual_reads();
+      ghosts->exchange = std::make_unique<parallel::GhostExchange>(
+          owner, std::vector<long long>(reads.begin(), reads.end()));
+      ghosts->version = problem.structure_version();
+    }
+    ghosts->exchange->share(x.data());
+  };
   return share;
 }
 

@@ -104,8 +104,10 @@ struct RankedMatrices {
   VectorXd r;
   double scale = 0.0;  ///< force_scale() of the whole evaluation
   /// With ProblemOptions::sum_over_ranks (distributed ADR, set_own_rows_only()): the residual
-  /// of the own rows only, its force scale, and the whole residual evaluated after it again.
-  VectorXd own_r, r_after;
+  /// of the own rows only, its force scale, and the whole residual evaluated after it again;
+  /// the own rows again from x with NaN outside residual_reads(), and how many entries those are.
+  VectorXd own_r, r_after, own_r_from_reads;
+  Index reads = 0;
   double own_scale = 0.0;
 };
 
@@ -130,6 +132,12 @@ RankedMatrices assemble(const Model& model, ProblemOptions options, const Prepar
     problem.set_own_rows_only(true);
     problem.evaluate(x, m.own_r, nullptr);
     m.own_scale = problem.force_scale();
+    // Distributed ADR shares only these entries between its steps (GhostExchange).
+    const std::vector<Index> reads = problem.residual_reads();
+    m.reads = static_cast<Index>(reads.size());
+    VectorXd ghosts_only = VectorXd::Constant(x.size(), std::numeric_limits<double>::quiet_NaN());
+    for (const Index f : reads) ghosts_only[f] = x[f];
+    problem.evaluate(ghosts_only, m.own_r_from_reads, nullptr);
     problem.set_own_rows_only(false);
     problem.evaluate(x, m.r_after, nullptr);
   }
@@ -275,6 +283,11 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
       for (Index f = 0; f < whole.r.size(); ++f)
         EXPECT_EQ(part.own_r[f], mine[f] ? whole.r[f] : 0.0) << "unknown " << f << (mine[f] ? " (own)" : "");
       EXPECT_NEAR(part.own_scale, whole.scale, 1e-14 * whole.scale);
+      EXPECT_TRUE((part.own_r_from_reads.array() == part.own_r.array()).all())
+          << "the own rows read x only at residual_reads()";
+      if (!small && (rank == 0 || rank == ranks - 1)) {  // (a middle rank of a narrow plate may read all)
+        EXPECT_LT(part.reads, whole.r.size()) << "an outer rank reads its ghosts, not everything";
+      }
       EXPECT_TRUE((part.r_after.array() == whole.r.array()).all()) << "whole again after own rows only";
       const VectorXd y = action(options);
       for (Index f = 0; f < whole.r.size(); ++f)
