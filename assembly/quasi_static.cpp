@@ -595,7 +595,8 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
   const Particles& p = m_model.particles;
   const Index n = p.size();
   // Partitioned: the energy of the rank's own families and of those without a row (which every
-  // rank computes), to be summed over the ranks once each; a neighbour's family counts on its owner.
+  // rank computes), to be summed over the ranks once each; a neighbour's family counts on its
+  // owner.
   double energy = 0.0, own_energy = 0.0, unowned_energy = 0.0;
   // (Own rows only: the rank's rows of a distributed ADR step, no energy and no exchange.)
   const bool restrict = restricted(), split = partitioned() && !m_own_rows_only;
@@ -635,8 +636,10 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
     }
   }
   // Own rows only: a part of the families, not the energy of the model.
+  // (Those without a row count on rank 0, inside the sum: every rank gets the same bits, whatever
+  // its thread count, so that the energy check decides alike on every rank.)
   if (split)
-    m_energy = m_options.sum_over_ranks(own_energy) + unowned_energy;
+    m_energy = m_options.sum_over_ranks(own_energy + (rank == 0 ? unowned_energy : 0.0));
   else
     m_energy = m_own_rows_only ? std::numeric_limits<double>::quiet_NaN() : energy;
 }
