@@ -11,7 +11,8 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
   const Particles& p = model.particles;
   s.particles = p.size();
   for (char f : p.fictitious) s.fictitious += f;
-  s.bonds = model.n_bonds_whole / 2;  // a rank with partitioned bonds holds some families only
+  s.bonds = static_cast<long long>(model.n_bonds_whole /
+                                   2);  // a rank with partitioned bonds holds some families only
   s.cut_bonds = model.n_cut_bonds;
   s.unknowns = model.constraints.n_free;
   s.prescribed = 2 * p.size() - s.unknowns;
@@ -40,7 +41,7 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
 
 void print_size(const ModelSize& s) {
   std::printf("  particles      %d (%d fictitious)\n", s.particles, s.fictitious);
-  std::printf("  bonds          %d (%d cut by pre-cracks)\n", s.bonds, s.cut_bonds);
+  std::printf("  bonds          %lld (%d cut by pre-cracks)\n", s.bonds, s.cut_bonds);
   if (s.bonds_partitioned)
     std::printf(
         "                 partitioned: a rank holds at most %lld of the %lld directed bonds (%.1f%%)\n",

@@ -7,7 +7,8 @@
 namespace peristat {
 
 struct ModelSize {
-  Index particles = 0, fictitious = 0, bonds = 0, cut_bonds = 0, unknowns = 0, prescribed = 0;
+  Index particles = 0, fictitious = 0, cut_bonds = 0, unknowns = 0, prescribed = 0;
+  long long bonds = 0;  ///< the whole model's, which a distributed run may hold in parts (more than 2^31)
   long long nonzeros = 0;
   double memory_bytes = 0.0;  ///< model + problem state + one tangent (factorisation excluded)
   SurfaceCorrectionMethod correction = SurfaceCorrectionMethod::none;

@@ -104,8 +104,9 @@ struct Model {
   /// are empty, and a held family's bond to a particle whose family is not held has no
   /// reverse (-1).
   std::vector<char> family_held;
-  /// Directed bonds of the whole model (bonds.n_bonds() when every family is held).
-  Index n_bonds_whole = 0;
+  /// Directed bonds of the whole model (bonds.n_bonds() when every family is held): 64 bits, as
+  /// a model whose ranks hold its bonds in parts may have more than 2^31 (45M particles at m = 3).
+  std::int64_t n_bonds_whole = 0;
 
   bool holds_every_family() const { return family_held.empty(); }
 
