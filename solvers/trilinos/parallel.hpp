@@ -62,9 +62,6 @@ class GhostExchange {
  public:
   GhostExchange(const std::vector<int>& owner, const std::vector<long long>& reads);
   void share(double* x);
-  /// Entries this rank receives and sends per share().
-  std::size_t received() const { return m_recv_index.size(); }
-  std::size_t sent() const { return m_send_index.size(); }
 
  private:
   std::vector<int> m_send_counts, m_send_displs, m_recv_counts, m_recv_displs;
