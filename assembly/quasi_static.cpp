@@ -58,13 +58,22 @@ std::vector<char> counted_families(const Model& model, const OwnedRows& rows) {
     counted[p] = rows.owner[p] == rows.rank || (rows.owner[p] < 0 && rows.rank == 0);
   return counted;
 }
+
+/// With partitioned bonds, the rank's share of the failure decisions: it proposes the pairs
+/// of the families it counts (its own; rank 0's also those without a row).
+FailureRanks failure_ranks(const Model& model, const ProblemOptions& options) {
+  if (model.holds_every_family()) return {};
+  return {counted_families(model, options.rows), options.gather_over_ranks, options.share_particle_values};
+}
 }  // namespace
 
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions& options)
     : m_model(model),
       m_options(options),
       m_contact(make_contact(model, options.contact, m_contact_setup_seconds)),
-      m_failure(options.failure.enabled ? std::make_unique<BondFailure>(model, options.failure) : nullptr),
+      m_failure(options.failure.enabled
+                    ? std::make_unique<BondFailure>(model, options.failure, failure_ranks(model, options))
+                    : nullptr),
       m_pattern(options.matrix_free
                     ? TangentPattern{}
                     : build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get(), options.rows)),
@@ -96,7 +105,7 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   if (m_contact) m_fcontact_accepted = VectorXd::Zero(2 * n);
   if (m_failure) {
     m_damage_accepted = VectorXd::Zero(n);
-    find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component);
+    find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component, graph_parts().get());
     m_fragment.assign(n, 0);
   }
   for (Index i = 0; i < n; ++i) m_energy_unit += model.particles.volume[i] * model.bodies[model.particles.body[i]].material.E;
@@ -108,15 +117,16 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
 }
 
 void QuasiStaticProblem::check_partition() const {
-  // What the partitioned path supports (docs/guide/distributed.md, "Partitioned bonds"): no
-  // failure (breaking reads and changes every family), forces shared after each whole
-  // evaluation. The residual and the matrix-free action read the families of the rank's
-  // particles and their neighbours; an assembled tangent (and ADR's density from it) reads a
-  // column's families two horizons from its rows, so then the neighbours of those are held too.
-  if (!distributed() || !m_options.share_forces || m_failure)
+  // What the partitioned path supports (docs/guide/distributed.md, "Partitioned bonds"): forces
+  // shared after each whole evaluation; with failure, the collectives of its decisions. The residual and the
+  // matrix-free action read the families of the rank's particles and their neighbours; an assembled tangent
+  // (and ADR's density from it) reads a column's families two horizons from its rows, so then the neighbours
+  // of those are held too.
+  if (!distributed() || !m_options.share_forces ||
+      (m_failure && (!m_options.gather_over_ranks || !m_options.share_particle_values)))
     throw std::logic_error(
-        "QuasiStaticProblem: partitioned bonds need a distributed problem without failure and a force "
-        "exchange");
+        "QuasiStaticProblem: partitioned bonds need a distributed problem and a force exchange (and, with "
+        "failure, a gather and a particle exchange)");
   const_cast<QuasiStaticProblem*>(this)->build_own_masks();
   const Bonds& bonds = m_model.bonds;
   const std::vector<char>& held = m_model.family_held;
@@ -351,16 +361,9 @@ void QuasiStaticProblem::restore_state(const StateArchive& archive, const Vector
   const std::vector<double>& e = archive.get("problem/energy_ledger", 8);
   m_ledger = EnergyLedger{e[0], e[1], e[2], e[3], e[4], e[5], e[6], static_cast<Index>(e[7])};
   if (m_failure) {
-    m_failure->restore(archive);
     // The families holding a broken bond get their influence factors again (each family's
     // factors depend on its own bonds only, so the order of the rounds does not matter).
-    const Bonds& bonds = m_model.bonds;
-    std::vector<std::pair<Index, Index>> broken;
-    for (const double b : archive.get("failure/broken_bonds")) {
-      const auto k = static_cast<Index>(b);
-      broken.emplace_back(bonds.neighbour[bonds.reverse[k]], bonds.neighbour[k]);
-    }
-    collect_changed_families(broken);
+    collect_changed_families(m_failure->restore(archive));
     if (!m_changed_families.empty()) m_correction.update(m_failure->weights(), m_changed_families);
   }
   if (m_contact) {
@@ -526,9 +529,14 @@ double QuasiStaticProblem::tangent_diagonal_max() const {
   return largest;
 }
 
+std::unique_ptr<GraphParts> QuasiStaticProblem::graph_parts() const {
+  if (!m_failure || !m_failure->partitioned()) return nullptr;
+  return std::make_unique<GraphParts>(GraphParts{m_failure->ranks().proposes, m_options.gather_over_ranks});
+}
+
 void QuasiStaticProblem::update_fragments() {
   if (!m_failure) return;
-  find_unsupported(m_model, m_failure->weights(), m_unsupported, m_component);
+  find_unsupported(m_model, m_failure->weights(), m_unsupported, m_component, graph_parts().get());
   const Index n = m_model.particles.size();
   const std::vector<Index>& free = m_model.constraints.free_index;
   m_fragment_unknowns.clear();

@@ -19,6 +19,7 @@
 #include "discretisation/model.hpp"
 #include "materials/bond_failure.hpp"
 #include "materials/family_kernel.hpp"
+#include "materials/fragments.hpp"
 #include "materials/surface_correction.hpp"
 
 namespace peristat {
@@ -66,6 +67,11 @@ struct ProblemOptions {
   /// 2N forces. Every evaluate() computes the forces of the rank's particles and of those
   /// without a row, then shares them, so that the residual is whole on every rank.
   std::function<void(VectorXd& force)> share_forces;
+  /// With partitioned bonds and failure: every rank's values in rank order, on every rank
+  /// (the candidates of a round of breaking, the pieces of the bond graph), and a vector of
+  /// one value per particle with each owner's entries copied to every rank (the damage).
+  GatherOverRanks gather_over_ranks;
+  std::function<void(VectorXd& per_particle)> share_particle_values;
 };
 
 class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
@@ -188,6 +194,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   const ContactSystem* contact() const { return m_contact.get(); }
   /// The bonds' failure state, or null when the scene models no failure.
   const BondFailure* failure() const { return m_failure.get(); }
+  /// With failure: the damage of every particle at the last committed state.
+  const VectorXd& damage() const { return m_damage_accepted; }
   /// The families' influence factors (docs/theory/osb.md, section 8).
   const SurfaceCorrection& surface_correction() const { return m_correction; }
   /// Wall time spent building the contact candidates, and evaluating the pairs (summed over
@@ -233,6 +241,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   std::string measure_increment(const VectorXd& x, bool check);
   /// The fragments at the current bonds (after breaking, undoing or restoring).
   void update_fragments();
+  /// With partitioned bonds and failure: this rank's part of the bond graph (null otherwise).
+  std::unique_ptr<GraphParts> graph_parts() const;
   /// Fragment unknowns of K: rows and columns zero, the diagonal the largest of K's.
   void decouple_fragments(SparseMatrix& K) const;
   /// Matrix-free: the largest diagonal entry of K over the unknowns (the fragments' diagonal),

@@ -2,6 +2,7 @@
 
 #include <array>
 #include <cstdlib>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -12,7 +13,7 @@ namespace peristat::parallel {
 
 namespace {
 
-int g_argc = 0;  // MPI_Init of a plain process sees no arguments
+int g_argc = 0;  // MPI_Init and Kokkos see no arguments (Session)
 char** g_argv = nullptr;
 
 void finalize_at_exit() {
@@ -45,8 +46,10 @@ bool launched_by_mpirun() {
          std::getenv("PMIX_RANK") != nullptr;
 }
 
-Session::Session(int* argc, char*** argv) {
-  if (launched_by_mpirun()) start(argc, argv);
+Session::Session() {
+  // MPI and Kokkos see no arguments: Kokkos::initialize parses the command line and aborts on
+  // peristat's own `--threads 1` (it wants its `--threads=N`), or prints its help for `--help`.
+  if (launched_by_mpirun()) start(&g_argc, &g_argv);
 }
 
 Session::~Session() { finalize_at_exit(); }
@@ -100,6 +103,27 @@ void sum_in_rank_order(double* values, int n) {
 double sum_over_ranks(double value) {
   sum_in_rank_order(&value, 1);
   return value;
+}
+
+std::vector<double> gather_over_ranks(const std::vector<double>& mine) {
+  const int ranks = size();
+  if (ranks <= 1) return mine;
+  if (mine.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+    throw std::length_error("gather_over_ranks: more than 2^31 values from one rank");
+  const int count = static_cast<int>(mine.size());
+  std::vector<int> counts(static_cast<std::size_t>(ranks)), displs(static_cast<std::size_t>(ranks), 0);
+  MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  long long total = counts[0];
+  for (std::size_t p = 1; p < counts.size(); ++p) {
+    displs[p] = displs[p - 1] + counts[p - 1];
+    total += counts[p];
+    if (total > std::numeric_limits<int>::max())
+      throw std::length_error("gather_over_ranks: more than 2^31 values over the ranks");
+  }
+  std::vector<double> all(static_cast<std::size_t>(total));
+  MPI_Allgatherv(mine.data(), count, MPI_DOUBLE, all.data(), counts.data(), displs.data(), MPI_DOUBLE,
+                 MPI_COMM_WORLD);
+  return all;
 }
 
 OwnedExchange::OwnedExchange(const std::vector<int>& owner, bool keep_unowned) : m_rank(rank()) {

@@ -15,7 +15,7 @@ bool launched_by_mpirun();
 /// program, in main(), outliving every distributed object.
 class Session {
  public:
-  Session(int* argc, char*** argv);
+  Session();
   ~Session();
   Session(const Session&) = delete;
   Session& operator=(const Session&) = delete;
@@ -36,6 +36,9 @@ long long sum_over_ranks(long long value);
 /// every rank, so that every rank gets the same bits (an MPI_Allreduce need not).
 void sum_in_rank_order(double* values, int n);
 double sum_over_ranks(double value);
+/// Every rank's `mine` concatenated in rank order, on every rank (MPI_Allgather of the
+/// counts, then MPI_Allgatherv); `mine` itself in one process.
+std::vector<double> gather_over_ranks(const std::vector<double>& mine);
 
 /// Copies every rank's own entries of a vector into every rank's copy (distributed ADR; the
 /// forces of partitioned bonds): entry k belongs to rank owner[k], a table every rank holds

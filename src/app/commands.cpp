@@ -132,7 +132,11 @@ ProblemOptions process_problem_options(const Scene& scene, const ProcessModel& m
     options.rows = m.rows;
     options.max_over_ranks = parallel::max_over_ranks;
     options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
-    if (m.bonds.partitioned) options.share_forces = force_exchange(m.rows);
+    if (m.bonds.partitioned) {
+      options.share_forces = force_exchange(m.rows);
+      options.gather_over_ranks = parallel::gather_over_ranks;
+      options.share_particle_values = particle_exchange(m.rows);
+    }
   }
   return options;
 }

@@ -56,14 +56,6 @@ BondsChoice partitioned_bonds(const Scene& scene, int ranks) {
   const BelosBonds asked = scene.solver.linear.belos.bonds;
   if (ranks <= 1 || asked == BelosBonds::whole)
     return {false, 0, ranks <= 1 ? "one process" : "solver.belos.bonds: whole"};
-  if (scene.failure.enabled) {
-    const std::string why =
-        "breaking bonds changes families on every rank (the scene has a failure criterion)";
-    if (asked == BelosBonds::partitioned)
-      throw InputError("solver.belos.bonds: partitioned is not available for this run: " + why +
-                       "; use solver.belos.bonds: auto or whole");
-    return {false, 0, "every rank holds every family: " + why};
-  }
   const bool action = scene.solver.type == SolverKind::newton &&
                       scene.solver.linear.type == LinearSolverKind::belos &&
                       scene.solver.linear.belos.tangent == BelosTangent::matrix_free;
@@ -80,6 +72,11 @@ std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows, in
   for (std::size_t p = 0; p < held.size(); ++p) held[p] = rows.owner[p] == rows.rank || rows.owner[p] < 0;
   for (int ring = 0; ring < rings; ++ring) held = within_stencil(model, held);
   return held;
+}
+
+std::function<void(VectorXd&)> particle_exchange(const OwnedRows& rows) {
+  auto exchange = std::make_shared<parallel::OwnedExchange>(rows.owner, true);
+  return [exchange](VectorXd& values) { exchange->share(values.data()); };
 }
 
 std::function<void(VectorXd&)> force_exchange(const OwnedRows& rows) {

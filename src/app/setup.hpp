@@ -53,10 +53,9 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
 
 /// Whether each rank of a distributed run holds only the bond families it evaluates
 /// (solver.belos.bonds, docs/guide/distributed.md "Partitioned bonds"), how deep, and why.
-/// Needs no failure criterion (`auto` holds the whole model then, an explicit `partitioned` is
-/// refused: InputError). The matrix-free tangent (Newton with belos, the default under mpirun)
-/// reads the families of a rank's particles and of their neighbours: one ring; an assembled
-/// tangent (belos's `assembled`, or ADR's for its density) reads a column's families two
+/// With a failure criterion too (its decisions gathered over the ranks). The matrix-free tangent (Newton with
+/// belos, the default under mpirun) reads the families of a rank's particles and of their neighbours: one
+/// ring; an assembled tangent (belos's `assembled`, or ADR's for its density) reads a column's families two
 /// horizons from its rows: two rings. Call after resolve_linear_solver(). False in one process.
 struct BondsChoice {
   bool partitioned = false;
@@ -72,6 +71,9 @@ std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows, in
 /// ProblemOptions::share_forces for a rank with `rows`: the forces of its particles, both
 /// components, to every rank (an MPI_Allgatherv); those without a row stay as computed.
 std::function<void(VectorXd&)> force_exchange(const OwnedRows& rows);
+/// ProblemOptions::share_particle_values for a rank with `rows`: one value per particle, its
+/// owner's to every rank; those without a row stay as computed.
+std::function<void(VectorXd&)> particle_exchange(const OwnedRows& rows);
 
 /// Each unknown's particle and direction, and the particles' positions (LinearSolver's hint).
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns);

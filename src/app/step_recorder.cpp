@@ -179,7 +179,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   rec.counts["energy_quadrature"] = e.quadrature;
   rec.counts["energy_worst_relative"] = e.worst_relative;
   if (const BondFailure* failure = m_problem.failure()) {
-    failure->damage(m_damage);
+    m_damage = m_problem.damage();  // the committed state's, shared by every rank
     rec.damage = &m_damage;
     rec.counts["bonds_broken"] = s.bonds_broken;
     rec.counts["broken_bonds_total"] = failure->broken();
@@ -194,10 +194,9 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
       rec.counts["fragment_contacts"] = m_problem.fragment_contacts();
       rec.counts["fragment_reaction"] = m_problem.fragment_reaction();
     }
-    if (peak.bond >= 0) {
-      const Model& model = m_problem.model();
-      const Index b = peak.bond, i = model.bonds.neighbour[model.bonds.reverse[b]];
-      const Vec2 mid = model.particles.position[i] + 0.5 * model.bonds.xi[b];
+    if (peak.i >= 0) {
+      const std::vector<Vec2>& X = m_problem.model().particles.position;
+      const Vec2 mid = X[peak.i] + 0.5 * Vec2(X[peak.j] - X[peak.i]);
       rec.counts["criterion_peak_x"] = mid.x();
       rec.counts["criterion_peak_y"] = mid.y();
     }

@@ -91,7 +91,7 @@ enum class BelosTangent {
 /// solver.belos.bonds: which bond families a rank of a distributed run holds
 /// (docs/guide/distributed.md, "Partitioned bonds").
 enum class BelosBonds {
-  automatic,    ///< `partitioned` where the run allows it (partitioned_bonds()), else `whole`
+  automatic,    ///< `partitioned` in every distributed run (partitioned_bonds())
   partitioned,  ///< the families its rows and their neighbours' read, built on the rank alone
   whole         ///< every family on every rank
 };

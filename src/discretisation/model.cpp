@@ -409,6 +409,7 @@ class Builder {
     bonds.weight.reserve(capacity);
     stencil_index.reserve(capacity);
     bonds.start.assign(n + 1, 0);
+    if (!hold.empty()) m_model.whole_start.assign(static_cast<std::size_t>(n) + 1, 0);
     for (Index i = 0; i < n; ++i) {
       near.clear();
       for (const Crack& crack : m_scene.cracks) {
@@ -436,6 +437,7 @@ class Builder {
         stencil_index.push_back(static_cast<int>(k));
       }
       bonds.start[i + 1] = static_cast<Index>(bonds.neighbour.size());
+      if (!hold.empty()) m_model.whole_start[static_cast<std::size_t>(i) + 1] = m_model.n_bonds_whole;
     }
     // Reverse bonds: a family lists its bonds in increasing stencil index, so the bond
     // j -> i (stencil index mirror[k]) is found by binary search in j's family.
@@ -586,7 +588,7 @@ std::size_t Model::memory_bytes() const {
   const Particles& p = particles;
   return bytes(p.position) + bytes(p.volume) + bytes(p.body) + bytes(p.fictitious) + bytes(p.lattice) +
          bytes(bonds.start) + bytes(bonds.neighbour) + bytes(bonds.xi) + bytes(bonds.weight) +
-         bytes(bonds.reverse) + bytes(family_held) + bytes(constraints.prescribed) +
+         bytes(bonds.reverse) + bytes(family_held) + bytes(whole_start) + bytes(constraints.prescribed) +
          bytes(constraints.value) + bytes(constraints.free_index) + bytes(constraints.images) +
          bytes(constraints.image_start) +
          [&] {

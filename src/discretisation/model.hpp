@@ -107,6 +107,10 @@ struct Model {
   /// Directed bonds of the whole model (bonds.n_bonds() when every family is held): 64 bits, as
   /// a model whose ranks hold its bonds in parts may have more than 2^31 (45M particles at m = 3).
   std::int64_t n_bonds_whole = 0;
+  /// With family_held (partitioned bonds): the whole model's family starts (N + 1), so that
+  /// bond k of particle i's family has the whole model's index whole_start[i] + k on every
+  /// rank (a broken bond's identity in a checkpoint). Empty when every family is held.
+  std::vector<std::int64_t> whole_start;
 
   bool holds_every_family() const { return family_held.empty(); }
 

@@ -4,15 +4,19 @@
 #include <cmath>
 #include <functional>
 #include <numbers>
+#include <stdexcept>
+#include <tuple>
 
+#include "core/error.hpp"
 #include "materials/failure.hpp"
 #include "materials/osb.hpp"
 
 namespace peristat {
 
-BondFailure::BondFailure(const Model& model, const FailureOptions& options)
+BondFailure::BondFailure(const Model& model, const FailureOptions& options, FailureRanks ranks)
     : m_model(model),
       m_options(options),
+      m_ranks(model.holds_every_family() ? FailureRanks{} : std::move(ranks)),
       m_min_sin(std::sin(options.skew_min_angle * std::numbers::pi / 180.0)),
       m_weight(model.bonds.weight) {
   const Bonds& bonds = model.bonds;
@@ -33,6 +37,10 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options)
     }
   }
   m_ratio.assign(bonds.neighbour.size(), 0.0);
+  if (partitioned() && (m_ranks.proposes.size() != static_cast<std::size_t>(n) || !m_ranks.gather ||
+                        !m_ranks.share || model.whole_start.size() != static_cast<std::size_t>(n) + 1))
+    throw std::logic_error(
+        "BondFailure: a model holding some families only needs its rank's share (FailureRanks)");
 }
 
 const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(std::span<const Vec2> eta,
@@ -57,6 +65,7 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
       for (Index b = b0; b < b0 + nb; ++b) m_ratio[b] = bond_stretch(bonds.xi[b], eta[b]) / critical;
     }
   }
+  if (partitioned()) return break_partitioned(at_most);
   // Candidates: intact pairs (b < reverse) whose larger ratio of the two directions exceeds 1.
   m_over.clear();
   m_peak = Peak{};
@@ -65,7 +74,7 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
     if (b > r || m_weight[b] == 0.0) continue;
     if (p.fictitious[bonds.neighbour[b]] && p.fictitious[bonds.neighbour[r]]) continue;
     const double ratio = std::max(m_ratio[b], m_ratio[r]);
-    if (ratio > m_peak.ratio) m_peak = Peak{ratio, b};
+    if (ratio > m_peak.ratio) m_peak = Peak{ratio, bonds.neighbour[r], bonds.neighbour[b]};
     if (ratio > 1.0) m_over.emplace_back(ratio, b);
   }
   if (m_over.empty()) return m_round;
@@ -74,29 +83,108 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
       1, static_cast<std::size_t>(std::ceil(m_options.fraction * static_cast<double>(m_over.size()))));
   if (at_most > 0) count = std::min(count, static_cast<std::size_t>(at_most));
   for (std::size_t k = 0; k < count; ++k) {
-    const Index b = m_over[k].second;
-    m_weight[b] = 0.0;
-    m_weight[bonds.reverse[b]] = 0.0;
-    m_round.emplace_back(bonds.neighbour[bonds.reverse[b]], bonds.neighbour[b]);
-    m_round_bonds.push_back(b);
+    const Index b = m_over[k].second, r = bonds.reverse[b];
+    break_pair(bonds.neighbour[r], b, bonds.neighbour[b], r);
   }
-  m_broken += static_cast<Index>(count);
-  if (skew) {
-    // A particle whose reference bond broke measures its skew against the closest intact
-    // bond from now on: the broken one's rotation contains the crack's slip.
-    for (const Index b : m_round_bonds) {
-      for (const Index c : {b, bonds.reverse[b]}) {
-        const Index i = bonds.neighbour[bonds.reverse[c]];
-        if (m_reference_bond[i] != c) continue;
-        const Index b0 = bonds.start[i], nb = bonds.family_size(i);
-        const Index r = reference_bond(std::span(bonds.xi).subspan(b0, nb), m_options.direction,
-                                       std::span<const double>(m_weight).subspan(b0, nb));
-        m_round_references.emplace_back(i, c);
-        m_reference_bond[i] = r >= 0 ? b0 + r : -1;
-      }
+  reselect_references();
+  return m_round;
+}
+
+const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index at_most) {
+  // Each rank proposes the pairs (i, j > i) of the families it is the proposer of, the same
+  // pairs one process loops over (b < reverse[b]); every rank then sorts every rank's
+  // candidates as one process sorts its bonds: by ratio, then by the whole model's bond index
+  // b = whole_start[i] + k, that is by (i, k), both descending.
+  const Bonds& bonds = m_model.bonds;
+  const Particles& p = m_model.particles;
+  const Index n = p.size();
+  std::vector<double> mine = {0.0, 0.0, -1.0, -1.0, -1.0};  // count, then the peak's ratio, i, k, j
+  Peak peak;
+  Index peak_k = -1;
+  for (Index i = 0; i < n; ++i) {
+    if (!m_ranks.proposes[static_cast<std::size_t>(i)]) continue;
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
+      const Index j = bonds.neighbour[b];
+      if (j < i || m_weight[b] == 0.0) continue;
+      if (p.fictitious[i] && p.fictitious[j]) continue;
+      const Index r = bonds.reverse[b];
+      if (r < 0)
+        throw std::logic_error("BondFailure: the proposer of a pair does not hold its reverse family");
+      const double ratio = std::max(m_ratio[b], m_ratio[r]);
+      if (ratio > peak.ratio) peak = Peak{ratio, i, j}, peak_k = b - bonds.start[i];
+      if (ratio <= 1.0) continue;
+      mine.insert(mine.end(), {ratio, static_cast<double>(i), static_cast<double>(b - bonds.start[i]),
+                               static_cast<double>(j), static_cast<double>(r - bonds.start[j])});
+      mine[0] += 1.0;
     }
   }
+  if (peak.i >= 0) {
+    mine[1] = peak.ratio;
+    mine[2] = peak.i;
+    mine[3] = peak_k;
+    mine[4] = peak.j;
+  }
+  const std::vector<double> all = m_ranks.gather(mine);
+  m_peak = Peak{};
+  peak_k = -1;
+  m_candidates.clear();
+  for (std::size_t at = 0; at < all.size();) {
+    const auto count = static_cast<std::size_t>(all[at]);
+    const double ratio = all[at + 1];
+    const auto i = static_cast<Index>(all[at + 2]), k = static_cast<Index>(all[at + 3]);
+    // One process keeps the first bond of the largest ratio: the smallest (i, k).
+    if (i >= 0 &&
+        (ratio > m_peak.ratio || (ratio == m_peak.ratio && std::pair(i, k) < std::pair(m_peak.i, peak_k))))
+      m_peak = Peak{ratio, i, static_cast<Index>(all[at + 4])}, peak_k = k;
+    at += 5;
+    for (std::size_t c = 0; c < count; ++c, at += 5)
+      m_candidates.push_back({all[at], static_cast<Index>(all[at + 1]), static_cast<Index>(all[at + 2]),
+                              static_cast<Index>(all[at + 3]), static_cast<Index>(all[at + 4])});
+  }
+  if (m_candidates.empty()) return m_round;
+  std::sort(m_candidates.begin(), m_candidates.end(), [](const Candidate& a, const Candidate& b) {
+    return std::tuple(a.ratio, a.i, a.k) > std::tuple(b.ratio, b.i, b.k);
+  });
+  auto count = std::max<std::size_t>(
+      1, static_cast<std::size_t>(std::ceil(m_options.fraction * static_cast<double>(m_candidates.size()))));
+  if (at_most > 0) count = std::min(count, static_cast<std::size_t>(at_most));
+  const std::vector<char>& held = m_model.family_held;
+  for (std::size_t c = 0; c < count; ++c) {
+    const Candidate& x = m_candidates[c];
+    const Index bi = held[static_cast<std::size_t>(x.i)] ? bonds.start[x.i] + x.k : -1;
+    const Index bj = held[static_cast<std::size_t>(x.j)] ? bonds.start[x.j] + x.kr : -1;
+    PERISTAT_ASSERT(bi < 0 || bonds.neighbour[bi] == x.j);
+    PERISTAT_ASSERT(bj < 0 || bonds.neighbour[bj] == x.i);
+    break_pair(x.i, bi, x.j, bj);
+    m_broken_whole.push_back(m_model.whole_start[static_cast<std::size_t>(x.i)] + x.k);
+  }
+  reselect_references();
   return m_round;
+}
+
+void BondFailure::break_pair(Index i, Index bi, Index j, Index bj) {
+  for (const auto& [particle, b] : {std::pair(i, bi), std::pair(j, bj)}) {
+    if (b < 0) continue;
+    m_weight[b] = 0.0;
+    m_round_bonds.emplace_back(particle, b);
+  }
+  m_round.emplace_back(i, j);
+  ++m_broken;
+}
+
+void BondFailure::reselect_references() {
+  if (m_options.criterion != FailureCriterion::skew) return;
+  // A particle whose reference bond broke measures its skew against the closest intact
+  // bond from now on: the broken one's rotation contains the crack's slip.
+  const Bonds& bonds = m_model.bonds;
+  for (const auto& [i, c] : m_round_bonds) {
+    if (m_reference_bond[i] != c) continue;
+    const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+    const Index r = reference_bond(std::span(bonds.xi).subspan(b0, nb), m_options.direction,
+                                   std::span<const double>(m_weight).subspan(b0, nb));
+    m_round_references.emplace_back(i, c);
+    m_reference_bond[i] = r >= 0 ? b0 + r : -1;
+  }
 }
 
 void BondFailure::commit() {
@@ -107,11 +195,9 @@ void BondFailure::commit() {
 
 void BondFailure::revert() {
   const Bonds& bonds = m_model.bonds;
-  for (const Index b : m_round_bonds) {
-    m_weight[b] = bonds.weight[b];
-    m_weight[bonds.reverse[b]] = bonds.weight[bonds.reverse[b]];
-  }
-  m_broken -= static_cast<Index>(m_round_bonds.size());
+  for (const auto& [particle, b] : m_round_bonds) m_weight[b] = bonds.weight[b];
+  m_broken -= static_cast<Index>(m_round.size());
+  if (partitioned()) m_broken_whole.resize(m_broken_whole.size() - m_round.size());
   for (auto it = m_round_references.rbegin(); it != m_round_references.rend(); ++it)
     m_reference_bond[it->first] = it->second;
   commit();
@@ -129,37 +215,115 @@ void BondFailure::damage(VectorXd& d) const {
     }
     d[i] = all > 0.0 ? 1.0 - intact / all : 0.0;
   }
+  // A family this rank does not hold has damage 0 here: its owner's value replaces it.
+  if (partitioned()) m_ranks.share(d);
 }
 
 void BondFailure::save(StateArchive& archive) const {
   const Bonds& bonds = m_model.bonds;
   std::vector<double> broken;
-  for (Index b = 0; b < bonds.n_bonds(); ++b)
-    if (b < bonds.reverse[b] && m_weight[b] == 0.0 && bonds.weight[b] != 0.0) broken.push_back(b);
+  if (partitioned()) {
+    std::vector<std::int64_t> sorted = m_broken_whole;
+    std::sort(sorted.begin(), sorted.end());
+    broken.assign(sorted.begin(), sorted.end());
+  } else {
+    for (Index b = 0; b < bonds.n_bonds(); ++b)
+      if (b < bonds.reverse[b] && m_weight[b] == 0.0 && bonds.weight[b] != 0.0) broken.push_back(b);
+  }
   archive.put("failure/broken_bonds", std::move(broken));
-  if (!m_reference_bond.empty()) archive.put("failure/reference_bonds", {m_reference_bond.begin(), m_reference_bond.end()});
+  if (m_reference_bond.empty()) return;
+  if (!partitioned()) {
+    archive.put("failure/reference_bonds", {m_reference_bond.begin(), m_reference_bond.end()});
+    return;
+  }
+  // The whole model's index of each reference bond: a family's holders know it; its
+  // owner's value goes to every rank.
+  const Index n = m_model.particles.size();
+  VectorXd reference = VectorXd::Constant(n, -1.0);
+  for (Index i = 0; i < n; ++i)
+    if (m_reference_bond[i] >= 0)
+      reference[i] = static_cast<double>(m_model.whole_start[static_cast<std::size_t>(i)] +
+                                         m_reference_bond[i] - bonds.start[i]);
+  m_ranks.share(reference);
+  archive.put("failure/reference_bonds", {reference.data(), reference.data() + n});
 }
 
-void BondFailure::restore(const StateArchive& archive) {
+namespace {
+std::int64_t whole_index(double value, std::int64_t lo, std::int64_t hi, const std::string& key) {
+  if (!(value >= static_cast<double>(lo) && value < static_cast<double>(hi)) ||
+      value != static_cast<double>(static_cast<std::int64_t>(value)))
+    throw InputError("the checkpoint's '" + key + "' holds an index out of range");
+  return static_cast<std::int64_t>(value);
+}
+}  // namespace
+
+std::vector<std::pair<Index, Index>> BondFailure::restore(const StateArchive& archive) {
   const Bonds& bonds = m_model.bonds;
   const Index nb = bonds.n_bonds();
-  for (const double v : archive.get("failure/broken_bonds")) {
-    const Index b = StateArchive::index(v, 0, nb, "failure/broken_bonds");
-    m_weight[b] = m_weight[bonds.reverse[b]] = 0.0;
-    ++m_broken;
+  const std::vector<double>& broken = archive.get("failure/broken_bonds");
+  if (!partitioned()) {
+    for (const double v : broken) {
+      const Index b = StateArchive::index(v, 0, nb, "failure/broken_bonds");
+      break_pair(bonds.neighbour[bonds.reverse[b]], b, bonds.neighbour[b], bonds.reverse[b]);
+    }
+  } else {
+    // Each pair is resolved by the rank that proposes its first particle's family (it holds
+    // both directions), then every rank breaks every pair in the checkpoint's order.
+    const std::vector<std::int64_t>& start = m_model.whole_start;
+    std::vector<double> mine;
+    for (std::size_t at = 0; at < broken.size(); ++at) {
+      const std::int64_t w = whole_index(broken[at], 0, m_model.n_bonds_whole, "failure/broken_bonds");
+      const auto i = static_cast<Index>(std::upper_bound(start.begin(), start.end(), w) - start.begin() - 1);
+      if (!m_ranks.proposes[static_cast<std::size_t>(i)]) continue;
+      const Index b = bonds.start[i] + static_cast<Index>(w - start[static_cast<std::size_t>(i)]);
+      const Index j = bonds.neighbour[b], r = bonds.reverse[b];
+      if (j < i || r < 0) throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
+      mine.insert(mine.end(),
+                  {static_cast<double>(at), static_cast<double>(i), static_cast<double>(b - bonds.start[i]),
+                   static_cast<double>(j), static_cast<double>(r - bonds.start[j])});
+    }
+    const std::vector<double> all = m_ranks.gather(mine);
+    if (all.size() != 5 * broken.size())
+      throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
+    std::vector<Candidate> pairs(broken.size());
+    for (std::size_t at = 0; at < all.size(); at += 5)
+      pairs[static_cast<std::size_t>(all[at])] = {
+          0.0, static_cast<Index>(all[at + 1]), static_cast<Index>(all[at + 2]),
+          static_cast<Index>(all[at + 3]), static_cast<Index>(all[at + 4])};
+    const std::vector<char>& held = m_model.family_held;
+    for (std::size_t at = 0; at < pairs.size(); ++at) {
+      const Candidate& x = pairs[at];
+      break_pair(x.i, held[static_cast<std::size_t>(x.i)] ? bonds.start[x.i] + x.k : -1, x.j,
+                 held[static_cast<std::size_t>(x.j)] ? bonds.start[x.j] + x.kr : -1);
+      m_broken_whole.push_back(static_cast<std::int64_t>(broken[at]));
+    }
   }
   if (!m_reference_bond.empty()) {
     const std::vector<double>& r = archive.get("failure/reference_bonds", static_cast<std::int64_t>(m_reference_bond.size()));
-    for (std::size_t i = 0; i < r.size(); ++i)
-      m_reference_bond[i] = r[i] < 0 ? -1 : StateArchive::index(r[i], 0, nb, "failure/reference_bonds");
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      if (r[i] < 0) {
+        m_reference_bond[i] = -1;
+      } else if (!partitioned()) {
+        m_reference_bond[i] = StateArchive::index(r[i], 0, nb, "failure/reference_bonds");
+      } else if (m_model.family_held[i]) {  // the other families' references are never read here
+        const std::int64_t first = m_model.whole_start[i];
+        const std::int64_t w =
+            whole_index(r[i], first, m_model.whole_start[i + 1], "failure/reference_bonds");
+        m_reference_bond[i] = bonds.start[static_cast<Index>(i)] + static_cast<Index>(w - first);
+      }
+    }
   }
+  std::vector<std::pair<Index, Index>> restored = std::move(m_round);
+  m_round.clear();
   commit();
+  return restored;
 }
 
 std::size_t BondFailure::memory_bytes() const {
   return (m_critical.capacity() + m_weight.capacity() + m_ratio.capacity()) * sizeof(double) +
          m_reference_bond.capacity() * sizeof(Index) +
-         m_round_references.capacity() * sizeof(std::pair<Index, Index>);
+         m_round_references.capacity() * sizeof(std::pair<Index, Index>) +
+         m_broken_whole.capacity() * sizeof(std::int64_t);
 }
 
 }  // namespace peristat

@@ -2,22 +2,46 @@
 // skew's reference bond per particle, and the intact bond weights the OSB kernel reads. A
 // round of breaking is a trial until commit(); revert() restores its bonds (a round whose
 // re-solve did not converge). Broken bonds never heal once a state with them converged.
+//
+// A rank of a distributed run whose model holds some families only (partitioned bonds,
+// Model::family_held) takes the same decisions as one process holding every family, bit for
+// bit: each pair is evaluated by one rank (FailureRanks::proposes), the candidates over the
+// criterion are gathered on every rank and sorted as one process sorts them, and every rank
+// zeroes the directions it holds (docs/guide/distributed.md, "Partitioned bonds").
 #pragma once
 
+#include <cstdint>
+#include <functional>
 #include <span>
 #include <utility>
 #include <vector>
 
 #include "core/options.hpp"
+#include "core/partition.hpp"
 #include "core/state_archive.hpp"
 #include "discretisation/model.hpp"
 
 namespace peristat {
 
+/// A rank's share of the failure decisions when its model holds some families only.
+struct FailureRanks {
+  /// Per particle: this rank evaluates the pairs (i, j > i) of particle i's family, which it
+  /// holds with the families of i's neighbours. Every pair is proposed by exactly one rank
+  /// (a rank's own particles; rank 0's also those without a row).
+  std::vector<char> proposes;
+  /// Every rank's values in rank order, on every rank (collective).
+  GatherOverRanks gather;
+  /// Per particle values (N): copies the owners' entries into every rank's vector
+  /// (collective); the entries of particles without a row stay as each rank computed them.
+  std::function<void(VectorXd&)> share;
+};
+
 class BondFailure {
  public:
-  /// options.enabled must be true.
-  BondFailure(const Model& model, const FailureOptions& options);
+  /// options.enabled must be true. `ranks` is required when the model holds some families
+  /// only, and ignored otherwise; then break_over_criterion(), damage(), save() and
+  /// restore() are collective (every rank calls them at the same point).
+  BondFailure(const Model& model, const FailureOptions& options, FailureRanks ranks = {});
 
   /// Evaluates the criterion of every bond from the relative displacements eta (per bond,
   /// eta_b = u_j - u_i) and breaks the intact pairs over it: a pair breaks when
@@ -36,13 +60,13 @@ class BondFailure {
   std::span<const double> weights() const { return m_weight; }
   /// Bonds broken since the start (pairs).
   Index broken() const { return m_broken; }
-  /// The intact pair closest to breaking at the last evaluation: its larger ratio
-  /// value / critical of the two directions (0 and bond -1 before the first evaluation or
-  /// when no pair can break). After a round that broke nothing, this is how far the
-  /// converged state is from the criterion.
+  /// The intact pair (i, j), i < j, closest to breaking at the last evaluation: its larger
+  /// ratio value / critical of the two directions (0 and particles -1 before the first
+  /// evaluation or when no pair can break). After a round that broke nothing, this is how far
+  /// the converged state is from the criterion.
   struct Peak {
     double ratio = 0.0;
-    Index bond = -1;
+    Index i = -1, j = -1;
   };
   Peak peak() const { return m_peak; }
   /// skew: the reference bond of particle i (global bond index; -1 without an intact bond
@@ -50,15 +74,31 @@ class BondFailure {
   Index reference(Index i) const { return m_reference_bond.empty() ? -1 : m_reference_bond[i]; }
   /// Damage of each particle, 1 - sum of intact bond weights / sum of all (N).
   void damage(VectorXd& d) const;
+  /// The model holds some families only (the decisions are taken with the other ranks).
+  bool partitioned() const { return !m_model.holds_every_family(); }
+  const FailureRanks& ranks() const { return m_ranks; }
   std::size_t memory_bytes() const;
   /// The committed state (broken pairs, skew references) into / from a checkpoint
-  /// (peristat run --resume). restore() expects a fresh object of the same model.
+  /// (peristat run --resume), with the whole model's bond indices whatever the ranks hold.
+  /// restore() expects a fresh object of the same model, and returns the pairs it broke.
   void save(StateArchive& archive) const;
-  void restore(const StateArchive& archive);
+  std::vector<std::pair<Index, Index>> restore(const StateArchive& archive);
 
  private:
+  /// A pair to break: (i, k) and (j, kr) its two directions, bond k of i's family and kr of
+  /// j's, i < j; ratio its criterion.
+  struct Candidate {
+    double ratio;
+    Index i, k, j, kr;
+  };
+  /// Zeroes the directions this process holds and records the pair in the round.
+  void break_pair(Index i, Index bi, Index j, Index bj);
+  void reselect_references();
+  const std::vector<std::pair<Index, Index>>& break_partitioned(Index at_most);
+
   const Model& m_model;
   FailureOptions m_options;
+  FailureRanks m_ranks;
   std::vector<double> m_critical;                ///< per body: s_c or gamma_c
   double m_min_sin;                              ///< skew: sin(skew_min_angle), the floor of |xi . e2| / |xi|
   std::vector<Index> m_reference_bond;           ///< skew: per particle, the reference bond (global index), intact
@@ -67,7 +107,9 @@ class BondFailure {
   std::vector<double> m_ratio;                   ///< per bond: criterion value / critical (scratch)
   std::vector<std::pair<double, Index>> m_over;  ///< scratch: (ratio, bond) over the criterion
   std::vector<std::pair<Index, Index>> m_round;  ///< pairs broken by the last round
-  std::vector<Index> m_round_bonds;              ///< their bonds b (b < reverse[b])
+  std::vector<std::pair<Index, Index>> m_round_bonds;  ///< their directions held here: (particle, bond)
+  std::vector<Candidate> m_candidates;                 ///< partitioned, scratch: every rank's candidates
+  std::vector<std::int64_t> m_broken_whole;            ///< partitioned: every broken pair's whole index
   Index m_broken = 0;
   Peak m_peak;
 };

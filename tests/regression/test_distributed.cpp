@@ -110,7 +110,7 @@ TEST(Distributed, PrecrackedPlateOnTwoRanksEqualsSerial) {
 // same ones (equal damage at every particle, to the last bit: damage is a count of broken
 // bonds over the family's), step by step.
 void expect_same_bonds_broken(const Pair& p) {
-  expect_same_answer(p, "whole");  // failure: every rank holds every family
+  expect_same_answer(p);  // bonds partitioned, failure decided over the ranks
   const ResultsReader serial(p.h5("serial").string()), mpi(p.h5("mpi").string());
   ASSERT_EQ(serial.steps(), mpi.steps());
   double broken_somewhere = 0.0;
@@ -166,14 +166,16 @@ TEST(Distributed, AssembledTangentOnTwoRanksBreaksTheSameBonds) {
 // Partitioned bonds (docs/guide/distributed.md): a rank's model holds the families its rows
 // read and its problem shares the forces after each whole evaluation. Every force, action
 // entry, tangent and bond-matrix entry is the whole model's to the bit (unit.Assembly.Partitioned*),
-// so a run must give the bits of the two-rank run with every family held: relative L2
-// exactly 0. Case 4.3 with Newton's matrix-free tangent (one ring of families), the assembled
-// tangent and ADR (two rings).
-void expect_partitioned_bits(const std::string& label, const std::string& extra) {
-  SCOPED_TRACE(label);
-  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_3_precracked_plate/scene.yaml";
-  const fs::path dir = test::fresh_directory("distributed_partitioned_bits_" + label);
-  const std::string run = "run " + scene + " --quiet --set discretization.spacing=0.02" + extra + " --out ";
+// and so are the failure decisions (unit.PartitionedFailure.*), so a run must give the bits
+// of the two-rank run with every family held: relative L2 exactly 0, and with failure the
+// same damage at every particle and step. Case 4.3 with Newton's matrix-free tangent (one
+// ring of families), the assembled tangent and ADR (two rings); case 4.4 (bonds break in
+// steps 3-6) with Newton (the assembled tangent's two rings: unit.PartitionedFailure.*).
+void expect_partitioned_bits(const std::string& c, const std::string& label, const std::string& extra) {
+  SCOPED_TRACE(c + ", " + label);
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/" + c + "/scene.yaml";
+  const fs::path dir = test::fresh_directory("distributed_partitioned_bits_" + c + "_" + label);
+  const std::string run = "run " + scene + " --quiet" + extra + " --out ";
   const test::CliResult part = test::run_mpi(2, run + (dir / "part").string());
   const test::CliResult whole =
       test::run_mpi(2, run + (dir / "whole").string() + " --set solver.belos.bonds=whole");
@@ -181,31 +183,31 @@ void expect_partitioned_bits(const std::string& label, const std::string& extra)
   ASSERT_EQ(whole.exit_code, 0) << whole.out << whole.err;
   EXPECT_EQ(test::read_json(dir / "part" / "summary.json")["run"]["bonds_held"], "partitioned");
   EXPECT_EQ(test::read_json(dir / "whole" / "summary.json")["run"]["bonds_held"], "whole");
-  const test::CliResult cmp =
-      test::run_cli("compare " + (dir / "part" / "paper_4_3_precracked_plate.h5").string() + " " +
-                    (dir / "whole" / "paper_4_3_precracked_plate.h5").string() + " --json");
+  const fs::path a = dir / "part" / (c + ".h5"), b = dir / "whole" / (c + ".h5");
+  const test::CliResult cmp = test::run_cli("compare " + a.string() + " " + b.string() + " --json");
   ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
   EXPECT_EQ(test::json_number(cmp.out, "relative_l2"), 0.0);
+  if (c != "paper_4_4_crack_growth") return;  // the one with failure
+  const ResultsReader ra(a.string()), rb(b.string());
+  ASSERT_EQ(ra.steps(), rb.steps());
+  double broken_somewhere = 0.0;
+  for (const int step : ra.steps()) {
+    EXPECT_TRUE((ra.damage(step).array() == rb.damage(step).array()).all()) << "damage, step " << step;
+    broken_somewhere = std::max(broken_somewhere, ra.damage(step).maxCoeff());
+  }
+  EXPECT_GT(broken_somewhere, 0.0) << "the scene must break bonds for this test to mean anything";
 }
 
 TEST(Distributed, PartitionedBondsGiveTheWholeModelsBits) {
-  expect_partitioned_bits("newton", "");
-  expect_partitioned_bits("assembled", " --set solver.belos.tangent=assembled");
-  expect_partitioned_bits("adr", " --solver adr");
+  const std::string c = "paper_4_3_precracked_plate", dx = " --set discretization.spacing=0.02";
+  expect_partitioned_bits(c, "newton", dx);
+  expect_partitioned_bits(c, "assembled", dx + " --set solver.belos.tangent=assembled");
+  expect_partitioned_bits(c, "adr", dx + " --solver adr");
 }
 
-TEST(Distributed, PartitionedBondsAreRefusedWhereTheRunNeedsEveryFamily) {
-  // A failure criterion needs every family on every rank: an explicit `partitioned` is
-  // refused (exit 2, naming the key) before anything is written; `auto` holds the whole model.
-  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_4_crack_growth/scene.yaml";
-  const fs::path dir = test::fresh_directory("distributed_partitioned_refused");
-  const test::CliResult r =
-      test::run_mpi(2, "run " + scene + " --quiet --out " + dir.string() +
-                           " --set discretization.spacing=0.1 --set solver.belos.bonds=partitioned");
-  EXPECT_EQ(r.exit_code, 2);
-  EXPECT_NE(r.err.find("solver.belos.bonds"), std::string::npos) << r.err;
-  EXPECT_NE(r.err.find("failure criterion"), std::string::npos) << r.err;
-  EXPECT_FALSE(fs::exists(dir / "paper_4_4_crack_growth.h5")) << "nothing is written";
+TEST(Distributed, PartitionedBondsWithFailureGiveTheWholeModelsBits) {
+  const std::string c = "paper_4_4_crack_growth", dx = " --set discretization.spacing=0.05";
+  expect_partitioned_bits(c, "newton", dx);
 }
 
 // Distributed ADR (docs/guide/distributed.md): each rank relaxes its own unknowns, from the

@@ -10,6 +10,7 @@
 
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
+#include "support/emulated_ranks.hpp"
 #include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
 #include "support/solve.hpp"
@@ -168,23 +169,6 @@ long long expect_rows_of(const SparseMatrix& whole, const SparseMatrix& part, co
   return compared;
 }
 
-// Owners by x: the particles that have an unknown, ordered by x (then by index), in `ranks`
-// ranges of equal count.
-std::vector<int> x_cut_owners(const Model& model, int ranks) {
-  const Constraints& cons = model.constraints;
-  std::vector<Index> nodes;
-  for (Index p = 0; p < model.particles.size(); ++p)
-    if (cons.free_index[2 * p] >= 0 || cons.free_index[2 * p + 1] >= 0) nodes.push_back(p);
-  std::stable_sort(nodes.begin(), nodes.end(), [&](Index a, Index b) {
-    return model.particles.position[a].x() < model.particles.position[b].x();
-  });
-  std::vector<int> owner(static_cast<std::size_t>(model.particles.size()), -1);
-  for (std::size_t k = 0; k < nodes.size(); ++k)
-    owner[static_cast<std::size_t>(nodes[k])] =
-        static_cast<int>(k * static_cast<std::size_t>(ranks) / nodes.size());
-  return owner;
-}
-
 // `small`: a plate of at most four horizons across, where a rank's ghosts (two horizons) may be
 // every particle.
 void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const Prepare& prepare,
@@ -226,7 +210,8 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
     // Strips (strip_owners), or parts cut across x at equal counts, as RCB's first cut of a
     // plate longer in x (Zoltan2 starts MPI, which these unit tests, run under the
     // sanitizers, do not; verification.Partition runs RCB itself).
-    const std::vector<int> owner = cuts ? x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
+    const std::vector<int> owner =
+        cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
     const auto owners = [&](int rank) { return OwnedRows{rank, owner}; };
     if (cuts && cuts_differ) {
       EXPECT_NE(owner, strip_owners(model.constraints, ranks)) << "the cuts are not the strips here";
@@ -335,7 +320,7 @@ void expect_partitioned_ranks_equal_the_whole(const Scene& scene, const Model& m
       SCOPED_TRACE(std::string(cuts ? "cuts across x" : "strips") + " on " + std::to_string(ranks) +
                    " ranks");
       const std::vector<int> owner =
-          cuts ? x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
+          cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
       // The collective operations emulated as in expect_ranks_hold_the_whole: every rank's
       // values, call by call, recorded in a first pass; the second pass combines them. The
       // force exchange takes each particle's components from its owner's record.

@@ -14,7 +14,7 @@ int main(int argc, char** argv) {
   using namespace peristat;
   // Under mpirun: MPI starts now, and the ranks other than 0 print nothing (they run the same
   // model; docs/guide/distributed.md).
-  const parallel::Session mpi(&argc, &argv);
+  const parallel::Session mpi;
   if (parallel::rank() > 0) {
     std::FILE* out = std::freopen("/dev/null", "w", stdout);
     std::FILE* err = std::freopen("/dev/null", "w", stderr);
