@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "core/version.hpp"
 #include "io/h5.hpp"
 #include "io/layout.hpp"
 #include "io/results.hpp"
@@ -244,6 +245,8 @@ struct ResultsWriter::Impl {
     const std::string temporary = h5().string() + ".tmp";
     h5::File file = h5::File::create(temporary);
     file.write_attribute(file.id(), "scene", scene_text);
+    file.write_attribute(file.id(), "peristat_version", std::string(program_version()));
+    file.write_attribute(file.id(), "peristat_commit", std::string(program_commit()));
     write_particles(file, particles);
     file.create_group(file.id(), "steps");
     file.close();
@@ -322,7 +325,12 @@ struct ResultsWriter::Impl {
   /// written as U+FFFD rather than failing the write.
   void write_summary() const {
     nlohmann::ordered_json doc = {
-        {"scene", name}, {"status", status}, {"message", message}, {"warnings", warnings}, {"run", run_info}};
+        {"scene", name},
+        {"status", status},
+        {"message", message},
+        {"warnings", warnings},
+        {"program", {{"name", "peristat"}, {"version", program_version()}, {"commit", program_commit()}}},
+        {"run", run_info}};
     nlohmann::ordered_json& list = doc["steps"] = nlohmann::ordered_json::array();
     for (const StepSummary& s : steps) list.push_back(step_json(s));
     integral_floats_as_integers(doc);

@@ -5,11 +5,13 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <regex>
 #include <sstream>
 #include <vector>
 
 #include <gtest/gtest.h>
 
+#include "io/h5.hpp"
 #include "io/results.hpp"
 #include "support/cli.hpp"
 #include "support/scenes.hpp"
@@ -38,6 +40,36 @@ Vec2 displacement_at(const ResultsReader& results, int step, const Vec2& X, int 
   if (nearest == p.size()) return Vec2::Constant(std::nan(""));
   const auto k = static_cast<Index>(2 * nearest);
   return Vec2(u[k], u[k + 1]);
+}
+
+// Which program wrote a result: `peristat --version` prints the project's version and the
+// source's commit, and summary.json and the HDF5 file record the same two strings. The
+// version is read independently from CMakeLists.txt's project() line.
+TEST(ProgramVersion, EveryResultsFileRecordsWhatPeristatVersionPrints) {
+  const test::CliResult v = test::run_cli("--version");
+  ASSERT_EQ(v.exit_code, 0) << v.err;
+  std::smatch m;
+  const std::string printed = v.out;
+  ASSERT_TRUE(std::regex_search(printed, m, std::regex(R"(^peristat (\S+) \(commit (\S+)\)\n$)"))) << v.out;
+  const std::string version = m[1], commit = m[2];
+  EXPECT_FALSE(commit.empty());
+  std::ifstream cmake(std::string(PERISTAT_SOURCE_DIR) + "/CMakeLists.txt");
+  const std::string lists((std::istreambuf_iterator<char>(cmake)), std::istreambuf_iterator<char>());
+  std::smatch p;
+  ASSERT_TRUE(std::regex_search(lists, p, std::regex(R"(project\(peristat VERSION (\S+))")));
+  EXPECT_EQ(version, p[1].str());
+
+  const auto dir = test::fresh_directory("program_version");
+  const auto r = test::run_cli("run " + kTension + " --quiet --out " + dir.string() +
+                               " --set discretization.spacing=4e-3 --set loading.steps=1");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json summary = test::read_json(dir / "summary.json");
+  EXPECT_EQ(summary["program"]["name"], "peristat");
+  EXPECT_EQ(summary["program"]["version"], version);
+  EXPECT_EQ(summary["program"]["commit"], commit);
+  const h5::File file = h5::File::open((dir / "tension_plate.h5").string(), false);
+  EXPECT_EQ(file.read_string_attribute(file.id(), "peristat_version"), version);
+  EXPECT_EQ(file.read_string_attribute(file.id(), "peristat_commit"), commit);
 }
 
 TEST(TensionPlateCase, SmokeRunMatchesUniaxialSolution) {

@@ -324,7 +324,8 @@ TEST_F(ResultsTest, SummaryJsonHoldsStepsStatusAndEscapes) {
 
   const std::string text = read_text(path("summary.json"));
   summary = ordered_json::parse(text);
-  EXPECT_EQ(keys_of(summary), (std::vector<std::string>{"scene", "status", "message", "warnings", "run", "steps"}));
+  EXPECT_EQ(keys_of(summary),
+            (std::vector<std::string>{"scene", "status", "message", "warnings", "program", "run", "steps"}));
   EXPECT_EQ(summary["scene"], "small");
   EXPECT_EQ(summary["status"], "no_convergence");
   EXPECT_EQ(summary["message"], "step 5: \"stalled\"\n\tsee log");

@@ -8,6 +8,7 @@
 
 #include "app/commands.hpp"
 #include "core/error.hpp"
+#include "core/version.hpp"
 #include "solvers/trilinos/parallel.hpp"
 
 int main(int argc, char** argv) {
@@ -23,6 +24,7 @@ int main(int argc, char** argv) {
   }
   CLI::App app{"peristat: quasi-static state-based peridynamics (Newton on a consistent tangent)"};
   app.require_subcommand(1);
+  app.set_version_flag("--version", program_description(), "print peristat's version and commit, and exit");
 
   RunArguments run;
   CLI::App* run_cmd = app.add_subcommand("run", "solve a scene load step by load step");
