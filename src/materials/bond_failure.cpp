@@ -79,9 +79,7 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
   }
   if (m_over.empty()) return m_round;
   std::sort(m_over.begin(), m_over.end(), std::greater<>());
-  auto count = std::max<std::size_t>(
-      1, static_cast<std::size_t>(std::ceil(m_options.fraction * static_cast<double>(m_over.size()))));
-  if (at_most > 0) count = std::min(count, static_cast<std::size_t>(at_most));
+  const std::size_t count = pairs_to_break(m_over.size(), at_most);
   for (std::size_t k = 0; k < count; ++k) {
     const Index b = m_over[k].second, r = bonds.reverse[b];
     break_pair(bonds.neighbour[r], b, bonds.neighbour[b], r);
@@ -111,7 +109,10 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index
       if (r < 0)
         throw std::logic_error("BondFailure: the proposer of a pair does not hold its reverse family");
       const double ratio = std::max(m_ratio[b], m_ratio[r]);
-      if (ratio > peak.ratio) peak = Peak{ratio, i, j}, peak_k = b - bonds.start[i];
+      if (ratio > peak.ratio) {
+        peak = Peak{ratio, i, j};
+        peak_k = b - bonds.start[i];
+      }
       if (ratio <= 1.0) continue;
       mine.insert(mine.end(), {ratio, static_cast<double>(i), static_cast<double>(b - bonds.start[i]),
                                static_cast<double>(j), static_cast<double>(r - bonds.start[j])});
@@ -134,8 +135,10 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index
     const auto i = static_cast<Index>(all[at + 2]), k = static_cast<Index>(all[at + 3]);
     // One process keeps the first bond of the largest ratio: the smallest (i, k).
     if (i >= 0 &&
-        (ratio > m_peak.ratio || (ratio == m_peak.ratio && std::pair(i, k) < std::pair(m_peak.i, peak_k))))
-      m_peak = Peak{ratio, i, static_cast<Index>(all[at + 4])}, peak_k = k;
+        (ratio > m_peak.ratio || (ratio == m_peak.ratio && std::pair(i, k) < std::pair(m_peak.i, peak_k)))) {
+      m_peak = Peak{ratio, i, static_cast<Index>(all[at + 4])};
+      peak_k = k;
+    }
     at += 5;
     for (std::size_t c = 0; c < count; ++c, at += 5)
       m_candidates.push_back({all[at], static_cast<Index>(all[at + 1]), static_cast<Index>(all[at + 2]),
@@ -145,9 +148,7 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index
   std::sort(m_candidates.begin(), m_candidates.end(), [](const Candidate& a, const Candidate& b) {
     return std::tuple(a.ratio, a.i, a.k) > std::tuple(b.ratio, b.i, b.k);
   });
-  auto count = std::max<std::size_t>(
-      1, static_cast<std::size_t>(std::ceil(m_options.fraction * static_cast<double>(m_candidates.size()))));
-  if (at_most > 0) count = std::min(count, static_cast<std::size_t>(at_most));
+  const std::size_t count = pairs_to_break(m_candidates.size(), at_most);
   const std::vector<char>& held = m_model.family_held;
   for (std::size_t c = 0; c < count; ++c) {
     const Candidate& x = m_candidates[c];
@@ -160,6 +161,12 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index
   }
   reselect_references();
   return m_round;
+}
+
+std::size_t BondFailure::pairs_to_break(std::size_t over, Index at_most) const {
+  // The most critical `fraction` of the pairs over the criterion, at least one, at most at_most.
+  auto count = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(m_options.fraction * static_cast<double>(over))));
+  return at_most > 0 ? std::min(count, static_cast<std::size_t>(at_most)) : count;
 }
 
 void BondFailure::break_pair(Index i, Index bi, Index j, Index bj) {

@@ -91,6 +91,8 @@ class BondFailure {
     double ratio;
     Index i, k, j, kr;
   };
+  /// How many of `over` pairs over the criterion a round breaks (fraction, at_most).
+  std::size_t pairs_to_break(std::size_t over, Index at_most) const;
   /// Zeroes the directions this process holds and records the pair in the round.
   void break_pair(Index i, Index bi, Index j, Index bj);
   void reselect_references();
