@@ -7,6 +7,7 @@
 // may differ by a few times 1e-10 of the displacement; measured differences are 1e-13 to
 // 1e-17 (Newton converges quadratically past the tolerance).
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -209,6 +210,50 @@ TEST(Distributed, PartitionedBondsWithFailureGiveTheWholeModelsBits) {
   // With `--threads 1`, which Kokkos::initialize once took for its own option and aborted on.
   const std::string c = "paper_4_4_crack_growth", dx = " --set discretization.spacing=0.05 --threads 1";
   expect_partitioned_bits(c, "newton", dx);
+}
+
+// A checkpoint names broken bonds by their index in the whole model (Model::whole_start), so a
+// run stopped on one process resumes on two ranks with partitioned bonds, and the other way
+// round (docs/guide/distributed.md, "Partitioned bonds"). Case 4.4 at dx 0.05 m is killed
+// inside the write of step 5's results (PERISTAT_FAULT_KILL_IN_WRITE, as regression.Resume.*
+// does): its checkpoint holds step 4, after the first 26 bonds broke. The resumed run breaks
+// the rest in steps 5 and 6 and must end where the uninterrupted serial run ends: 1e-10, the
+// resume tests' bound (measured 3.0e-12 one way), and the same damage at every particle of
+// every step.
+TEST(Distributed, ACheckpointResumesOnAnotherNumberOfRanks) {
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_4_crack_growth/scene.yaml";
+  const std::string options = " --quiet --threads 1 --set discretization.spacing=0.05";
+  const fs::path reference = test::fresh_directory("distributed_resume_reference");
+  const test::CliResult r = test::run_cli("run " + scene + " --out " + reference.string() + options);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const std::string h5 = "paper_4_4_crack_growth.h5";
+  for (const int first_ranks : {1, 2}) {
+    SCOPED_TRACE(first_ranks == 1 ? "stopped on one process, resumed on two ranks"
+                                  : "stopped on two ranks, resumed on one process");
+    const fs::path dir = test::fresh_directory("distributed_resume_" + std::to_string(first_ranks));
+    const std::string run = "run " + scene + " --out " + dir.string() + options;
+    setenv("PERISTAT_FAULT_KILL_IN_WRITE", "5", 1);
+    const test::CliResult killed = first_ranks == 1 ? test::run_cli(run) : test::run_mpi(2, run);
+    unsetenv("PERISTAT_FAULT_KILL_IN_WRITE");
+    ASSERT_NE(killed.exit_code, 0) << "the run was not stopped";
+    ASSERT_EQ(test::read_json(dir / "summary.json")["steps"].size(), 4u);
+    const test::CliResult resumed = first_ranks == 1 ? test::run_mpi(2, run + " --resume") : test::run_cli(run + " --resume");
+    ASSERT_EQ(resumed.exit_code, 0) << resumed.out << resumed.err;
+    const nlohmann::json summary = test::read_json(dir / "summary.json");
+    EXPECT_EQ(summary["status"], "completed");
+    EXPECT_EQ(summary["steps"].size(), 6u);
+    EXPECT_EQ(summary["run"].value("bonds_held", "none"), first_ranks == 1 ? "partitioned" : "none")
+        << "the resumed run's own record";
+    const test::CliResult cmp =
+        test::run_cli("compare " + (dir / h5).string() + " " + (reference / h5).string() + " --json");
+    ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
+    EXPECT_LT(test::json_number(cmp.out, "relative_l2"), 1e-10);
+    const ResultsReader a((dir / h5).string()), b((reference / h5).string());
+    ASSERT_EQ(a.steps(), b.steps());
+    for (const int step : a.steps())
+      EXPECT_TRUE((a.damage(step).array() == b.damage(step).array()).all()) << "damage, step " << step;
+    EXPECT_GT(a.damage(6).maxCoeff(), 0.0);
+  }
 }
 
 // Distributed ADR (docs/guide/distributed.md): each rank relaxes its own unknowns, from the
