@@ -105,7 +105,10 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   if (m_contact) m_fcontact_accepted = VectorXd::Zero(2 * n);
   if (m_failure) {
     m_damage_accepted = VectorXd::Zero(n);
-    find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component, graph_parts().get());
+    if (m_failure->partitioned())
+      m_graph_parts =
+          std::make_unique<GraphParts>(GraphParts{m_failure->ranks().proposes, m_options.gather_over_ranks});
+    find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component, m_graph_parts.get());
     m_fragment.assign(n, 0);
   }
   for (Index i = 0; i < n; ++i) m_energy_unit += model.particles.volume[i] * model.bodies[model.particles.body[i]].material.E;
@@ -529,14 +532,9 @@ double QuasiStaticProblem::tangent_diagonal_max() const {
   return largest;
 }
 
-std::unique_ptr<GraphParts> QuasiStaticProblem::graph_parts() const {
-  if (!m_failure || !m_failure->partitioned()) return nullptr;
-  return std::make_unique<GraphParts>(GraphParts{m_failure->ranks().proposes, m_options.gather_over_ranks});
-}
-
 void QuasiStaticProblem::update_fragments() {
   if (!m_failure) return;
-  find_unsupported(m_model, m_failure->weights(), m_unsupported, m_component, graph_parts().get());
+  find_unsupported(m_model, m_failure->weights(), m_unsupported, m_component, m_graph_parts.get());
   const Index n = m_model.particles.size();
   const std::vector<Index>& free = m_model.constraints.free_index;
   m_fragment_unknowns.clear();

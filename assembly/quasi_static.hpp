@@ -241,8 +241,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   std::string measure_increment(const VectorXd& x, bool check);
   /// The fragments at the current bonds (after breaking, undoing or restoring).
   void update_fragments();
-  /// With partitioned bonds and failure: this rank's part of the bond graph (null otherwise).
-  std::unique_ptr<GraphParts> graph_parts() const;
+
   /// Fragment unknowns of K: rows and columns zero, the diagonal the largest of K's.
   void decouple_fragments(SparseMatrix& K) const;
   /// Matrix-free: the largest diagonal entry of K over the unknowns (the fragments' diagonal),
@@ -259,6 +258,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   double m_contact_setup_seconds = 0.0;      ///< declared first: m_contact's initialiser sets it
   std::unique_ptr<ContactSystem> m_contact;  ///< null without contact: no candidates, no cost
   std::unique_ptr<BondFailure> m_failure;    ///< null without failure: no checks, no state
+  /// With partitioned bonds and failure: this rank's part of the bond graph (null otherwise).
+  std::unique_ptr<GraphParts> m_graph_parts;
   TangentPattern m_pattern;
   std::unique_ptr<BondPreconditioner> m_preconditioner;  ///< built on first request
   std::vector<std::unique_ptr<FamilyKernel>> m_kernels;  ///< per body: its material's kernel

@@ -74,16 +74,20 @@ std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows, in
   return held;
 }
 
-std::function<void(VectorXd&)> particle_exchange(const OwnedRows& rows) {
-  auto exchange = std::make_shared<parallel::OwnedExchange>(rows.owner, true);
+namespace {
+/// Each entry's owner's value to every rank; entries without an owner stay as computed.
+std::function<void(VectorXd&)> owned_entries_exchange(const std::vector<int>& owner) {
+  auto exchange = std::make_shared<parallel::OwnedExchange>(owner, true);
   return [exchange](VectorXd& values) { exchange->share(values.data()); };
 }
+}  // namespace
+
+std::function<void(VectorXd&)> particle_exchange(const OwnedRows& rows) { return owned_entries_exchange(rows.owner); }
 
 std::function<void(VectorXd&)> force_exchange(const OwnedRows& rows) {
   std::vector<int> owner(2 * rows.owner.size());
   for (std::size_t p = 0; p < rows.owner.size(); ++p) owner[2 * p] = owner[2 * p + 1] = rows.owner[p];
-  auto exchange = std::make_shared<parallel::OwnedExchange>(owner, true);
-  return [exchange](VectorXd& force) { exchange->share(force.data()); };
+  return owned_entries_exchange(owner);
 }
 
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
