@@ -91,6 +91,12 @@ class Problem {
   /// smooth problem. Newton counts the iterations that change it and detects cycling.
   virtual std::uint64_t state_signature() const { return 0; }
 
+  /// A hash of what a preconditioner of the tangent depends on besides the smooth
+  /// deformation: state_signature() and, for a problem whose bonds break, the broken bonds.
+  /// Krylov solvers renew a kept preconditioner for slow solves only after it has changed
+  /// (solvers/linear/preconditioner_reuse.hpp). Collective: every rank returns the same.
+  virtual std::uint64_t preconditioner_state() const { return state_signature(); }
+
   /// Adds to `row_sums` (per unknown) a bound of the absolute row sums of tangent terms that
   /// may switch on later in a step and are absent from the current tangent. ADR's
   /// fictitious density covers them.

@@ -390,6 +390,12 @@ void QuasiStaticProblem::restore_state(const StateArchive& archive, const Vector
   if (m_failure) m_failure->damage(m_damage_accepted);
 }
 
+std::uint64_t QuasiStaticProblem::preconditioner_state() const {
+  // Every rank breaks the same pairs (bond_failure.hpp), so the count is collective too.
+  const auto broken = static_cast<std::uint64_t>(m_failure ? m_failure->broken() : 0);
+  return state_signature() ^ (broken * 0x9E3779B97F4A7C15ULL);
+}
+
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {
   m_pending = false;  // a check measured an earlier evaluation
   expand(x, m_u);

@@ -122,6 +122,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   bool set_own_rows_only(bool on) override;
   /// The contact and friction active set.
   std::uint64_t state_signature() const override { return m_contact ? m_contact->signature() : 0; }
+  std::uint64_t preconditioner_state() const override;
   /// The `bond` preconditioner (assembly/bond_preconditioner.hpp), built on first request.
   SparseMatrix make_preconditioner() override;
   void assemble_preconditioner(SparseMatrix& P) override;

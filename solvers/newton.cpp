@@ -90,6 +90,7 @@ void NewtonSolver::factorize(SolveReport& report) {
 
 void NewtonSolver::solve_linear(LinearSolver& lin, SolveReport& report, double t0) {
   const double setup0 = lin.setup_seconds();
+  lin.set_state(m_problem.preconditioner_state());
   lin.solve(-m_r, m_dx);
   const double setup = lin.setup_seconds() - setup0;  // a deferred set-up counts as one
   report.seconds_factorize += setup;

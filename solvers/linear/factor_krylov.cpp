@@ -64,7 +64,8 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   }
 
   void solve(const VectorXd& b, VectorXd& x) override {
-    m_reuse.solve(m_have_factor, [&] { refresh_factor(); }, [&] { run(b, x); }, m_info, m_iterations);
+    m_reuse.solve(
+        m_have_factor, [&] { refresh_factor(); }, [&] { run(b, x); }, m_info, m_iterations, m_error);
   }
 
   Eigen::ComputationInfo info() const override { return m_info; }
@@ -82,6 +83,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
   void set_may_be_unsymmetric(bool may) override { m_factor->set_may_be_unsymmetric(may); }
   void renew_preconditioner() override { m_reuse.renew(); }
+  void set_state(std::uint64_t state) override { m_reuse.set_state(state); }
   int iterations() const override { return m_iterations; }
   double error() const override { return m_error; }
   long factorizations() const override { return m_factor->factorizations(); }

@@ -97,6 +97,11 @@ class LinearSolver {
   /// (solvers/linear/preconditioner_reuse.hpp): the next factorize() builds a new one. Newton
   /// calls it when the tangent has changed in kind (contact pairs closed by the predictor).
   virtual void renew_preconditioner() {}
+  /// For the same solvers: the problem's preconditioner_state() at the next solve(). A kept
+  /// preconditioner is renewed because solves grew slower only once this has changed since
+  /// it was built: while it has not, its matrix has changed only with the smooth deformation,
+  /// and the slower solves are those of rougher right-hand sides (docs/theory/newton.md).
+  virtual void set_state(std::uint64_t /*state*/) {}
 
   /// y = A v, for solvers that never see A's entries.
   using Operator = std::function<void(const VectorXd& v, VectorXd& y)>;

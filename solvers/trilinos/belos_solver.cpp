@@ -626,8 +626,9 @@ class BelosSolver final : public LinearSolver {
       m_info = Eigen::Success;
       return;
     }
-    m_reuse.solve(!m_preconditioner.is_null(), [&] { build_preconditioner(); }, [&] { run(b, x); }, m_info,
-                  m_iterations);
+    m_reuse.solve(
+        !m_preconditioner.is_null(), [&] { build_preconditioner(); }, [&] { run(b, x); }, m_info,
+        m_iterations, m_error);
   }
 
   Eigen::ComputationInfo info() const override { return m_info; }
@@ -651,6 +652,7 @@ class BelosSolver final : public LinearSolver {
   void set_preconditioner_matrix(const SparseMatrix& P) override { m_P = &P; }
   void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
   void renew_preconditioner() override { m_reuse.renew(); }
+  void set_state(std::uint64_t state) override { m_reuse.set_state(state); }
   bool needs_unknown_layout() const override { return true; }
   void set_unknown_layout(const UnknownLayout& layout) override { m_layout = layout; }
 
