@@ -65,6 +65,7 @@ FailureRanks failure_ranks(const Model& model, const ProblemOptions& options) {
   if (model.holds_every_family()) return {};
   return {counted_families(model, options.rows), options.gather_over_ranks, options.share_particle_values};
 }
+
 }  // namespace
 
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions& options)
@@ -95,7 +96,9 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   m_s.assign(nbonds, Vec2::Zero());
   m_t.assign(nbonds, 0.0);
   m_kbond.assign(nbonds, Sym2{});
-  if (options.matrix_free) m_weight_ratio.assign(nbonds, 0.0);
+  // apply_tangent()'s chunks: at least 1024 particles, about 128 of them, a function of the
+  // particle count alone (the sums' order must not depend on the threads or ranks).
+  if (options.matrix_free) m_colours = chunk_colours(model, m_chunk = std::max<Index>(1024, n / 128));
   m_s_self.assign(n, Vec2::Zero());
   m_beta_volume.assign(n, 0.0);
   m_u = VectorXd::Zero(2 * n);
@@ -431,6 +434,58 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   }
 }
 
+// Family i writes rows i and its neighbours, whose lattice points lie within the stencil's
+// reach of i's (checked here), so two chunks whose lattice boxes are more than two reaches
+// apart along x or y write disjoint rows. Greedy colouring in chunk order.
+std::vector<std::vector<Index>> chunk_colours(const Model& model, Index chunk) {
+  const Particles& part = model.particles;
+  const Bonds& bonds = model.bonds;
+  const int reach = model.stencil.reach;
+  const Index n = part.size();
+  for (Index i = 0; i < n; ++i)
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+      for (int d = 0; d < 2; ++d)
+        if (std::abs(part.lattice[bonds.neighbour[b]][d] - part.lattice[i][d]) > reach)
+          throw std::logic_error("chunk_colours: a bond longer than the stencil's reach");
+  const Index chunks = (n + chunk - 1) / chunk;
+  struct Box {
+    std::array<int, 2> lo{std::numeric_limits<int>::max(), std::numeric_limits<int>::max()};
+    std::array<int, 2> hi{std::numeric_limits<int>::min(), std::numeric_limits<int>::min()};
+  };
+  std::vector<Box> box(static_cast<std::size_t>(chunks));
+  for (Index i = 0; i < n; ++i) {
+    Box& x = box[static_cast<std::size_t>(i / chunk)];
+    for (int d = 0; d < 2; ++d) {
+      x.lo[d] = std::min(x.lo[d], part.lattice[i][d]);
+      x.hi[d] = std::max(x.hi[d], part.lattice[i][d]);
+    }
+  }
+  const auto apart = [&](const Box& a, const Box& b) {
+    for (int d = 0; d < 2; ++d)
+      if (a.lo[d] - b.hi[d] > 2 * reach || b.lo[d] - a.hi[d] > 2 * reach) return true;
+    return false;
+  };
+  std::vector<int> colour(static_cast<std::size_t>(chunks), -1);
+  std::vector<std::vector<Index>> colours;
+  std::vector<char> taken;
+  for (Index c = 0; c < chunks; ++c) {
+    taken.assign(colours.size() + 1, 0);
+    for (Index o = 0; o < c; ++o)
+      if (!apart(box[static_cast<std::size_t>(c)], box[static_cast<std::size_t>(o)]))
+        taken[static_cast<std::size_t>(colour[static_cast<std::size_t>(o)])] = 1;
+    const auto k = static_cast<std::size_t>(std::find(taken.begin(), taken.end(), 0) - taken.begin());
+    if (k == colours.size()) colours.emplace_back();
+    colours[k].push_back(c);
+    colour[static_cast<std::size_t>(c)] = static_cast<int>(k);
+  }
+  return colours;
+}
+
+void QuasiStaticProblem::set_action_chunk(Index chunk) {
+  if (!m_options.matrix_free) throw std::logic_error("set_action_chunk: the problem is not matrix-free");
+  m_colours = chunk_colours(m_model, m_chunk = std::max<Index>(1, chunk));
+}
+
 void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
   // K v = gather(H scatter(v)): H the Hessian over every component, its family blocks
   // V_i sum_b B_b^T k_b B_b + beta_i V_i g_i g_i^T (g_i . w = s_self_i . w_i + sum_b s_b . w_j),
@@ -439,47 +494,81 @@ void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
   const Bonds& bonds = m_model.bonds;
   const Particles& part = m_model.particles;
   const Index n = part.size();
+  if (m_colours.empty() && n > 0)
+    throw std::logic_error("apply_tangent: the problem was not built matrix-free");
   m_v_free = v;
   for (const Index f : m_fragment_unknowns) m_v_free[f] = 0.0;  // decoupled: no column
   m_model.constraints.scatter(m_v_free, m_v_full);
-  m_dilatation_rate.resize(static_cast<std::size_t>(n));
-  m_y_full.resize(2 * n);
+  m_y_full.setZero(2 * n);
   // Distributed: this rank's rows only, from the families they read (as the own-rows residual).
   const bool own = distributed();
   if (own) build_own_masks();
-  const auto w = [&](Index q) { return Vec2(m_v_full[2 * q], m_v_full[2 * q + 1]); };
-  const auto times = [](const Sym2& k, const Vec2& a) {
-    return Vec2(k[0] * a.x() + k[1] * a.y(), k[1] * a.x() + k[2] * a.y());
-  };
-#pragma omp parallel
-  {
-#pragma omp for schedule(static)
-    for (Index i = 0; i < n; ++i) {
-      if (own && !m_family_needed[static_cast<std::size_t>(i)]) continue;
-      double g = m_s_self[i].dot(w(i));
-      for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) g += m_s[b].dot(w(bonds.neighbour[b]));
-      m_dilatation_rate[i] = m_beta_volume[i] * g;
+  // Raw pointers: the writes into y would otherwise make the compiler reload every vector's
+  // data pointer after each bond.
+  const Index* __restrict start = bonds.start.data();
+  const Index* __restrict nbr = bonds.neighbour.data();
+  const auto* __restrict s = reinterpret_cast<const double*>(m_s.data());  // Vec2: two packed doubles
+  const auto* __restrict k = reinterpret_cast<const double*>(m_kbond.data());
+  const auto* __restrict s_self = reinterpret_cast<const double*>(m_s_self.data());
+  const double* __restrict beta_volume = m_beta_volume.data();
+  const double* __restrict w = m_v_full.data();
+  double* __restrict yf = m_y_full.data();
+  static_assert(sizeof(Vec2) == 2 * sizeof(double) && sizeof(Sym2) == 3 * sizeof(double));
+  // One pass over the families, each family's bond data read once from memory and used while
+  // it is in cache: the dilatation rate G_i = beta_i V_i g_i . w, then G_i s_self_i into row i
+  // and G_i s_b into row j for each bond b = i -> j (the column form of beta_i V_i g_i g_i^T),
+  // and row i's pair stiffnesses k_b (w_i - w_j) (pair_stiffness()) and contact pairs.
+  const auto family = [&](Index i) {
+    const double wx = w[2 * i], wy = w[2 * i + 1];
+    const Index b0 = start[i], b1 = start[i + 1];
+    const bool needed = !own || m_family_needed[static_cast<std::size_t>(i)];
+    const bool row = !own || m_options.rows.contains(i);  // else another rank's row, or one of no unknown
+    double G = 0.0;
+    if (needed) {
+      double g = s_self[2 * i] * wx + s_self[2 * i + 1] * wy;
+      for (Index b = b0; b < b1; ++b) g += s[2 * b] * w[2 * nbr[b]] + s[2 * b + 1] * w[2 * nbr[b] + 1];
+      G = beta_volume[i] * g;
     }
-#pragma omp for schedule(static)
-    for (Index q = 0; q < n; ++q) {
-      if (own && !m_options.rows.contains(q)) {  // another rank's, or a row of no unknown
-        m_y_full[2 * q] = m_y_full[2 * q + 1] = 0.0;
-        continue;
-      }
-      const Vec2 wq = w(q);
-      Vec2 y_q = m_dilatation_rate[q] * m_s_self[q];
-      for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
-        const Index j = bonds.neighbour[b];
-        y_q += times(m_kbond[b], wq - w(j)) - (m_dilatation_rate[j] * m_weight_ratio[b]) * m_s[b];  // pair_stiffness()
+    double yx = G * s_self[2 * i], yy = G * s_self[2 * i + 1];
+    if (row) {
+      for (Index b = b0; b < b1; ++b) {
+        const Index j = nbr[b];
+        yf[2 * j] += G * s[2 * b];
+        yf[2 * j + 1] += G * s[2 * b + 1];
+        const double dx = wx - w[2 * j], dy = wy - w[2 * j + 1];
+        yx += k[3 * b] * dx + k[3 * b + 1] * dy;
+        yy += k[3 * b + 1] * dx + k[3 * b + 2] * dy;
       }
       if (m_contact)
-        for (auto e = m_contact->incident_begin(q); e != m_contact->incident_end(q); ++e)
-          if (e->pair < static_cast<Index>(m_pair_jacobian.size()))  // pairs added since: none yet
-            y_q += m_pair_jacobian[e->pair] * (wq - w(e->other));
-      m_y_full[2 * q] = y_q.x();
-      m_y_full[2 * q + 1] = y_q.y();
+        for (auto e = m_contact->incident_begin(i); e != m_contact->incident_end(i); ++e)
+          if (e->pair < static_cast<Index>(m_pair_jacobian.size())) {  // pairs added since: none yet
+            const Vec2 f = m_pair_jacobian[e->pair] * Vec2(wx - w[2 * e->other], wy - w[2 * e->other + 1]);
+            yx += f.x();
+            yy += f.y();
+          }
+    } else if (needed) {
+      for (Index b = b0; b < b1; ++b) {
+        yf[2 * nbr[b]] += G * s[2 * b];
+        yf[2 * nbr[b] + 1] += G * s[2 * b + 1];
+      }
+    }
+    yf[2 * i] += yx;
+    yf[2 * i + 1] += yy;
+  };
+  // Chunks of a colour write disjoint rows (chunk_colours()): they run in parallel, colour by
+  // colour. Each row sums its terms in an order fixed by the particles alone.
+#pragma omp parallel
+  for (const std::vector<Index>& colour : m_colours) {
+    const auto count = static_cast<Index>(colour.size());
+#pragma omp for schedule(dynamic, 1)
+    for (Index c = 0; c < count; ++c) {
+      const Index begin = colour[static_cast<std::size_t>(c)] * m_chunk, end = std::min(begin + m_chunk, n);
+      for (Index i = begin; i < end; ++i) family(i);
     }
   }
+  if (own)
+    for (Index q = 0; q < n; ++q)
+      if (!m_options.rows.contains(q)) m_y_full[2 * q] = m_y_full[2 * q + 1] = 0.0;
   m_model.constraints.gather(m_y_full, y);
   for (const Index f : m_fragment_unknowns) y[f] = m_fragment_diagonal * v[f];
   if (own)
@@ -490,11 +579,9 @@ void QuasiStaticProblem::pair_stiffness() {
   const Bonds& bonds = m_model.bonds;
   const Particles& part = m_model.particles;
   const Index n = part.size();
-  const std::span<const double> weight = m_correction.weights();  // the kernel's: s_b = w_b |xi| M_b
-  bool lone_zero = false;
   // Each pair {b, r} once, by the family of its lower bond index: no two iterations write
   // the same bond.
-#pragma omp parallel for schedule(static) reduction(|| : lone_zero)
+#pragma omp parallel for schedule(static)
   for (Index q = 0; q < n; ++q)
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
       const Index r = bonds.reverse[b];
@@ -503,15 +590,7 @@ void QuasiStaticProblem::pair_stiffness() {
       const Sym2 &kb = m_kbond[b], &kr = m_kbond[r];
       const Sym2 k{Vq * kb[0] + Vj * kr[0], Vq * kb[1] + Vj * kr[1], Vq * kb[2] + Vj * kr[2]};
       m_kbond[b] = m_kbond[r] = k;
-      // A bond's two directions are broken together and the surface correction scales by
-      // factors >= 0.2, so w_b and w_r are zero together (a lone zero would lose s_r here).
-      const double wb = weight[b], wr = weight[r];
-      if ((wb == 0.0) != (wr == 0.0)) lone_zero = true;
-      m_weight_ratio[b] = wb != 0.0 ? wr / wb : 0.0;
-      m_weight_ratio[r] = wr != 0.0 ? wb / wr : 0.0;
     }
-  if (lone_zero)
-    throw std::logic_error("pair_stiffness: a bond with one zero and one non-zero direction weight");
 }
 
 double QuasiStaticProblem::tangent_diagonal_max() const {
@@ -522,7 +601,8 @@ double QuasiStaticProblem::tangent_diagonal_max() const {
   for (Index q = 0; q < part.size(); ++q) {
     Vec2 d(m_beta_volume[q] * m_s_self[q].x() * m_s_self[q].x(), m_beta_volume[q] * m_s_self[q].y() * m_s_self[q].y());
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {  // pair_stiffness()'s data
-      const Vec2 sr = -m_weight_ratio[b] * m_s[b];
+      const Index r = bonds.reverse[b];  // -1: the neighbour's family is another rank's
+      const Vec2 sr = r >= 0 ? m_s[r] : Vec2::Zero();
       const double bVj = m_beta_volume[bonds.neighbour[b]];
       d.x() += m_kbond[b][0] + bVj * sr.x() * sr.x();
       d.y() += m_kbond[b][2] + bVj * sr.y() * sr.y();
@@ -935,8 +1015,8 @@ void QuasiStaticProblem::collect_changed_families(const std::vector<std::pair<In
 std::size_t QuasiStaticProblem::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   std::size_t total =
-      m_correction.memory_bytes() + bytes(m_changed_families) + bytes(m_eta) + bytes(m_eta_scratch) + bytes(m_direction) + bytes(m_s) + bytes(m_t) +
-      bytes(m_kbond) + bytes(m_weight_ratio) + bytes(m_s_self) + bytes(m_beta_volume) +
+      m_correction.memory_bytes() + bytes(m_changed_families) + bytes(m_eta) + bytes(m_eta_scratch) +
+      bytes(m_direction) + bytes(m_s) + bytes(m_t) + bytes(m_kbond) + bytes(m_s_self) + bytes(m_beta_volume) +
       static_cast<std::size_t>(m_u.size() + m_force.size() + m_velocity.size()) * sizeof(double) +
       m_pattern.memory_bytes();
   if (m_failure) total += m_failure->memory_bytes();

@@ -74,6 +74,12 @@ struct ProblemOptions {
   std::function<void(VectorXd& per_particle)> share_particle_values;
 };
 
+/// apply_tangent()'s schedule: chunks of `chunk` consecutive particles (chunk c holds
+/// c * chunk ..), grouped by colour so that the families of two chunks of one colour never
+/// write the same row of the product. Depends on the particles alone: the same on every rank
+/// and for any number of threads. Throws std::logic_error if a bond is longer than the stencil.
+std::vector<std::vector<Index>> chunk_colours(const Model& model, Index chunk);
+
 class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
  public:
   QuasiStaticProblem(const Model& model, const ProblemOptions& options);
@@ -97,6 +103,9 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// the whole product's, reading v only at action_reads(); the other rows are zero
   /// (solver.belos.tangent: matrix_free reads its own rows only).
   void apply_tangent(const VectorXd& v, VectorXd& y) override;
+  /// Tests: apply_tangent()'s chunks of consecutive families (default: 1024, or a 128th of
+  /// the particles when that is more).
+  void set_action_chunk(Index chunk);
   /// Distributed: the unknowns (ascending) whose entries of v the action of this rank's rows
   /// reads: the ghosts of its rows, two horizons deep, with contact partners and mirror
   /// sources. Changes with structure_version(). Every unknown in one process.
@@ -248,8 +257,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// Matrix-free: the largest diagonal entry of K over the unknowns (the fragments' diagonal),
   /// from the factored Hessians (mirror ghosts' folds not included: it only sets a scale).
   double tangent_diagonal_max() const;
-  /// matrix_free: turns m_kbond into the pairs' stiffnesses and fills m_weight_ratio, so that
-  /// apply_tangent() reads every bond's data in order instead of its reverse's.
+  /// matrix_free: turns m_kbond into the pairs' stiffnesses (V_i k_b + V_j k_r on both bonds),
+  /// so that apply_tangent() reads row i's bond terms from family i alone.
   void pair_stiffness();
   /// Why damage decreased at the state of the bonds' weights, or "".
   std::string check_damage();
@@ -310,14 +319,14 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// per bond: the family's bond stiffness k_b; with matrix_free, after an evaluate() with a
   /// tangent, the pair's V_i k_b + V_j k_r instead (pair_stiffness(), the same for b and r)
   std::vector<Sym2> m_kbond;
-  /// per bond, matrix_free: w_r / w_b (0 for a broken bond), so that the reverse bond's s is
-  /// -ratio s_b (M_r = -M_b and |xi_r| = |xi_b| exactly): 8 B instead of a second vector
-  std::vector<double> m_weight_ratio;
   std::vector<Vec2> m_s_self;                 ///< per particle: -sum_b s_b
   std::vector<double> m_beta_volume;          ///< per particle: beta_i V_i
   // Matrix-free products: scratch (allocated once) and the fragments' diagonal.
   VectorXd m_v_free, m_v_full, m_y_full;
-  std::vector<double> m_dilatation_rate;  ///< per particle: beta_i V_i g_i . v
+  /// matrix_free: apply_tangent()'s schedule, chunks of m_chunk consecutive families by colour
+  /// (chunks of one colour write disjoint rows).
+  Index m_chunk = 0;
+  std::vector<std::vector<Index>> m_colours;
   /// The contact pairs' Jacobians of the last evaluate() with a tangent: a residual-only
   /// evaluate() recomputes the pairs without them, and the product must stay the tangent's.
   std::vector<Mat2> m_pair_jacobian;

@@ -124,7 +124,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   const auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kForceFloor); };
   double norm = measure(false);
   report.residuals.push_back(relative(norm));
-  if (monitor) monitor(0, report.residuals.back(), 0.0);
+  if (monitor) monitor(0, report.residuals.back(), 0.0, 0);
   if (norm <= tolerance()) {
     report.converged = true;
     report.reason = "converged";
@@ -153,7 +153,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
     }
     if (done || it % o.report_every == 0 || it == o.max_iterations) {
       report.residuals.push_back(relative(norm));
-      if (monitor) monitor(clamp_to_int(it), report.residuals.back(), c);
+      if (monitor) monitor(clamp_to_int(it), report.residuals.back(), c, 0);
     }
     if (done) {
       report.converged = true;

@@ -35,9 +35,12 @@ struct SolveReport {
   double seconds_solve = 0.0;
 };
 
-/// Called as a solve progresses: iteration, relative residual, and a solver-specific number
-/// (Newton: the line-search step length; ADR: the damping coefficient).
-using SolveMonitor = std::function<void(int iteration, double relative_residual, double extra)>;
+/// Called as a solve progresses: iteration, relative residual, a solver-specific number
+/// (Newton: the line-search step length; ADR: the damping coefficient) and the Krylov
+/// iterations of the linear solve that led to this iterate (Newton with an iterative linear
+/// solver, from iteration 1; 0 otherwise).
+using SolveMonitor =
+    std::function<void(int iteration, double relative_residual, double extra, int linear_iterations)>;
 
 class StepSolver {
  public:

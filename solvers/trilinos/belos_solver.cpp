@@ -522,9 +522,10 @@ class MueLuCycle final : public LinearSolver {
       // fewer (0.24 -> 0.14 s of set-up); tension 300 x 300, one step: set-up 2.0 -> 1.5 s; the
       // LEFM case 169 -> 150 Krylov; 4.1, 4.2 and 4.4 within 2 iterations.
       p.set("sa: use filtered matrix", false);
-      // Above a million rows the Galerkin product P^T A P is formed without the temporary A P,
-      // which made the set-up the run's peak: 1000 x 1000, peak 7.97 -> 7.54 GB (1e9 B);
-      // 700 x 700, 3.96 -> 3.77 GB for 8.5 -> 10.3 s of set-up. Below, time counts more.
+      // Above kAmgMemoryFirstRows the Galerkin product P^T A P is formed without the temporary
+      // A P, which made the set-up the run's peak: 1000 x 1000, peak 7.97 -> 7.54 GB (1e9 B)
+      // before the eighth round; 700 x 700, 3.96 -> 3.77 GB for 8.5 -> 10.3 s of set-up.
+      // Below, time counts more.
       p.set("rap: triple product", m_copy.d.n_rows > kAmgMemoryFirstRows);
       if (m_copy.d.per_node == 2) {
         p.set("number of equations", 2);
@@ -533,7 +534,7 @@ class MueLuCycle final : public LinearSolver {
       m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_copy.matrix), p);
       // The cycle on this program's threads (MueLu's apply runs on one core: Debian's Kokkos
       // is Serial only); a hierarchy it cannot repeat is applied by MueLu, and said so in name().
-      // Its finest level in 2 x 2 blocks too, where memory allows (below a million rows), of
+      // Its finest level in 2 x 2 blocks too, where memory allows (up to kAmgMemoryFirstRows), of
       // floats by default (ThreadedCycle::Blocks).
       if (m_apply != CycleApply::muelu) {
         using Finest = ThreadedCycle::Finest;

@@ -29,11 +29,12 @@ struct SizeEstimate {
 /// `check` on the paper cases and the tension plate (24.4-24.9 B, 2026-11-24).
 inline constexpr double kBytesPerNonzero = 25.0;
 /// The same without the tangent and its pattern (solver.linear: matrix_free), per nonzero the
-/// tangent would have: 9.75-9.93 B measured with `check` on the tension plate and cases 4.1
-/// and 4.3 (2026-11-25, after the pair stiffnesses and the per-thread bond displacements) ...
-inline constexpr double kMatrixFreeBytesPerNonzero = 9.9;
+/// tangent would have: 8.47-8.85 B measured with `check` on the tension plate (100 x 100 and
+/// 1000 x 1000) and cases 4.1 and 4.3 (2026-11-27, after the single-pass tangent action
+/// dropped the per-bond weight ratio; 9.75-9.93 B before) ...
+inline constexpr double kMatrixFreeBytesPerNonzero = 8.6;
 /// ... and with a failure criterion 2.6 B more (the bonds' displacements and the failure
-/// state: case 4.4, 12.45 B).
+/// state: case 4.4, 11.2 B).
 inline constexpr double kMatrixFreeFailureBytesPerNonzero = 2.6;
 /// Matrix-free bytes per tangent nonzero of a scene.
 inline double matrix_free_bytes_per_nonzero(bool failure) {

@@ -52,7 +52,7 @@ LoadSteppingCallbacks ProgressPrinter::callbacks() const {
     std::printf("step %d/%d  load factor %.6g%s\n", k, n, lambda, cutbacks ? "  (after cut-back)" : "");
     std::fflush(stdout);
   };
-  cb.on_iteration = [verbose, adr, &problem](int it, double rel, double extra) {
+  cb.on_iteration = [verbose, adr, &problem](int it, double rel, double extra, int krylov) {
     check_interrupt();
     if (!verbose) return;
     if (adr)
@@ -61,6 +61,7 @@ LoadSteppingCallbacks ProgressPrinter::callbacks() const {
       std::printf("  newton %2d  residual %.3e", it, rel);
     else
       std::printf("  newton %2d  residual %.3e  step %.3g", it, rel, extra);
+    if (krylov > 0) std::printf("  krylov %d", krylov);
     if (const ContactSystem* contact = problem.contact()) {
       const ContactCounts& c = contact->counts();
       std::printf("  contact open %d stick %d slip %d", c.open, c.stick, c.slip);

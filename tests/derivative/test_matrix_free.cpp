@@ -3,8 +3,10 @@
 // proved on (tests/derivative/test_tangent.cpp, test_contact_tangent.cpp), and the
 // directional derivative of the residual.
 #include <random>
+#include <set>
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
@@ -91,6 +93,76 @@ TEST(MatrixFree, ActionEqualsTheAssembledTangentWithMirrorGrips) {
   ASSERT_TRUE(p->model.constraints.has_images());
   const double dx = p->scene.discretization.spacing;
   expect_action_is_the_tangent(*p, random_vector(p->assembled->n_unknowns(), 0.05 * dx, 31u));
+}
+
+// apply_tangent() runs chunks of consecutive families colour by colour, the chunks of a
+// colour in parallel, each family adding into its neighbours' rows. The scenes above fit in
+// one chunk; here chunks of 16 particles, with mirror ghosts (numbered after the plate, so
+// their chunks border chunks far away in the numbering) and a crack.
+std::string gripped_cracked_plate() {
+  test::PlateSpec spec;
+  spec.nx = 30;
+  spec.ny = 12;
+  spec.boundary =
+      "  - {body: plate, edge: left, mirror: true, ux: 0}\n"
+      "  - {body: plate, edge: right, mirror: true, ux: 2.0e-5}\n"
+      "  - {body: plate, region: {min: [0, 0.005], max: [0.001, 0.007]}, uy: 0}\n";
+  spec.cracks = "  - {from: [0.012, 0.003], to: [0.018, 0.009]}\n";
+  return test::plate_yaml(spec);
+}
+
+// The colouring's promise: the chunks of one colour write disjoint rows (family i writes row
+// i and its neighbours' rows), and every chunk runs once. Fails when chunk_colours() keeps
+// chunks one stencil reach apart instead of two (checked).
+TEST(MatrixFree, ChunksOfAColourWriteDisjointRows) {
+  const Model model = discretise(test::scene_from_yaml(gripped_cracked_plate()));
+  ASSERT_TRUE(model.constraints.has_images());
+  const Index n = model.particles.size();
+  for (const Index chunk : {Index{1}, Index{16}, Index{50}}) {
+    SCOPED_TRACE(chunk);
+    const std::vector<std::vector<Index>> colours = chunk_colours(model, chunk);
+    EXPECT_GT(colours.size(), 1u) << "chunks smaller than the model conflict";
+    std::set<Index> seen;
+    for (const std::vector<Index>& colour : colours) {
+      std::vector<int> writer(static_cast<std::size_t>(n), -1);
+      for (const Index c : colour) {
+        EXPECT_TRUE(seen.insert(c).second) << "chunk " << c << " twice";
+        for (Index i = c * chunk; i < std::min(n, (c + 1) * chunk); ++i) {
+          std::vector<Index> rows{i};
+          for (Index b = model.bonds.start[i]; b < model.bonds.start[i + 1]; ++b)
+            rows.push_back(model.bonds.neighbour[b]);
+          for (const Index row : rows) {
+            int& w = writer[static_cast<std::size_t>(row)];
+            EXPECT_TRUE(w < 0 || w == static_cast<int>(c))
+                << "row " << row << " written by chunks " << w << " and " << c;
+            w = static_cast<int>(c);
+          }
+        }
+      }
+    }
+    EXPECT_EQ(static_cast<Index>(seen.size()), (n + chunk - 1) / chunk) << "every chunk runs";
+  }
+}
+
+// With many chunks and colours the action is still the assembled tangent's (1e-12, round-off
+// of another summation order), and the same to the last bit on one thread and on two: each
+// row sums its terms in an order fixed by the particles (the results do not depend on the
+// machine's cores).
+TEST(MatrixFree, ActionInSmallChunksIsTheTangentOnAnyNumberOfThreads) {
+  auto p = both(gripped_cracked_plate());
+  p->matrix_free->set_action_chunk(16);
+  const double dx = p->scene.discretization.spacing;
+  expect_action_is_the_tangent(*p, random_vector(p->assembled->n_unknowns(), 0.05 * dx, 5u));
+  const VectorXd v = random_vector(p->assembled->n_unknowns(), 1.0, 9u);
+  const int threads = omp_get_max_threads();
+  VectorXd y1, y2;
+  omp_set_num_threads(1);
+  p->matrix_free->apply_tangent(v, y1);
+  omp_set_num_threads(2);
+  p->matrix_free->apply_tangent(v, y2);
+  omp_set_num_threads(threads);
+  EXPECT_GT(y1.norm(), 0.0);
+  EXPECT_EQ((y1 - y2).norm(), 0.0) << "one thread against two";
 }
 
 // Contact with friction, both stick and slip (the unsymmetric tangent), compressed across a
