@@ -65,7 +65,6 @@ FailureRanks failure_ranks(const Model& model, const ProblemOptions& options) {
   if (model.holds_every_family()) return {};
   return {counted_families(model, options.rows), options.gather_over_ranks, options.share_particle_values};
 }
-
 }  // namespace
 
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions& options)
