@@ -12,6 +12,7 @@
 
 #include "assembly/column_writer.hpp"
 #include "core/clock.hpp"
+#include "core/huge_pages.hpp"
 #include "materials/fragments.hpp"
 
 namespace peristat {
@@ -86,11 +87,19 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   const Index n = model.particles.size();
   const Bonds& bonds = model.bonds;
   const std::size_t nbonds = bonds.neighbour.size();
+  // The per-bond state: the largest arrays of a run, on huge pages (core/huge_pages.hpp).
   // The bonds' relative displacements: kept for the failure criterion only; the families
   // use a per-thread scratch of the largest family's size.
-  if (m_failure) m_eta.assign(nbonds, Vec2::Zero());
+  if (m_failure) {
+    reserve_huge(m_eta, nbonds);
+    m_eta.assign(nbonds, Vec2::Zero());
+  }
   for (Index i = 0; i < n; ++i) m_largest_family = std::max(m_largest_family, bonds.family_size(i));
   m_eta_scratch.assign(static_cast<std::size_t>(omp_get_max_threads()) * m_largest_family, Vec2::Zero());
+  reserve_huge(m_direction, nbonds);
+  reserve_huge(m_s, nbonds);
+  reserve_huge(m_t, nbonds);
+  reserve_huge(m_kbond, nbonds);
   m_direction.assign(nbonds, Vec2::Zero());
   m_s.assign(nbonds, Vec2::Zero());
   m_t.assign(nbonds, 0.0);

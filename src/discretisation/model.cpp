@@ -5,6 +5,7 @@
 #include <limits>
 #include <numbers>
 
+#include "core/huge_pages.hpp"
 #include "scene/geometry.hpp"
 
 namespace peristat {
@@ -404,10 +405,10 @@ class Builder {
     Index n_held = 0;
     for (Index i = 0; i < n; ++i) n_held += held(i);
     const std::size_t capacity = static_cast<std::size_t>(n_held) * s.offset.size();  // an upper bound
-    bonds.neighbour.reserve(capacity);
-    bonds.xi.reserve(capacity);
-    bonds.weight.reserve(capacity);
-    stencil_index.reserve(capacity);
+    reserve_huge(bonds.neighbour, capacity);
+    reserve_huge(bonds.xi, capacity);
+    reserve_huge(bonds.weight, capacity);
+    reserve_huge(stencil_index, capacity);
     bonds.start.assign(n + 1, 0);
     if (!hold.empty()) m_model.whole_start.assign(static_cast<std::size_t>(n) + 1, 0);
     for (Index i = 0; i < n; ++i) {
@@ -441,6 +442,7 @@ class Builder {
     }
     // Reverse bonds: a family lists its bonds in increasing stencil index, so the bond
     // j -> i (stencil index mirror[k]) is found by binary search in j's family.
+    reserve_huge(bonds.reverse, bonds.neighbour.size());
     bonds.reverse.assign(bonds.neighbour.size(), -1);
 #pragma omp parallel for schedule(static)
     for (Index i = 0; i < n; ++i) {
