@@ -22,4 +22,16 @@ void reserve_huge(std::vector<T>& v, std::size_t n) {
   advise_huge_pages(v.data(), v.capacity() * sizeof(T));
 }
 
+/// Releases a vector's unused capacity when it is more than a sixteenth of its size, into
+/// storage advised as by reserve_huge(). A smaller slack is kept: capacity never written
+/// takes no memory, and copying the array would touch every page again.
+template <class T>
+void shrink_huge(std::vector<T>& v) {
+  if (v.capacity() - v.size() <= v.size() / 16) return;
+  std::vector<T> fitted;
+  reserve_huge(fitted, v.size());
+  fitted.assign(v.begin(), v.end());
+  v.swap(fitted);
+}
+
 }  // namespace peristat

@@ -456,9 +456,9 @@ class Builder {
         bonds.reverse[b] = static_cast<Index>(it - stencil_index.begin());
       }
     }
-    bonds.neighbour.shrink_to_fit();
-    bonds.xi.shrink_to_fit();
-    bonds.weight.shrink_to_fit();
+    shrink_huge(bonds.neighbour);
+    shrink_huge(bonds.xi);
+    shrink_huge(bonds.weight);
   }
 
   void number_unknowns() {

@@ -67,6 +67,21 @@ TEST(HugePages, SmallNullAndUnalignedRangesAreLeftAlone) {
   EXPECT_EQ(small[999], 'x');
 }
 
+TEST(HugePages, ShrinkReleasesOnlyALargeSlack) {
+  std::vector<int> v;
+  reserve_huge(v, 1600);
+  v.assign(1590, 7);  // slack 10 <= 1590 / 16: kept, no copy
+  const int* const data = v.data();
+  shrink_huge(v);
+  EXPECT_EQ(v.data(), data);
+  v.resize(1000);  // slack 600 > 1000 / 16: released, the contents kept
+  shrink_huge(v);
+  EXPECT_EQ(v.capacity(), 1000u);
+  EXPECT_EQ(v.size(), 1000u);
+  EXPECT_EQ(v.front(), 7);
+  EXPECT_EQ(v.back(), 7);
+}
+
 TEST(HugePages, A64MBArrayIsBackedByHugePagesWhereTheKernelOffersThem) {
   const std::string mode = thp_mode();
   if (mode != "always" && mode != "madvise")
