@@ -66,6 +66,7 @@ FailureRanks failure_ranks(const Model& model, const ProblemOptions& options) {
   if (model.holds_every_family()) return {};
   return {counted_families(model, options.rows), options.gather_over_ranks, options.share_particle_values};
 }
+
 }  // namespace
 
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions& options)
@@ -87,23 +88,16 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   const Index n = model.particles.size();
   const Bonds& bonds = model.bonds;
   const std::size_t nbonds = bonds.neighbour.size();
-  // The per-bond state: the largest arrays of a run, on huge pages (core/huge_pages.hpp).
+  // The per-bond state, the largest arrays of a run, goes on huge pages (core/huge_pages.hpp).
   // The bonds' relative displacements: kept for the failure criterion only; the families
   // use a per-thread scratch of the largest family's size.
-  if (m_failure) {
-    reserve_huge(m_eta, nbonds);
-    m_eta.assign(nbonds, Vec2::Zero());
-  }
+  if (m_failure) assign_huge(m_eta, nbonds, Vec2(Vec2::Zero()));
   for (Index i = 0; i < n; ++i) m_largest_family = std::max(m_largest_family, bonds.family_size(i));
   m_eta_scratch.assign(static_cast<std::size_t>(omp_get_max_threads()) * m_largest_family, Vec2::Zero());
-  reserve_huge(m_direction, nbonds);
-  reserve_huge(m_s, nbonds);
-  reserve_huge(m_t, nbonds);
-  reserve_huge(m_kbond, nbonds);
-  m_direction.assign(nbonds, Vec2::Zero());
-  m_s.assign(nbonds, Vec2::Zero());
-  m_t.assign(nbonds, 0.0);
-  m_kbond.assign(nbonds, Sym2{});
+  assign_huge(m_direction, nbonds, Vec2(Vec2::Zero()));
+  assign_huge(m_s, nbonds, Vec2(Vec2::Zero()));
+  assign_huge(m_t, nbonds, 0.0);
+  assign_huge(m_kbond, nbonds, Sym2{});
   // apply_tangent()'s chunks: at least 1024 particles, about 128 of them, a function of the
   // particle count alone (the sums' order must not depend on the threads or ranks).
   if (options.matrix_free) m_colours = chunk_colours(model, m_chunk = std::max<Index>(1024, n / 128));

@@ -2,8 +2,9 @@
 // Transparent huge pages for the largest arrays (the bonds and their per-bond state).
 //
 // First touching fresh memory costs more than computing on it on the project's machine kind:
-// `peristat check` of the 1000 x 1000 plate spent 10 of its 12 s in the kernel, faulting in
-// 4.8 GB one 4 KB page at a time (1.5 million faults, docs/performance.md, "Ninth round").
+// `peristat check` of the 1000 x 1000 plate spent 7-13 of its 10-16 s in the kernel, faulting
+// in 4.8 GB one 4 KB page at a time (1.53 million faults; 0.14 million with these helpers:
+// docs/performance.md, "Ninth round").
 // Where the kernel grants huge pages only on request (/sys/kernel/mm/transparent_hugepage/
 // enabled = madvise, Debian's default), an array asks for them before it is first written.
 #include <cstddef>
@@ -20,6 +21,13 @@ template <class T>
 void reserve_huge(std::vector<T>& v, std::size_t n) {
   v.reserve(n);
   advise_huge_pages(v.data(), v.capacity() * sizeof(T));
+}
+
+/// v.assign(n, value) into storage reserved by reserve_huge(): the per-bond arrays' form.
+template <class T>
+void assign_huge(std::vector<T>& v, std::size_t n, const T& value) {
+  reserve_huge(v, n);
+  v.assign(n, value);
 }
 
 /// Releases a vector's unused capacity when it is more than a sixteenth of its size, into

@@ -442,8 +442,7 @@ class Builder {
     }
     // Reverse bonds: a family lists its bonds in increasing stencil index, so the bond
     // j -> i (stencil index mirror[k]) is found by binary search in j's family.
-    reserve_huge(bonds.reverse, bonds.neighbour.size());
-    bonds.reverse.assign(bonds.neighbour.size(), -1);
+    assign_huge(bonds.reverse, bonds.neighbour.size(), Index{-1});
 #pragma omp parallel for schedule(static)
     for (Index i = 0; i < n; ++i) {
       for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
