@@ -172,6 +172,9 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
     const double target = static_cast<double>(k) / n;
     StepReport step;
     step.step = k;
+    // Before the first checkpoint (a run from the unloaded state, step 1) no other run can
+    // reach this step's state by another path (StepSolver::set_reproducible).
+    solver.set_reproducible(steps_done > 0 || k > 1);
     double increment = target - lambda;
     int halvings = 0;  // current depth below the nominal increment
     while (lambda < target - kReachedTarget * nominal) {

@@ -28,6 +28,9 @@ constexpr double kForcingMax = 1e-3;
 /// difference is then linear to about 1e-6 even where the whole increment is a spacing, as
 /// at the grips of a 700 x 700 plate), large enough to keep 13 digits of the difference.
 constexpr double kPredictorStep = 1e-3;
+/// Loosest last solve where the path need not be reproducible: the Kelley term 0.5 tol/||r||
+/// is below it whenever ||r|| is above the tolerance (otherwise Newton has converged).
+constexpr double kLastSolveMax = 0.5;
 }  // namespace
 
 NewtonSolver::NewtonSolver(Problem& problem, LinearSolver& linear, const NewtonOptions& options)
@@ -175,10 +178,12 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
 double NewtonSolver::forcing_term(int it, double norm, double previous_norm, double previous_eta) const {
   // Eisenstat & Walker (1996), choice 2 (gamma 0.9, alpha 2) with their safeguard against a
   // sudden drop, capped at kForcingMax; then no more accuracy than the Newton tolerance asks
-  // of this step (Kelley 1995, eq. 6.20: 0.5 tol / ||r||), but never looser than kForcingMax:
-  // a last solve as loose as the tolerance allows (0.1-0.5) would leave every converged state
-  // anywhere inside the tolerance, and two runs that reach it by other paths (a resumed run,
-  // another rank count) 3e-10 apart instead of 1e-17 (measured on case 4.4, 2026-11-27).
+  // of this step (Kelley 1995, eq. 6.20: 0.5 tol / ||r||). Where the path must be
+  // reproducible (set_reproducible), never looser than kForcingMax: a last solve as loose as
+  // the tolerance allows (0.1-0.5) leaves the converged state anywhere inside the tolerance,
+  // and a resumed run, which reaches it by another path, 3e-10 from the uninterrupted run
+  // instead of 1e-17 (measured on case 4.4, 2026-11-27). Before the first checkpoint every
+  // run takes the same path, and the last solve may stop as soon as the tolerance allows.
   // The solver keeps its configured rtol as the floor. The first iteration of a solve has no
   // ratio: kForcingMax.
   double eta = kForcingMax;
@@ -189,7 +194,9 @@ double NewtonSolver::forcing_term(int it, double norm, double previous_norm, dou
     if (safeguard > 0.1) eta = std::max(eta, safeguard);
   }
   eta = std::min(eta, kForcingMax);
-  return std::min(kForcingMax, std::max(eta, 0.5 * residual_tolerance(m_problem.force_scale()) / norm));
+  const double kelley = 0.5 * residual_tolerance(m_problem.force_scale()) / norm;
+  if (!m_reproducible) return std::max(eta, std::min(kelley, kLastSolveMax));
+  return std::min(kForcingMax, std::max(eta, kelley));
 }
 
 double NewtonSolver::residual_tolerance(double force_scale) const {

@@ -43,6 +43,7 @@ class NewtonSolver final : public StepSolver {
   void invalidate_factorization() override { m_have_factor = false; }
   /// max(rtol * force_scale, atol), the convergence test of every iterate.
   double residual_tolerance(double force_scale) const override;
+  void set_reproducible(bool reproducible) override { m_reproducible = reproducible; }
 
  private:
   SolveReport solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report);
@@ -74,6 +75,7 @@ class NewtonSolver final : public StepSolver {
   bool m_have_factor = false;
   std::uint64_t m_structure = 0;  ///< the problem's structure_version() of m_K
   std::uint64_t m_factor_state = 0;  ///< the problem's state_signature() when the factor was built
+  bool m_reproducible = true;        ///< see StepSolver::set_reproducible()
   SolveReport m_pending;  ///< work of prepare(), added to the next report
   VectorXd m_r, m_dx, m_trial, m_trial_r;
 };

@@ -31,8 +31,10 @@ struct Solved {
 
 /// Parses, discretises and solves with the scene's own solver options (solver.type newton or adr).
 std::unique_ptr<Solved> solve_scene(const std::string& yaml);
-/// The same for a parsed scene (e.g. a case file with --set overrides).
-std::unique_ptr<Solved> solve_parsed(Scene scene);
+/// The same for a parsed scene (e.g. a case file with --set overrides). With
+/// `always_reproducible` the step solver is told that every solve's path must be reproducible
+/// (StepSolver::set_reproducible), the first step's too.
+std::unique_ptr<Solved> solve_parsed(Scene scene, bool always_reproducible = false);
 /// A case of cases/<name>/scene.yaml with `--set` style overrides ("key=value").
 std::unique_ptr<Solved> solve_case(const std::string& name, const std::vector<std::string>& overrides);
 
