@@ -6,14 +6,15 @@
 #include <csignal>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
-#include <thread>
-
-#include <spawn.h>
 #include <sys/wait.h>
+#include <thread>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
+#include <spawn.h>
 
 #include "support/cli.hpp"
 
@@ -123,6 +124,46 @@ TEST(Resume, OtherOptionsAreRefused) {
   EXPECT_EQ(none.exit_code, 2);
   EXPECT_NE(none.err.find("no checkpoint"), std::string::npos) << none.err;
   for (const fs::path& d : {dir, empty}) fs::remove_all(d);
+}
+
+// The first load step of a run from the unloaded state stops its last Krylov solve as soon as
+// the tolerance allows (docs/theory/newton.md, "Inexact Newton"); the checkpoint then holds
+// that state, and the resumed run's later steps must still end where the uninterrupted run's
+// do. The tension plate stretched to 3 % in three steps (matrix_free), whose step 1 takes
+// 92 Krylov iterations instead of 99 that way, killed inside the write of step 2's results.
+TEST(Resume, AfterTheFirstStepsLooseLastSolve) {
+  const std::string source = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+  std::ifstream in(source);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"ux: 1.0e-4}", "ux: 3.0e-3}"}, {"steps: 2", "steps: 3"}}) {
+    ASSERT_NE(text.find(from), std::string::npos) << from;
+    text.replace(text.find(from), from.size(), to);
+  }
+  const fs::path dir = test::fresh_directory("resume_loose_first_step");
+  const fs::path scene = dir / "plate.yaml";
+  std::ofstream(scene) << text;
+  const std::string options = " --quiet --threads 1";
+  const fs::path reference = dir / "reference", killed = dir / "killed";
+  test::CliResult r = test::run_cli("run " + scene.string() + " --out " + reference.string() + options);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const int status =
+      std::system(("PERISTAT_FAULT_KILL_IN_WRITE=2 " + std::string(PERISTAT_EXE) + " run " + scene.string() +
+                   " --out " + killed.string() + options + " > /dev/null 2>&1")
+                      .c_str());
+  ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 128 + SIGKILL) << "status " << status;
+  ASSERT_EQ(converged_steps(killed), 1);
+  r = test::run_cli("run " + scene.string() + " --out " + killed.string() + options + " --resume");
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_EQ(converged_steps(killed), 3);
+  const test::CliResult cmp = test::run_cli("compare " + (killed / "tension_plate.h5").string() + " " +
+                                            (reference / "tension_plate.h5").string() + " --json");
+  ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
+  // 1e-10 (issue 15). Measured 1.1e-11, as with step 1 capped too: the resumed step 2 starts
+  // from the Euler predictor, not the secant, and both end inside Newton's tolerance (final
+  // residuals 3e-11 and 2e-12 of the force scale).
+  EXPECT_LT(test::json_number(cmp.out, "relative_l2"), 1e-10);
+  fs::remove_all(dir);
 }
 
 }  // namespace
