@@ -28,8 +28,9 @@ constexpr double kForcingMax = 1e-3;
 /// difference is then linear to about 1e-6 even where the whole increment is a spacing, as
 /// at the grips of a 700 x 700 plate), large enough to keep 13 digits of the difference.
 constexpr double kPredictorStep = 1e-3;
-/// Loosest last solve where the path need not be reproducible: the Kelley term 0.5 tol/||r||
-/// is below it whenever ||r|| is above the tolerance (otherwise Newton has converged).
+/// Loosest last solve where the path need not be reproducible. The Kelley term 0.5 tol/||r||
+/// exceeds it only when ||r|| is already below the tolerance and Newton goes on for the
+/// increment test (`newton.stol`): a solve allowed to stop at 1 or above would return no step.
 constexpr double kLastSolveMax = 0.5;
 }  // namespace
 

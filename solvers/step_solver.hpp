@@ -66,7 +66,7 @@ class StepSolver {
   /// force scale is `force_scale` (the load stepping checks every accepted state against it,
   /// with the residual recomputed from scratch).
   virtual double residual_tolerance(double force_scale) const = 0;
-  /// Whether another run can reach the next solves' converged state by another path: true
+  /// Whether the next solves' converged states must be reproducible by another path: true
   /// from the first checkpoint on, which a resumed run starts from with a new preconditioner
   /// and without the previous state's secant, and must still end where the uninterrupted run
   /// does (to 1e-10, issue 15). False only before it, for the first nominal step of a run

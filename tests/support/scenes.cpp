@@ -1,8 +1,24 @@
 #include "support/scenes.hpp"
 
 #include <sstream>
+#include <stdexcept>
+
+#include "support/cli.hpp"
 
 namespace peristat::test {
+
+std::string stretched_tension_plate(const std::string& grip_ux, int steps) {
+  std::string text = read_file(std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml");
+  auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = text.find(from);
+    if (at == std::string::npos)
+      throw std::runtime_error("cases/tension_plate/scene.yaml has no '" + from + "'");
+    text.replace(at, from.size(), to);
+  };
+  replace("ux: 1.0e-4}", "ux: " + grip_ux + "}");
+  replace("steps: 2\n", "steps: " + std::to_string(steps) + "\n");
+  return text;
+}
 
 std::string plate_yaml(const PlateSpec& s) {
   std::ostringstream y;

@@ -24,6 +24,10 @@ struct PlateSpec {
 /// A single rectangular plate [0, nx dx] x [0, ny dx].
 std::string plate_yaml(const PlateSpec& spec);
 
+/// cases/tension_plate/scene.yaml with its right grip moved by `grip_ux` (e.g. "2.0e-3": a
+/// 2 % stretch of the 0.1 m plate; the case's own is 1.0e-4) in `steps` load steps.
+std::string stretched_tension_plate(const std::string& grip_ux, int steps);
+
 /// Parses YAML text (path "test.yaml" in messages).
 Scene scene_from_yaml(const std::string& text);
 

@@ -4,6 +4,7 @@
 
 #include "app/setup.hpp"
 #include "core/clock.hpp"
+#include "support/forwarding_solver.hpp"
 #include "support/scenes.hpp"
 
 namespace peristat::test {
@@ -19,23 +20,13 @@ std::unique_ptr<Solved> solve_case(const std::string& name, const std::vector<st
 }
 
 namespace {
-/// Passes everything to `inner` but set_reproducible(), which it always sets.
-class AlwaysReproducible final : public StepSolver {
+/// Tells the solver that every solve's path must be reproducible, the first step's too.
+class AlwaysReproducible final : public ForwardingStepSolver {
  public:
-  explicit AlwaysReproducible(StepSolver& inner) : m_inner(inner) { m_inner.set_reproducible(true); }
-  SolveReport solve(VectorXd& x, const SolveMonitor& monitor) override { return m_inner.solve(x, monitor); }
-  void prepare(const VectorXd& x) override { m_inner.prepare(x); }
-  bool prepared() const override { return m_inner.prepared(); }
-  SolveReport predict(VectorXd& x, double from) override { return m_inner.predict(x, from); }
-  void invalidate_factorization() override { m_inner.invalidate_factorization(); }
-  bool cutback_helps() const override { return m_inner.cutback_helps(); }
-  double residual_tolerance(double force_scale) const override {
-    return m_inner.residual_tolerance(force_scale);
+  explicit AlwaysReproducible(StepSolver& inner) : ForwardingStepSolver(inner) {
+    m_inner.set_reproducible(true);
   }
   void set_reproducible(bool) override {}
-
- private:
-  StepSolver& m_inner;
 };
 }  // namespace
 
@@ -53,9 +44,12 @@ std::unique_ptr<Solved> solve_parsed(Scene scene, bool always_reproducible) {
   LoadSteppingCallbacks cb;
   cb.on_step = [&](const StepReport& r, const VectorXd&) { s->steps.push_back(r); };
   const double t0 = wall_seconds();
-  AlwaysReproducible reproducible(*solver);
-  StepSolver& stepper = always_reproducible ? static_cast<StepSolver&>(reproducible) : *solver;
-  s->run = run_load_steps(*s->problem, stepper, s->x, s->scene.loading, cb);
+  if (always_reproducible) {
+    AlwaysReproducible reproducible(*solver);
+    s->run = run_load_steps(*s->problem, reproducible, s->x, s->scene.loading, cb);
+  } else {
+    s->run = run_load_steps(*s->problem, *solver, s->x, s->scene.loading, cb);
+  }
   s->seconds = wall_seconds() - t0;
   // The solver's last evaluation was at the converged x, so the problem's state (stresses,
   // contact forces and pair states) is that of the solution. Evaluating again here would

@@ -8,6 +8,7 @@
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
 #include "solvers/newton.hpp"
+#include "support/forwarding_solver.hpp"
 
 namespace peristat {
 namespace {
@@ -284,19 +285,12 @@ class FailsOnceProblem final : public OneUnknownProblem {
 
 /// Newton, recording for each solve whether its path had to be reproducible
 /// (StepSolver::set_reproducible).
-class RecordingSolver final : public StepSolver {
+class RecordingSolver final : public test::ForwardingStepSolver {
  public:
-  explicit RecordingSolver(StepSolver& inner) : m_inner(inner) {}
+  using ForwardingStepSolver::ForwardingStepSolver;
   SolveReport solve(VectorXd& x, const SolveMonitor& monitor) override {
     reproducible.push_back(m_reproducible);
     return m_inner.solve(x, monitor);
-  }
-  void prepare(const VectorXd& x) override { m_inner.prepare(x); }
-  bool prepared() const override { return m_inner.prepared(); }
-  SolveReport predict(VectorXd& x, double from) override { return m_inner.predict(x, from); }
-  void invalidate_factorization() override { m_inner.invalidate_factorization(); }
-  double residual_tolerance(double force_scale) const override {
-    return m_inner.residual_tolerance(force_scale);
   }
   void set_reproducible(bool value) override {
     m_reproducible = value;
@@ -305,7 +299,6 @@ class RecordingSolver final : public StepSolver {
   std::vector<bool> reproducible;  ///< per solve
 
  private:
-  StepSolver& m_inner;
   bool m_reproducible = true;
 };
 
