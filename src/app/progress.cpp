@@ -123,9 +123,9 @@ void ProgressPrinter::step_done(const StepReport& s) const {
   } else {
     std::printf(
         "  converged: %d Newton iterations, %d factorisations, %d Krylov iterations; %.2f s "
-        "(assembly %.2f incl. contact, factorisation %.2f, solves %.2f)\n",
+        "(assembly %.2f%s, factorisation %.2f, solves %.2f)\n",
         s.newton_iterations, s.factorizations, s.linear_iterations, s.wall_seconds, s.seconds_evaluate,
-        s.seconds_factorize, s.seconds_solve);
+        m_problem.contact() ? " incl. contact" : "", s.seconds_factorize, s.seconds_solve);
   }
 }
 
