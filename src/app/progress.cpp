@@ -1,6 +1,7 @@
 #include "app/progress.hpp"
 
 #include <cstdio>
+#include <string>
 
 #include <omp.h>
 
@@ -121,11 +122,14 @@ void ProgressPrinter::step_done(const StepReport& s) const {
                 s.unconverged ? "NOT converged, kept (on_budget: accept)" : "converged", s.newton_iterations,
                 s.final_residual, s.wall_seconds, s.seconds_evaluate);
   } else {
-    std::printf(
-        "  converged: %d Newton iterations, %d factorisations, %d Krylov iterations; %.2f s "
-        "(assembly %.2f%s, factorisation %.2f, solves %.2f)\n",
-        s.newton_iterations, s.factorizations, s.linear_iterations, s.wall_seconds, s.seconds_evaluate,
-        m_problem.contact() ? " incl. contact" : "", s.seconds_factorize, s.seconds_solve);
+    const auto counted = [](int n, const char* noun) {
+      return std::to_string(n) + " " + noun + (n == 1 ? "" : "s");
+    };
+    std::printf("  converged: %s, %s, %s; %.2f s (assembly %.2f%s, factorisation %.2f, solves %.2f)\n",
+                counted(s.newton_iterations, "Newton iteration").c_str(),
+                counted(s.factorizations, "factorisation").c_str(),
+                counted(s.linear_iterations, "Krylov iteration").c_str(), s.wall_seconds, s.seconds_evaluate,
+                m_problem.contact() ? " incl. contact" : "", s.seconds_factorize, s.seconds_solve);
   }
 }
 
