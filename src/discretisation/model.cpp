@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <stdexcept>
+#include <string>
 
 #include "core/huge_pages.hpp"
 #include "scene/geometry.hpp"
@@ -443,7 +445,8 @@ class Builder {
     // Reverse bonds: a family lists its bonds in increasing stencil index, so the bond
     // j -> i (stencil index mirror[k]) is found by binary search in j's family.
     assign_huge(bonds.reverse, bonds.neighbour.size(), Index{-1});
-#pragma omp parallel for schedule(static)
+    Index unpaired = -1;  // a bond without its reverse (cut in one direction only): a defect
+#pragma omp parallel for schedule(static) reduction(max : unpaired)
     for (Index i = 0; i < n; ++i) {
       for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
         const Index j = bonds.neighbour[b];
@@ -451,10 +454,16 @@ class Builder {
         const auto first = stencil_index.begin() + bonds.start[j],
                    last = stencil_index.begin() + bonds.start[j + 1];
         const auto it = std::lower_bound(first, last, mirror[stencil_index[b]]);
-        PERISTAT_ASSERT(it != last && *it == mirror[stencil_index[b]]);
+        if (it == last || *it != mirror[stencil_index[b]]) {
+          unpaired = std::max(unpaired, b);
+          continue;
+        }
         bonds.reverse[b] = static_cast<Index>(it - stencil_index.begin());
       }
     }
+    if (unpaired >= 0)
+      throw std::logic_error("discretise: bond " + std::to_string(unpaired) + " (to particle " +
+                             std::to_string(bonds.neighbour[unpaired]) + ") has no reverse bond");
     shrink_huge(bonds.neighbour);
     shrink_huge(bonds.xi);
     shrink_huge(bonds.weight);
@@ -515,6 +524,11 @@ Stencil make_stencil(double horizon_factor, double spacing, Quadrature quadratur
 }
 
 bool bond_crosses_crack(const Vec2& p, const Vec2& q, const Vec2& a, const Vec2& b) {
+  // The same answer for (p, q) and (q, p), by construction: the crossing point below is
+  // computed from p, and where the bond passes through a crack tip (u = 0 or 1 exactly) its
+  // round-off decides. Computed from either end, a bond through a tip was cut in one direction
+  // only, and the reverse of the other pointed at a wrong bond of the neighbour's family.
+  if (q.x() < p.x() || (q.x() == p.x() && q.y() < p.y())) return bond_crosses_crack(q, p, a, b);
   // A point on the crack line counts as lying on its left (non-negative) side, so a
   // particle exactly on the crack is on one face, never on both.
   const Vec2 d = b - a;

@@ -69,6 +69,31 @@ TEST(Assembly, RebuiltPatternEqualsTheFirst) {
 
 // The `block` selector adds fictitious particles at the free lattice points of its box (the
 // paper's fixed 3 x 3 corner block of case 4.4) and refuses a box that reaches into a body.
+TEST(Discretise, ABondThroughACrackTipIsCutBothWaysOrNeither) {
+  // The bond from (5.5, 5.5) mm to (4.5, 7.5) mm passes exactly through the crack's tip
+  // (5.1, 6.3) mm. Computed from each end, round-off put the crossing on either side of the
+  // tip: the bond was cut in one direction only and the other's reverse named a wrong bond
+  // (found by unit.ModelPart). The test is exact: a property of the geometry, not of a tolerance.
+  const Vec2 p(0.0055, 0.0055), q(0.0045, 0.0075), a(0.0051, 0.0063), b(0.0187, 0.0297);
+  EXPECT_EQ(bond_crosses_crack(p, q, a, b), bond_crosses_crack(q, p, a, b));
+  EXPECT_EQ(bond_crosses_crack(p, q, b, a), bond_crosses_crack(q, p, b, a));
+  test::PlateSpec spec;
+  spec.nx = 24;
+  spec.ny = 36;
+  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
+  spec.cracks = "  - {from: [0.0051, 0.0063], to: [0.0187, 0.0297]}\n";
+  const Model model = discretise(test::scene_from_yaml(test::plate_yaml(spec)));
+  ASSERT_GT(model.n_cut_bonds, 0);
+  const Bonds& bonds = model.bonds;
+  for (Index i = 0; i < model.particles.size(); ++i)
+    for (Index k = bonds.start[i]; k < bonds.start[i + 1]; ++k) {
+      const Index r = bonds.reverse[k];
+      ASSERT_GE(r, 0);
+      ASSERT_EQ(bonds.neighbour[r], i) << "the reverse of bond " << k << " ends at its particle";
+      ASSERT_EQ(bonds.reverse[r], k);
+    }
+}
+
 TEST(Discretise, BlockSelectorAddsTheFreeLatticePointsOfItsBox) {
   test::PlateSpec spec;
   spec.nx = 10;
