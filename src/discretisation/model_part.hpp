@@ -1,0 +1,44 @@
+// A rank's part of a model: the first stage of the partitioned model (docs/guide/distributed.md,
+// "The partitioned model"). The part is a Model of its own, numbered owned particles first,
+// so that the kernels, the constraints and the problem run on it unchanged; this header adds
+// only the map back to the whole model. Nothing about MPI here.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "discretisation/model.hpp"
+
+namespace peristat {
+
+struct ModelPart {
+  /// The part's particles: first those the rank owns, then the others it reads or whose
+  /// families it computes, each group in the whole model's order. Its unknowns follow the
+  /// same order, so the owned unknowns come first. Bonds are held for the families `held`
+  /// named (Model::family_held); a held family's bond to a family not held has no reverse.
+  /// The whole model's counts (n_bonds_whole, n_cut_bonds) are kept. `whole_start` is empty:
+  /// the identity of a broken bond across ranks is stage 4 (failure), not built.
+  Model model;
+  Index n_owned = 0;                         ///< particles of `model` the rank owns (the first ones)
+  Index n_owned_unknowns = 0;                ///< their unknowns (the first ones)
+  std::vector<std::int64_t> global_id;       ///< per particle of `model`: its index in the whole model
+  std::vector<int> owner;                    ///< per particle of `model`: the rank owning its rows (-1: none)
+  std::vector<std::int64_t> global_unknown;  ///< per unknown of `model`: its index among the whole's
+  std::int64_t n_particles_whole = 0;
+  std::int64_t n_unknowns_whole = 0;
+
+  /// Bytes held: the model's and the maps'.
+  std::size_t memory_bytes() const;
+};
+
+/// The part of `whole` that rank `rank` needs when `owner` (per particle of `whole`: the rank
+/// owning its rows, -1 for a particle without unknowns) splits the rows, and it computes the
+/// families `held` names (per particle of `whole`; e.g. app/setup.hpp's families_to_hold(),
+/// which holds every particle without an owner, so every rank computes those alike). The part
+/// keeps the held particles, every neighbour of theirs and the source of every mirror ghost
+/// it keeps. `whole` must hold every family `held` names. Throws std::logic_error otherwise, or
+/// when a particle `rank` owns is not held.
+ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int rank,
+                       const std::vector<char>& held);
+
+}  // namespace peristat

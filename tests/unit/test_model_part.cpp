@@ -1,0 +1,244 @@
+// A rank's part of the model (discretisation/model_part.hpp; docs/guide/distributed.md, "The
+// partitioned model", stage 1): a Model of its own, owned particles first, whose kernels give
+// the whole model's rows. The parts of P emulated ranks are taken from one whole model and
+// compared with it entry by entry.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "app/setup.hpp"
+#include "assembly/quasi_static.hpp"
+#include "discretisation/model_part.hpp"
+#include "support/emulated_ranks.hpp"
+#include "support/finite_difference.hpp"
+#include "support/scenes.hpp"
+
+namespace peristat {
+namespace {
+
+/// Owners by height: the nodes in `ranks` bands of equal count across y (the other direction
+/// from strips and x cuts, so that a part's ring crosses the mirror layers of both grips).
+std::vector<int> y_cut_owners(const Model& model, int ranks) {
+  std::vector<int> owner = test::x_cut_owners(model, 1);  // -1 for the particles without an unknown
+  std::vector<Index> nodes;
+  for (Index p = 0; p < model.particles.size(); ++p)
+    if (owner[static_cast<std::size_t>(p)] >= 0) nodes.push_back(p);
+  std::stable_sort(nodes.begin(), nodes.end(), [&](Index a, Index b) {
+    return model.particles.position[a].y() < model.particles.position[b].y();
+  });
+  for (std::size_t k = 0; k < nodes.size(); ++k)
+    owner[static_cast<std::size_t>(nodes[k])] =
+        static_cast<int>(k * static_cast<std::size_t>(ranks) / nodes.size());
+  return owner;
+}
+
+struct Split {
+  std::string name;
+  std::vector<int> owner;
+};
+
+std::vector<Split> splits(const Model& model) {
+  return {{"strips on 2 ranks", strip_owners(model.constraints, 2)},
+          {"strips on 3 ranks", strip_owners(model.constraints, 3)},
+          {"cuts across y on 2 ranks", y_cut_owners(model, 2)},
+          {"cuts across y on 4 ranks", y_cut_owners(model, 4)}};
+}
+
+int ranks_of(const std::vector<int>& owner) {
+  return 1 + *std::max_element(owner.begin(), owner.end());
+}
+
+Scene mirror_plate() {
+  test::PlateSpec spec;
+  // Every part holds the mirror layers of both grips and the rings around them (6 columns
+  // into the plate on each side), and its own band with its rings: 44 x 40 leaves the middle
+  // strip of three and each of four bands across y short of the whole.
+  spec.nx = 44;
+  spec.ny = 40;
+  spec.boundary = test::mirror_tension_boundary(1e-3, spec);
+  return test::scene_from_yaml(test::plate_yaml(spec));
+}
+
+/// A plate held on its left edge by fictitious layers, cut by a slanted pre-crack that crosses
+/// every split above (no contact: pairs across ranks are stage 3).
+Scene cracked_plate() {
+  test::PlateSpec spec;
+  spec.nx = 24;
+  spec.ny = 36;
+  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n  - {body: plate, edge: right, ux: 1.0e-5}\n";
+  spec.cracks = "  - {from: [0.0051, 0.0063], to: [0.0187, 0.0297]}\n";
+  return test::scene_from_yaml(test::plate_yaml(spec));
+}
+
+// The parts hold the whole model: each particle with unknowns is owned by one part, and
+// every particle, component, constraint and held bond of a part is the whole model's entry at
+// its global index. A property of the numbering alone, checked exactly.
+void expect_parts_map_onto_the_whole(const Model& whole) {
+  const Constraints& wc = whole.constraints;
+  for (const Split& split : splits(whole)) {
+    SCOPED_TRACE(split.name);
+    const int ranks = ranks_of(split.owner);
+    std::vector<int> owned_by(static_cast<std::size_t>(whole.particles.size()), 0);
+    Index unknowns = 0;
+    for (int rank = 0; rank < ranks; ++rank) {
+      SCOPED_TRACE("rank " + std::to_string(rank));
+      const OwnedRows rows{rank, split.owner};
+      const ModelPart part = extract_part(whole, split.owner, rank, families_to_hold(whole, rows, 1));
+      const Model& m = part.model;
+      ASSERT_EQ(part.global_id.size(), static_cast<std::size_t>(m.particles.size()));
+      ASSERT_LT(m.particles.size(), whole.particles.size()) << "a part holds fewer particles than the model";
+      EXPECT_LT(m.bonds.n_bonds(), whole.bonds.n_bonds());
+      EXPECT_EQ(m.n_bonds_whole, whole.bonds.n_bonds());
+      EXPECT_EQ(m.n_cut_bonds, whole.n_cut_bonds);
+      EXPECT_EQ(part.n_unknowns_whole, wc.n_free);
+      for (Index l = 0; l < m.particles.size(); ++l) {
+        const auto g = static_cast<Index>(part.global_id[static_cast<std::size_t>(l)]);
+        const bool own = split.owner[static_cast<std::size_t>(g)] == rank;
+        ASSERT_EQ(own, l < part.n_owned) << "owned particles first, particle " << l;
+        owned_by[static_cast<std::size_t>(g)] += own;
+        ASSERT_EQ(m.particles.position[l], whole.particles.position[g]);
+        ASSERT_EQ(m.particles.volume[l], whole.particles.volume[g]);
+        ASSERT_EQ(m.particles.body[l], whole.particles.body[g]);
+        ASSERT_EQ(m.particles.fictitious[l], whole.particles.fictitious[g]);
+        ASSERT_EQ(m.lattice_index.at(m.particles.lattice[l][0], m.particles.lattice[l][1]), l);
+        for (int c = 0; c < 2; ++c) {
+          ASSERT_EQ(m.constraints.prescribed[2 * l + c], wc.prescribed[2 * g + c]);
+          ASSERT_EQ(m.constraints.value[2 * l + c], wc.value[2 * g + c]);
+          const Index f = m.constraints.free_index[2 * l + c];
+          ASSERT_EQ(f >= 0, wc.free_index[2 * g + c] >= 0);
+          if (f >= 0) {
+            ASSERT_EQ(part.global_unknown[static_cast<std::size_t>(f)], wc.free_index[2 * g + c]);
+            ASSERT_EQ(f < part.n_owned_unknowns, own) << "owned unknowns first";
+          }
+        }
+        if (!m.family_held[static_cast<std::size_t>(l)]) continue;
+        ASSERT_EQ(m.bonds.family_size(l), whole.bonds.family_size(g)) << "a held family is whole";
+        for (Index k = 0; k < m.bonds.family_size(l); ++k) {
+          const Index b = m.bonds.start[l] + k, wb = whole.bonds.start[g] + k;
+          ASSERT_EQ(part.global_id[static_cast<std::size_t>(m.bonds.neighbour[b])],
+                    whole.bonds.neighbour[wb]);
+          ASSERT_EQ(m.bonds.xi[b], whole.bonds.xi[wb]);
+          ASSERT_EQ(m.bonds.weight[b], whole.bonds.weight[wb]);
+          const Index r = m.bonds.reverse[b];
+          ASSERT_EQ(r >= 0, m.family_held[static_cast<std::size_t>(m.bonds.neighbour[b])] != 0);
+          if (r >= 0) {
+            ASSERT_EQ(m.bonds.reverse[r], b);
+          }
+        }
+      }
+      for (const MirrorImage& im : m.constraints.images) {
+        const auto g = part.global_id[static_cast<std::size_t>(im.ghost)];
+        const auto it = std::find_if(wc.images.begin(), wc.images.end(),
+                                     [&](const MirrorImage& w) { return w.ghost == g; });
+        ASSERT_NE(it, wc.images.end());
+        EXPECT_EQ(part.global_id[static_cast<std::size_t>(im.source)], it->source);
+        EXPECT_EQ(im.sign, it->sign);
+      }
+      unknowns += part.n_owned_unknowns;
+    }
+    EXPECT_EQ(unknowns, wc.n_free) << "the parts own every unknown once";
+    for (Index g = 0; g < whole.particles.size(); ++g)
+      EXPECT_EQ(owned_by[static_cast<std::size_t>(g)], split.owner[static_cast<std::size_t>(g)] >= 0 ? 1 : 0)
+          << "particle " << g;
+  }
+}
+
+// Each part's problem, evaluated at the whole state's entries of its unknowns, gives the
+// whole model's residual in its owned rows, bit for bit (each row sums its families' forces
+// in the same bond order), and the matrix-free action of the tangent in its owned rows to
+// round-off (its chunks of families are the part's, so a row's terms are added in another
+// order: 1e-16 of the largest entry measured, 1e-13 allowed). The force scale, summed over the parts as the
+// ranks would sum it, is the whole one's to round-off.
+void expect_part_rows_equal_the_whole(const Scene& scene) {
+  const Model whole = discretise(scene);
+  ProblemOptions options = problem_options(scene);
+  options.matrix_free = true;
+  QuasiStaticProblem whole_problem(whole, options);
+  whole_problem.set_load_factor(1.0);
+  const VectorXd x = test::random_vector(whole.constraints.n_free, 2e-6, 31u);
+  const VectorXd direction = test::random_vector(whole.constraints.n_free, 1.0, 32u);
+  VectorXd r_whole, y_whole;
+  SparseMatrix none;
+  whole_problem.evaluate(x, r_whole, &none);
+  whole_problem.apply_tangent(direction, y_whole);
+  ASSERT_GT(r_whole.norm(), 0.0);
+  const double y_scale = y_whole.cwiseAbs().maxCoeff();
+  for (const Split& split : splits(whole)) {
+    SCOPED_TRACE(split.name);
+    const int ranks = ranks_of(split.owner);
+    double own_sum = 0.0, unowned = std::numeric_limits<double>::quiet_NaN();
+    for (int rank = 0; rank < ranks; ++rank) {
+      SCOPED_TRACE("rank " + std::to_string(rank));
+      const ModelPart part =
+          extract_part(whole, split.owner, rank, families_to_hold(whole, OwnedRows{rank, split.owner}, 1));
+      ProblemOptions part_options = options;
+      part_options.rows = OwnedRows{rank, part.owner};
+      double own = 0.0;
+      part_options.sum_over_ranks = [&own](double v) { return own = v; };  // this rank's share
+      part_options.max_over_ranks = [](double v) { return v; };
+      part_options.share_forces = [](VectorXd&) {};  // a part's owned rows need no other rank's forces
+      QuasiStaticProblem problem(part.model, part_options);
+      problem.set_load_factor(1.0);
+      const Index n = part.model.constraints.n_free;
+      VectorXd xl(n), v(n), r, y, r_own;
+      for (Index f = 0; f < n; ++f) xl[f] = x[part.global_unknown[static_cast<std::size_t>(f)]];
+      problem.evaluate(1.3 * xl, r, &none);  // first elsewhere: nothing may be left from it
+      problem.evaluate(xl, r, &none);
+      v.setConstant(std::numeric_limits<double>::quiet_NaN());  // the action reads its ghosts only
+      for (const Index f : problem.action_reads())
+        v[f] = direction[part.global_unknown[static_cast<std::size_t>(f)]];
+      problem.apply_tangent(v, y);
+      ASSERT_TRUE(problem.set_own_rows_only(true));
+      problem.evaluate(xl, r_own, nullptr);
+      for (Index f = 0; f < part.n_owned_unknowns; ++f) {
+        const auto g = part.global_unknown[static_cast<std::size_t>(f)];
+        ASSERT_EQ(r[f], r_whole[g]) << "residual, owned unknown " << f << " (whole " << g << ")";
+        ASSERT_EQ(r_own[f], r_whole[g]) << "own-rows residual, owned unknown " << f;
+        ASSERT_NEAR(y[f], y_whole[g], 1e-13 * y_scale) << "action, owned unknown " << f;
+      }
+      for (Index f = part.n_owned_unknowns; f < n; ++f) EXPECT_EQ(r_own[f], 0.0) << "another rank's row";
+      own_sum += own;
+      // force_norm() = sqrt(own + unowned): the particles without a row, the same on every rank
+      const double u = problem.force_scale() * problem.force_scale() - own;
+      if (rank == 0) unowned = u;
+      EXPECT_NEAR(u, unowned, 1e-12 * own_sum) << "every rank computes the particles without a row alike";
+    }
+    EXPECT_NEAR(std::sqrt(own_sum + unowned), whole_problem.force_scale(),
+                1e-13 * whole_problem.force_scale());
+  }
+}
+
+TEST(ModelPart, PartsMapOntoTheWholeModelWithMirrorGrips) {
+  const Model whole = discretise(mirror_plate());
+  ASSERT_TRUE(whole.constraints.has_images());
+  expect_parts_map_onto_the_whole(whole);
+}
+
+TEST(ModelPart, PartsMapOntoTheWholeModelWithAPreCrack) {
+  const Model whole = discretise(cracked_plate());
+  ASSERT_GT(whole.n_cut_bonds, 0);
+  expect_parts_map_onto_the_whole(whole);
+}
+
+TEST(ModelPart, PartRowsAreTheWholeRowsWithMirrorGrips) {
+  expect_part_rows_equal_the_whole(mirror_plate());
+}
+
+TEST(ModelPart, PartRowsAreTheWholeRowsWithAPreCrack) {
+  expect_part_rows_equal_the_whole(cracked_plate());
+}
+
+TEST(ModelPart, RefusesAnOwnedParticleWhoseFamilyIsNotHeld) {
+  const Model whole = discretise(cracked_plate());
+  const std::vector<int> owner = strip_owners(whole.constraints, 2);
+  std::vector<char> held = families_to_hold(whole, OwnedRows{0, owner}, 1);
+  const auto owned = std::find(owner.begin(), owner.end(), 0) - owner.begin();
+  held[static_cast<std::size_t>(owned)] = 0;
+  EXPECT_THROW(extract_part(whole, owner, 0, held), std::logic_error);
+}
+
+}  // namespace
+}  // namespace peristat
