@@ -26,6 +26,25 @@ std::vector<int> strip_owners(const Constraints& cons, int ranks) {
   return owner;
 }
 
+void complete_owners(const Model& model, std::vector<int>& owner) {
+  const Particles& p = model.particles;
+  std::vector<Index> queue;
+  queue.reserve(owner.size());
+  for (Index q = 0; q < p.size(); ++q)
+    if (owner[static_cast<std::size_t>(q)] >= 0) queue.push_back(q);
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const Index q = queue[head];
+    for (const auto& o : model.stencil.offset) {
+      const Index j = model.lattice_index.at(p.lattice[q][0] + o[0], p.lattice[q][1] + o[1]);
+      if (j < 0 || owner[static_cast<std::size_t>(j)] >= 0) continue;
+      owner[static_cast<std::size_t>(j)] = owner[static_cast<std::size_t>(q)];
+      queue.push_back(j);
+    }
+  }
+  for (int& o : owner)
+    if (o < 0) o = 0;
+}
+
 TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double radius,
                              const ContactSystem* contact, const OwnedRows& owned) {
   const double radius2 = radius * radius * (1.0 + kBondRadiusMargin);

@@ -24,9 +24,18 @@ struct OwnedRows {
 /// The owners of the particles' rows on `ranks` ranks: the nodes (the particles that have an
 /// unknown, in particle order) in strips of equal count (strip_start()), or split by
 /// Zoltan2's recursive coordinate bisection of their positions (`rcb`, app/setup.hpp). A
-/// particle without an unknown has no row and no owner (-1). The Tpetra adapter numbers its
-/// rows by the same owners (UnknownLayout::owner).
+/// particle without an unknown has no row and no owner (-1) until complete_owners(). The
+/// Tpetra adapter numbers its rows by the same owners (UnknownLayout::owner).
 std::vector<int> strip_owners(const Constraints& constraints, int ranks);
+
+/// Gives every particle without an owner (-1: fictitious layers, mirror ghosts) the owner of
+/// the nearest owned particle, counted in steps of the bond stencil (a breadth-first search
+/// from every owned particle at once, in particle order, so that every rank computes the same
+/// table); a particle that no step reaches goes to rank 0. It has no row: its owner computes
+/// its force (reactions, force scale) and holds its family, so that a rank holds the layers
+/// near its part only, not every layer of the model (docs/guide/distributed.md, "Who owns the
+/// fictitious layers"). Reads the particles and the stencil, not the bonds.
+void complete_owners(const Model& model, std::vector<int>& owner);
 
 /// Particle-level column structure plus the map to the free-dof matrix.
 struct TangentPattern {

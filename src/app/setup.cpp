@@ -33,9 +33,10 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
   rows.rank = rank;
   if (scene.solver.linear.belos.partition == BelosPartition::strips) {
     rows.owner = strip_owners(model.constraints, ranks);
+    complete_owners(model, rows.owner);
     return rows;
   }
-  // rcb: the nodes' positions, bisected; particles without an unknown have no owner.
+  // rcb: the nodes' positions, bisected; then the particles without an unknown, by proximity.
   const Constraints& cons = model.constraints;
   std::vector<double> x, y;
   std::vector<Index> node_particle;
@@ -49,6 +50,7 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
   rows.owner.assign(static_cast<std::size_t>(model.particles.size()), -1);
   for (std::size_t k = 0; k < node_particle.size(); ++k)
     rows.owner[static_cast<std::size_t>(node_particle[k])] = part[k];
+  complete_owners(model, rows.owner);
   return rows;
 }
 

@@ -47,8 +47,9 @@ std::string resolve_linear_solver(Scene& scene, int ranks);
 ProblemOptions problem_options(const Scene& scene);
 
 /// The rows rank `rank` of `ranks` assembles (ProblemOptions::rows): by
-/// solver.belos.partition, strips or Zoltan2's RCB of the particles that have an unknown
-/// (every rank computes the same owners). Every row when ranks <= 1.
+/// solver.belos.partition, strips or Zoltan2's RCB of the particles that have an unknown,
+/// then the particles without one by proximity (complete_owners(); every rank computes the
+/// same owners). Every row when ranks <= 1.
 OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks);
 
 /// Whether each rank of a distributed run holds only the bond families it evaluates

@@ -12,6 +12,11 @@
 //       by RCB (solver.belos.partition): per partition, the largest and mean number of owned
 //       particles and of ghost particles (the other ranks' particles that a rank's rows of the
 //       tangent couple to: the halo a Krylov iteration exchanges), one line each.
+//   peristat_bench parts SCENE P [--set KEY=VALUE]...   each rank's part of the model
+//       (extract_part, the partitioned model's stage 1) on P ranks by strips and by RCB, with
+//       Newton's matrix-free problem on it: per partition, the largest and mean bytes of a
+//       part's model and problem state (ModelSize::memory_bytes) against the whole model's,
+//       and its particles (owned, and the ring and the particles without a row it adds).
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
@@ -22,9 +27,11 @@
 #include <Eigen/CholmodSupport>
 #include <omp.h>
 
+#include "app/model_size.hpp"
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
 #include "core/clock.hpp"
+#include "discretisation/model_part.hpp"
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
 #include "solvers/newton.hpp"
@@ -210,6 +217,53 @@ int partition(const std::string& path, int ranks, const std::vector<Override>& o
   return 0;
 }
 
+int parts(const std::string& path, int ranks, const std::vector<Override>& overrides) {
+  Scene scene = parse_scene(path, overrides);
+  const Model whole = discretise(scene);
+  ProblemOptions options = problem_options(scene);
+  options.matrix_free = true;
+  double whole_bytes = 0.0;
+  {
+    const QuasiStaticProblem problem(whole, options);
+    whole_bytes = measure(whole, problem).memory_bytes;
+  }
+  std::printf("scene=%s particles=%d bonds=%d whole_bytes_per_particle=%.1f whole_MB=%.1f\n",
+              scene.name.c_str(), whole.particles.size(), whole.bonds.n_bonds(),
+              whole_bytes / whole.particles.size(), whole_bytes / 1e6);
+  for (const BelosPartition kind : {BelosPartition::strips, BelosPartition::rcb}) {
+    scene.solver.linear.belos.partition = kind;
+    const std::vector<int> owner = owned_rows(scene, whole, 0, ranks).owner;
+    double bytes_max = 0.0, bytes_sum = 0.0, extract_seconds = 0.0;
+    long long kept_max = 0, kept_sum = 0, owned_max = 0, bonds_max = 0;
+    for (int rank = 0; rank < ranks; ++rank) {
+      const OwnedRows rows{rank, owner};
+      const double t0 = wall_seconds();
+      const ModelPart part = extract_part(whole, owner, rank, families_to_hold(whole, rows, 1));
+      extract_seconds = std::max(extract_seconds, wall_seconds() - t0);
+      ProblemOptions part_options = options;
+      part_options.rows = OwnedRows{rank, part.owner};
+      part_options.sum_over_ranks = [](double v) { return v; };
+      part_options.max_over_ranks = [](double v) { return v; };
+      part_options.share_forces = [](VectorXd&) {};
+      const QuasiStaticProblem problem(part.model, part_options);
+      const double bytes = measure(part.model, problem).memory_bytes +
+                           static_cast<double>(part.memory_bytes() - part.model.memory_bytes());
+      bytes_max = std::max(bytes_max, bytes);
+      bytes_sum += bytes;
+      kept_max = std::max<long long>(kept_max, part.model.particles.size());
+      kept_sum += part.model.particles.size();
+      owned_max = std::max<long long>(owned_max, part.n_owned);
+      bonds_max = std::max<long long>(bonds_max, part.model.bonds.n_bonds());
+    }
+    std::printf(
+        "partition=%s ranks=%d part_MB_max=%.1f part_MB_mean=%.1f whole_over_P_MB=%.1f "
+        "particles_max=%lld particles_mean=%.0f owned_max=%lld bonds_max=%lld extract_seconds_max=%.2f\n",
+        std::string(to_string(kind)).c_str(), ranks, bytes_max / 1e6, bytes_sum / ranks / 1e6,
+        whole_bytes / ranks / 1e6, kept_max, double(kept_sum) / ranks, owned_max, bonds_max, extract_seconds);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -219,10 +273,13 @@ int main(int argc, char** argv) {
   if (argc >= 3 && std::strcmp(argv[1], "action") == 0) return action(argv[2], argc >= 4 ? std::atoi(argv[3]) : 200);
   if (argc >= 4 && std::strcmp(argv[1], "partition") == 0)
     return partition(argv[2], std::atoi(argv[3]), overrides_from(argc, argv, 4));
+  if (argc >= 4 && std::strcmp(argv[1], "parts") == 0)
+    return parts(argv[2], std::atoi(argv[3]), overrides_from(argc, argv, 4));
   std::fprintf(stderr,
                "usage: peristat_bench tension N [--set KEY=VALUE]...\n"
                "       peristat_bench factor N tangent|bond default|amd|metis|nesdis\n"
                "       peristat_bench action SCENE [REPS]\n"
-               "       peristat_bench partition SCENE P [--set KEY=VALUE]...\n");
+               "       peristat_bench partition SCENE P [--set KEY=VALUE]...\n"
+               "       peristat_bench parts SCENE P [--set KEY=VALUE]...\n");
   return 2;
 }

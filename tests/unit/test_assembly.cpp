@@ -4,6 +4,7 @@
 #include <functional>
 #include <limits>
 #include <random>
+#include <tuple>
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -340,12 +341,16 @@ void expect_partitioned_ranks_equal_the_whole(const Scene& scene, const Model& m
     if (rings == 1) whole.apply_tangent(direction, whole_y);
     SparseMatrix whole_P = whole.make_preconditioner();
     whole.assemble_preconditioner(whole_P);
-    for (const auto& [cuts, ranks] :
-         {std::pair{false, 2}, std::pair{false, 3}, std::pair{true, 2}, std::pair{true, 3}}) {
+    // Owners of the nodes only (the particles without a row computed by every rank), and of
+    // every particle (complete_owners(), as a run's: each computed by one rank).
+    for (const auto& [cuts, ranks, complete] :
+         {std::tuple{false, 2, false}, std::tuple{false, 3, false}, std::tuple{true, 2, false},
+          std::tuple{true, 3, false}, std::tuple{false, 3, true}, std::tuple{true, 2, true}}) {
       SCOPED_TRACE(std::string(cuts ? "cuts across x" : "strips") + " on " + std::to_string(ranks) +
-                   " ranks");
-      const std::vector<int> owner =
+                   " ranks" + (complete ? ", every particle owned" : ""));
+      std::vector<int> owner =
           cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
+      if (complete) complete_owners(model, owner);
       // The collective operations emulated as in expect_ranks_hold_the_whole: every rank's
       // values, call by call, recorded in a first pass; the second pass combines them. The
       // force exchange takes each particle's components from its owner's record.
