@@ -3,7 +3,9 @@
 // (Trilinos) will be one more implementation. Nothing here knows about physics.
 #pragma once
 
+#include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -25,6 +27,17 @@ struct UnknownLayout {
   /// Per particle, the MPI rank that owns its rows (the assembly's OwnedRows::owner); empty:
   /// strips of the particles in their order (one process: every row).
   std::vector<int> owner;
+  /// A rank's part of the model (ModelPart, docs/guide/distributed.md "The partitioned model"):
+  /// per particle of the part, the global number of its node (the particles that have an
+  /// unknown, numbered rank by rank, each rank's in the whole model's order), -1 for a particle
+  /// without an unknown; `owner` is then required. Empty: every rank holds the whole model.
+  std::vector<std::int64_t> global_node;
+  std::int64_t global_nodes = 0;  ///< with global_node: the nodes of every rank
+  std::int64_t first_node = 0;    ///< with global_node: this rank's first node
+  /// The centre of the rigid-body rotation mode; NaN: the mean of x and y (a part's layout
+  /// gives the whole model's, which its own particles do not).
+  double centre_x = std::numeric_limits<double>::quiet_NaN(), centre_y = centre_x;
+  bool part() const { return !global_node.empty(); }
 };
 
 class LinearSolver {

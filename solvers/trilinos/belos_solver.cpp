@@ -66,7 +66,35 @@ struct Distribution {
   bool owns(GO row) const { return row >= first_row && row < first_row + local_rows(); }
 };
 
+/// A rank's part (UnknownLayout::part()): the global rows come with the layout, two per node,
+/// the rank's nodes being [first_node, first_node + its owned nodes).
+Distribution distribute_part(Index n, const UnknownLayout& layout, int rank) {
+  Distribution d;
+  d.per_node = 2;
+  d.row_of.resize(n);
+  for (Index k = 0; k < n; ++k) {
+    const Index p = layout.component[k] / 2;
+    d.row_of[k] = 2 * GO(layout.global_node[static_cast<std::size_t>(p)]) + layout.component[k] % 2;
+  }
+  d.n_rows = 2 * GO(layout.global_nodes);
+  d.first_row = 2 * GO(layout.first_node);
+  std::vector<Index> owned_nodes;  // in global order: the part's order
+  for (std::size_t p = 0; p < layout.global_node.size(); ++p)
+    if (layout.owner[p] == rank && layout.global_node[p] >= 0) owned_nodes.push_back(static_cast<Index>(p));
+  d.unknown_of_local.assign(2 * owned_nodes.size(), -1);
+  d.particle_of_local.resize(2 * owned_nodes.size());
+  for (std::size_t q = 0; q < owned_nodes.size(); ++q) {
+    if (layout.global_node[static_cast<std::size_t>(owned_nodes[q])] != layout.first_node + GO(q))
+      throw std::logic_error("distribute_part: a rank's nodes must be numbered in turn from its first");
+    d.particle_of_local[2 * q] = d.particle_of_local[2 * q + 1] = owned_nodes[q];
+  }
+  for (Index k = 0; k < n; ++k)
+    if (d.owns(d.row_of[k])) d.unknown_of_local[d.row_of[k] - d.first_row] = k;
+  return d;
+}
+
 Distribution distribute(Index n, const UnknownLayout& layout, int rank, int ranks) {
+  if (layout.part()) return distribute_part(n, layout, rank);
   Distribution d;
   d.row_of.resize(n);
   GO nodes = n;
@@ -266,6 +294,10 @@ class TpetraCopy {
     }
     cx /= std::max<std::size_t>(layout.x.size(), 1);
     cy /= std::max<std::size_t>(layout.y.size(), 1);
+    if (std::isfinite(layout.centre_x) && std::isfinite(layout.centre_y)) {
+      cx = layout.centre_x;
+      cy = layout.centre_y;
+    }
     for (LO r = 0; r < d.local_rows(); ++r) {
       const Index p = d.particle_of_local[r];
       const int dir = static_cast<int>((d.first_row + r) % 2);

@@ -1,5 +1,6 @@
 #include "solvers/trilinos/parallel.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstdlib>
 #include <limits>
@@ -159,45 +160,113 @@ void OwnedExchange::share(double* x) {
   for (std::size_t k = 0; k < m_order.size(); ++k) x[m_order[k]] = m_received[k];
 }
 
-GhostExchange::GhostExchange(const std::vector<int>& owner, const std::vector<long long>& reads) {
-  const int ranks = size(), me = rank();
-  const auto R = static_cast<std::size_t>(ranks);
-  // What this rank receives: its reads that others own, grouped by owner (ascending within).
-  m_recv_counts.assign(R, 0);
-  for (const long long k : reads) {
-    const int p = owner.at(static_cast<std::size_t>(k));
-    if (p < 0 || p >= ranks) throw std::invalid_argument("GhostExchange: a read entry without an owner rank");
-    if (p != me) ++m_recv_counts[static_cast<std::size_t>(p)];
-  }
+std::vector<long long> Halo::ask_owners(const std::vector<long long>& asked) {
+  const auto R = static_cast<std::size_t>(size());
   m_recv_displs.assign(R, 0);
   for (std::size_t p = 1; p < R; ++p) m_recv_displs[p] = m_recv_displs[p - 1] + m_recv_counts[p - 1];
-  m_recv_index.resize(static_cast<std::size_t>(m_recv_displs[R - 1] + m_recv_counts[R - 1]));
-  std::vector<int> next = m_recv_displs;
-  for (const long long k : reads)
-    if (const int p = owner[static_cast<std::size_t>(k)]; p != me)
-      m_recv_index[static_cast<std::size_t>(next[static_cast<std::size_t>(p)]++)] = k;
-  // What it sends: each owner learns which of its entries every rank reads.
   m_send_counts.assign(R, 0);
   MPI_Alltoall(m_recv_counts.data(), 1, MPI_INT, m_send_counts.data(), 1, MPI_INT, MPI_COMM_WORLD);
   m_send_displs.assign(R, 0);
   for (std::size_t p = 1; p < R; ++p) m_send_displs[p] = m_send_displs[p - 1] + m_send_counts[p - 1];
-  m_send_index.resize(static_cast<std::size_t>(m_send_displs[R - 1] + m_send_counts[R - 1]));
-  MPI_Alltoallv(m_recv_index.data(), m_recv_counts.data(), m_recv_displs.data(), MPI_LONG_LONG,
-                m_send_index.data(), m_send_counts.data(), m_send_displs.data(), MPI_LONG_LONG,
-                MPI_COMM_WORLD);
-  for (const long long k : m_send_index)
-    if (owner.at(static_cast<std::size_t>(k)) != me)
-      throw std::logic_error("GhostExchange: a rank asked for an entry this rank does not own");
-  m_send.resize(m_send_index.size());
-  m_received.resize(m_recv_index.size());
+  std::vector<long long> wanted(static_cast<std::size_t>(m_send_displs[R - 1] + m_send_counts[R - 1]));
+  MPI_Alltoallv(asked.data(), m_recv_counts.data(), m_recv_displs.data(), MPI_LONG_LONG, wanted.data(),
+                m_send_counts.data(), m_send_displs.data(), MPI_LONG_LONG, MPI_COMM_WORLD);
+  m_send.resize(wanted.size());
+  m_received.resize(asked.size());
+  return wanted;
 }
 
-void GhostExchange::share(double* x) {
+void Halo::share(double* x) {
   if (m_send_counts.size() <= 1) return;
   for (std::size_t k = 0; k < m_send.size(); ++k) m_send[k] = x[m_send_index[k]];
   MPI_Alltoallv(m_send.data(), m_send_counts.data(), m_send_displs.data(), MPI_DOUBLE, m_received.data(),
                 m_recv_counts.data(), m_recv_displs.data(), MPI_DOUBLE, MPI_COMM_WORLD);
   for (std::size_t k = 0; k < m_received.size(); ++k) x[m_recv_index[k]] = m_received[k];
+}
+
+namespace {
+/// Sorts the entries a rank receives by owner rank (stable: their order within an owner):
+/// sets `counts` (per owner) and returns the order.
+std::vector<std::size_t> by_owner(const std::vector<int>& entry_owner, int ranks, std::vector<int>& counts) {
+  counts.assign(static_cast<std::size_t>(ranks), 0);
+  for (const int p : entry_owner) ++counts[static_cast<std::size_t>(p)];
+  std::vector<int> next(counts.size(), 0);
+  for (std::size_t p = 1; p < counts.size(); ++p) next[p] = next[p - 1] + counts[p - 1];
+  std::vector<std::size_t> slot(entry_owner.size());
+  for (std::size_t k = 0; k < entry_owner.size(); ++k)
+    slot[k] = static_cast<std::size_t>(next[static_cast<std::size_t>(entry_owner[k])]++);
+  return slot;
+}
+}  // namespace
+
+GhostExchange::GhostExchange(const std::vector<int>& owner, const std::vector<long long>& reads) {
+  const int ranks = size(), me = rank();
+  // What this rank receives: its reads that others own, grouped by owner (ascending within).
+  std::vector<long long> ghosts;
+  std::vector<int> ghost_owner;
+  for (const long long k : reads) {
+    const int p = owner.at(static_cast<std::size_t>(k));
+    if (p < 0 || p >= ranks) throw std::invalid_argument("GhostExchange: a read entry without an owner rank");
+    if (p == me) continue;
+    ghosts.push_back(k);
+    ghost_owner.push_back(p);
+  }
+  const std::vector<std::size_t> slot = by_owner(ghost_owner, ranks, m_recv_counts);
+  m_recv_index.resize(ghosts.size());
+  std::vector<long long> asked(ghosts.size());
+  for (std::size_t g = 0; g < ghosts.size(); ++g) {
+    m_recv_index[slot[g]] = static_cast<std::size_t>(ghosts[g]);
+    asked[slot[g]] = ghosts[g];
+  }
+  // What it sends: each owner learns which of its entries every rank reads.
+  const std::vector<long long> wanted = ask_owners(asked);
+  m_send_index.resize(wanted.size());
+  for (std::size_t k = 0; k < wanted.size(); ++k) {
+    if (owner.at(static_cast<std::size_t>(wanted[k])) != me)
+      throw std::logic_error("GhostExchange: a rank asked for an entry this rank does not own");
+    m_send_index[k] = static_cast<std::size_t>(wanted[k]);
+  }
+}
+
+PartExchange::PartExchange(const std::vector<std::int64_t>& ids, const std::vector<int>& owner,
+                           std::size_t n_owned) {
+  const int ranks = size(), me = rank();
+  if (ids.size() != owner.size() || n_owned > ids.size())
+    throw std::invalid_argument("PartExchange: one id and one owner per entry, the owned ones first");
+  const std::vector<int> ghost_owner(owner.begin() + static_cast<std::ptrdiff_t>(n_owned), owner.end());
+  for (const int p : ghost_owner)
+    if (p < 0 || p >= ranks || p == me)
+      throw std::invalid_argument("PartExchange: a ghost without another owner rank");
+  // What this rank receives: its ghosts, grouped by owner (in their order within an owner).
+  const std::vector<std::size_t> slot = by_owner(ghost_owner, ranks, m_recv_counts);
+  m_recv_index.resize(ghost_owner.size());
+  std::vector<long long> asked(ghost_owner.size());
+  for (std::size_t g = 0; g < ghost_owner.size(); ++g) {
+    m_recv_index[slot[g]] = n_owned + g;
+    asked[slot[g]] = static_cast<long long>(ids[n_owned + g]);
+  }
+  // What it sends: each owner finds the ids asked of it among its own, which ascend.
+  const std::vector<long long> wanted = ask_owners(asked);
+  const auto first = ids.begin(), last = ids.begin() + static_cast<std::ptrdiff_t>(n_owned);
+  if (!std::is_sorted(first, last)) throw std::invalid_argument("PartExchange: the owned ids must ascend");
+  m_send_index.resize(wanted.size());
+  for (std::size_t k = 0; k < wanted.size(); ++k) {
+    const auto it = std::lower_bound(first, last, static_cast<std::int64_t>(wanted[k]));
+    if (it == last || *it != wanted[k])
+      throw std::logic_error("PartExchange: a rank asked for an id this rank does not own");
+    m_send_index[k] = static_cast<std::size_t>(it - first);
+  }
+}
+
+std::int64_t sum_over_lower_ranks(std::int64_t value, std::int64_t* total) {
+  long long mine = value, lower = 0, all = value;
+  if (size() > 1) {
+    MPI_Exscan(&mine, &lower, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    if (rank() == 0) lower = 0;  // MPI_Exscan leaves rank 0's result undefined
+    MPI_Allreduce(&mine, &all, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+  }
+  if (total) *total = all;
+  return lower;
 }
 
 void abort_if_distributed(int code) {

@@ -4,6 +4,8 @@
 // In a plain process MPI starts only when a belos solver is made (an MPI singleton).
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace peristat::parallel {
@@ -55,22 +57,53 @@ class OwnedExchange {
   std::vector<long long> m_order;       ///< the entries, rank by rank, ascending within a rank
   std::vector<double> m_send, m_received;
 };
+/// Values that each rank sends to the ranks that read them and receives from the ranks that
+/// own them, in one MPI_Alltoallv per share(): what GhostExchange and PartExchange build.
+class Halo {
+ public:
+  /// Collective: this rank's entries that others read go to them; its ghost entries are filled.
+  void share(double* x);
+  /// Entries share() fills here: this rank's halo.
+  std::size_t ghosts() const { return m_recv_index.size(); }
+
+ protected:
+  /// With m_recv_counts set (per owner rank, the entries this rank receives) and `asked` (what
+  /// names them to their owners, grouped by owner): tells every owner what this rank reads
+  /// (one MPI_Alltoall, one MPI_Alltoallv) and returns what the others read of this rank's,
+  /// grouped by reader; sets the displacements, the send counts and the buffers.
+  std::vector<long long> ask_owners(const std::vector<long long>& asked);
+
+  std::vector<int> m_send_counts, m_send_displs, m_recv_counts, m_recv_displs;
+  std::vector<std::size_t> m_send_index, m_recv_index;  ///< rank by rank: entries sent, entries filled
+  std::vector<double> m_send, m_received;
+};
+
 /// Copies into each rank's copy of a vector the entries it reads and does not own, from their
 /// owners (distributed ADR between pseudo-time steps: a rank's rows read its ghosts, not every
 /// entry): entry k belongs to rank owner[k] (a table every rank holds alike), `reads` lists
 /// the entries this rank reads (its own among them are skipped). The construction is
 /// collective (each rank tells the owners what it reads); share() is collective, one
 /// MPI_Alltoallv of the ghosts' values.
-class GhostExchange {
+class GhostExchange : public Halo {
  public:
   GhostExchange(const std::vector<int>& owner, const std::vector<long long>& reads);
-  void share(double* x);
-
- private:
-  std::vector<int> m_send_counts, m_send_displs, m_recv_counts, m_recv_displs;
-  std::vector<long long> m_send_index, m_recv_index;  ///< rank by rank
-  std::vector<double> m_send, m_received;
 };
+
+/// The ghost tail of a vector over a rank's part of the model (ModelPart, docs/guide/distributed.md
+/// "The partitioned model"): entries [0, n_owned) are this rank's, entry k >= n_owned is the
+/// entry of global id ids[k] owned by rank owner[k], where it sits among that rank's first
+/// entries. No table over the whole model: the construction sends each owner the ids a rank
+/// reads (collective, one MPI_Alltoall and one MPI_Alltoallv), and every owner finds them among
+/// its owned ids, which must ascend. share() is collective: one MPI_Alltoallv of the ghosts'
+/// values. Throws std::logic_error when a rank asks for an id its owner does not own.
+class PartExchange : public Halo {
+ public:
+  PartExchange(const std::vector<std::int64_t>& ids, const std::vector<int>& owner, std::size_t n_owned);
+};
+
+/// The sum of `value` over the ranks before this one (0 on rank 0), and over every rank:
+/// the first global number of this rank's items when each rank numbers its own in turn.
+std::int64_t sum_over_lower_ranks(std::int64_t value, std::int64_t* total);
 
 /// Ends every rank with `code` when more than one runs (an error that one rank meets alone
 /// would leave the others waiting in a collective operation); returns otherwise.

@@ -107,6 +107,56 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
   return layout;
 }
 
+UnknownLayout part_unknown_layout(const ModelPart& part, int rank) {
+  const Model& m = part.model;
+  UnknownLayout layout = unknown_layout(m, m.constraints.n_free);
+  layout.owner = part.owner;
+  const Index n = m.particles.size();
+  const std::vector<Index>& free = m.constraints.free_index;
+  const auto is_node = [&](Index p) { return free[2 * p] >= 0 || free[2 * p + 1] >= 0; };
+  std::int64_t owned_nodes = 0;
+  for (Index p = 0; p < part.n_owned; ++p) owned_nodes += is_node(p);
+  layout.first_node = parallel::sum_over_lower_ranks(owned_nodes, &layout.global_nodes);
+  // Every entry a double for the exchange: node numbers below 2^53 are exact.
+  std::vector<double> node(static_cast<std::size_t>(n), -1.0);
+  std::int64_t next = layout.first_node;
+  for (Index p = 0; p < part.n_owned; ++p)
+    if (is_node(p)) node[static_cast<std::size_t>(p)] = static_cast<double>(next++);
+  std::vector<std::int64_t> ids = part.global_id;
+  std::vector<int> owner = part.owner;
+  // Particles without an owner (no row, kept by every rank alike) are not exchanged: they hold no node.
+  std::vector<std::size_t> exchanged;
+  for (std::size_t p = 0; p < ids.size(); ++p)
+    if (owner[p] >= 0 || p < static_cast<std::size_t>(part.n_owned)) exchanged.push_back(p);
+  std::vector<std::int64_t> xids;
+  std::vector<int> xowner;
+  std::vector<double> values;
+  for (const std::size_t p : exchanged) {
+    xids.push_back(ids[p]);
+    xowner.push_back(owner[p]);
+    values.push_back(node[p]);
+  }
+  parallel::PartExchange exchange(xids, xowner, static_cast<std::size_t>(part.n_owned));
+  exchange.share(values.data());
+  layout.global_node.assign(static_cast<std::size_t>(n), -1);
+  for (std::size_t k = 0; k < exchanged.size(); ++k)
+    layout.global_node[exchanged[k]] = static_cast<std::int64_t>(values[k]);
+  // The whole model's centre: each particle counted by its owner (rank 0 those without one).
+  double sums[3] = {0.0, 0.0, 0.0};
+  for (Index p = 0; p < n; ++p) {
+    const int o = part.owner[static_cast<std::size_t>(p)];
+    if (o == rank || (o < 0 && rank == 0)) {
+      sums[0] += m.particles.position[p].x();
+      sums[1] += m.particles.position[p].y();
+      sums[2] += 1.0;
+    }
+  }
+  parallel::sum_in_rank_order(sums, 3);
+  layout.centre_x = sums[0] / sums[2];
+  layout.centre_y = sums[1] / sums[2];
+  return layout;
+}
+
 LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks) {
   char buf[200];
   if (ranks > 1) {

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "assembly/quasi_static.hpp"
+#include "discretisation/model_part.hpp"
 #include "scene/scene.hpp"
 #include "solvers/distribution.hpp"
 #include "solvers/linear/linear_solver.hpp"
@@ -78,6 +79,10 @@ std::function<void(VectorXd&)> particle_exchange(const OwnedRows& rows);
 
 /// Each unknown's particle and direction, and the particles' positions (LinearSolver's hint).
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
+/// The layout of a rank's part of the model (collective under mpirun): the nodes numbered rank
+/// by rank (each rank's own in the part's order, from the sum of the lower ranks' counts), its
+/// ghosts' numbers asked of their owners (parallel::PartExchange), and the whole model's centre.
+UnknownLayout part_unknown_layout(const ModelPart& part, int rank);
 
 /// Under mpirun (problem.owned_rows() a part): the unknowns of this rank's particles, and the
 /// MPI operations distributed ADR needs; empty in one process.

@@ -1,0 +1,158 @@
+// The partitioned model's stage 2 pieces under MPI (run by ctest as `mpirun -n 2`; label mpi):
+// the ghost exchange by global ids and a Belos solve over the unknowns of each rank's part
+// of the model (ModelPart), against one process's CHOLMOD solve of the whole model.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <Eigen/CholmodSupport>
+#include <gtest/gtest.h>
+
+#include "app/setup.hpp"
+#include "assembly/quasi_static.hpp"
+#include "discretisation/model_part.hpp"
+#include "solvers/linear/linear_solver.hpp"
+#include "solvers/trilinos/parallel.hpp"
+#include "support/finite_difference.hpp"
+#include "support/scenes.hpp"
+
+namespace peristat {
+namespace {
+
+/// A plate between mirror grips: rows on two ranks by strips, and owners for the layers.
+struct Parted {
+  Scene scene;
+  Model whole;
+  std::vector<int> owner;
+  ModelPart part;
+};
+
+Parted parted_plate(int nx, int ny) {
+  test::PlateSpec spec;
+  spec.nx = nx;
+  spec.ny = ny;
+  spec.boundary = test::mirror_tension_boundary(1e-3, spec);
+  Parted p{test::scene_from_yaml(test::plate_yaml(spec)), {}, {}, {}};
+  p.whole = discretise(p.scene);
+  p.owner = strip_owners(p.whole.constraints, parallel::size());
+  complete_owners(p.whole, p.owner);
+  const int rank = parallel::rank();
+  p.part = extract_part(p.whole, p.owner, rank, families_to_hold(p.whole, OwnedRows{rank, p.owner}, 1));
+  return p;
+}
+
+TEST(PartExchange, EveryGhostGetsItsOwnersValue) {
+  ASSERT_EQ(parallel::size(), 2) << "run under mpirun -n 2";
+  const Parted p = parted_plate(40, 16);
+  const ModelPart& part = p.part;
+  const auto value = [](std::int64_t id) { return 1.0 + 0.5 * static_cast<double>(id); };
+  std::vector<double> x(part.global_id.size(), std::numeric_limits<double>::quiet_NaN());
+  for (Index l = 0; l < part.n_owned; ++l)
+    x[static_cast<std::size_t>(l)] = value(part.global_id[static_cast<std::size_t>(l)]);
+  parallel::PartExchange exchange(part.global_id, part.owner, static_cast<std::size_t>(part.n_owned));
+  EXPECT_GT(exchange.ghosts(), 0u);
+  exchange.share(x.data());
+  for (std::size_t l = 0; l < x.size(); ++l) ASSERT_EQ(x[l], value(part.global_id[l])) << "entry " << l;
+}
+
+TEST(PartLayout, EveryNodeHasOneGlobalNumber) {
+  // The whole model's nodes (particles with an unknown) numbered 0 .. N-1 once each over the
+  // ranks, a part's ghosts carrying their owners' numbers.
+  const Parted p = parted_plate(40, 16);
+  const UnknownLayout layout = part_unknown_layout(p.part, parallel::rank());
+  const Constraints& wc = p.whole.constraints;
+  std::int64_t nodes = 0;
+  for (Index g = 0; g < p.whole.particles.size(); ++g)
+    nodes += wc.free_index[2 * g] >= 0 || wc.free_index[2 * g + 1] >= 0;
+  EXPECT_EQ(layout.global_nodes, nodes);
+  // Rank by rank and, within a rank, in the whole model's order: the node numbering of a
+  // layout whose owners every rank holds, recomputed here from the whole model.
+  std::vector<std::int64_t> expected(static_cast<std::size_t>(p.whole.particles.size()), -1);
+  std::int64_t next = 0;
+  for (int r = 0; r < parallel::size(); ++r)
+    for (Index g = 0; g < p.whole.particles.size(); ++g)
+      if (p.owner[static_cast<std::size_t>(g)] == r &&
+          (wc.free_index[2 * g] >= 0 || wc.free_index[2 * g + 1] >= 0))
+        expected[static_cast<std::size_t>(g)] = next++;
+  for (std::size_t l = 0; l < layout.global_node.size(); ++l)
+    ASSERT_EQ(layout.global_node[l], expected[static_cast<std::size_t>(p.part.global_id[l])])
+        << "particle " << l;
+  double cx = 0.0, cy = 0.0;
+  for (const Vec2& X : p.whole.particles.position) {
+    cx += X.x();
+    cy += X.y();
+  }
+  EXPECT_NEAR(layout.centre_x, cx / p.whole.particles.size(), 1e-15);
+  EXPECT_NEAR(layout.centre_y, cy / p.whole.particles.size(), 1e-15);
+}
+
+TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
+  // Each rank assembles its rows of the bond matrix on its part and solves with Belos (CG,
+  // MueLu) over the parts' unknowns; one process's CHOLMOD factor of the whole model's bond
+  // matrix gives the reference. Krylov tolerance 1e-12: the answers within 1e-9 relative.
+  const Parted p = parted_plate(60, 24);
+  const ModelPart& part = p.part;
+  const int rank = parallel::rank();
+  ProblemOptions options = problem_options(p.scene);
+  options.matrix_free = true;
+  VectorXd x_ref;
+  const VectorXd b = test::random_vector(p.whole.constraints.n_free, 1.0, 51u);
+  {
+    QuasiStaticProblem whole(p.whole, options);
+    whole.set_load_factor(1.0);
+    SparseMatrix none;
+    VectorXd r;
+    whole.evaluate(VectorXd::Zero(p.whole.constraints.n_free), r, &none);
+    SparseMatrix P = whole.make_preconditioner();
+    whole.assemble_preconditioner(P);
+    Eigen::CholmodSupernodalLLT<SparseMatrix, Eigen::Lower> llt(P);
+    ASSERT_EQ(llt.info(), Eigen::Success);
+    x_ref = llt.solve(b);
+  }
+  ProblemOptions part_options = options;
+  part_options.rows = OwnedRows{rank, part.owner};
+  part_options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
+  part_options.max_over_ranks = parallel::max_over_ranks;
+  part_options.share_forces = [](VectorXd&) {};
+  QuasiStaticProblem problem(part.model, part_options);
+  problem.set_load_factor(1.0);
+  const Index n = part.model.constraints.n_free;
+  SparseMatrix none;
+  VectorXd r;
+  problem.evaluate(VectorXd::Zero(n), r, &none);
+  SparseMatrix P = problem.make_preconditioner();
+  problem.assemble_preconditioner(P);
+  LinearOptions lin;
+  lin.type = LinearSolverKind::belos;
+  lin.belos.method = BelosMethod::cg;
+  lin.belos.tangent = BelosTangent::assembled;
+  lin.belos.rtol = 1e-12;
+  const std::unique_ptr<LinearSolver> solver = make_linear_solver(lin);
+  solver->set_unknown_layout(part_unknown_layout(part, rank));
+  solver->analyzePattern(P);
+  solver->factorize(P);
+  VectorXd bl(n), xl = VectorXd::Zero(n);
+  for (Index f = 0; f < n; ++f) bl[f] = b[part.global_unknown[static_cast<std::size_t>(f)]];
+  solver->solve(bl, xl);
+  ASSERT_EQ(solver->info(), Eigen::Success);
+  EXPECT_GT(solver->iterations(), 0);
+  const double scale = x_ref.cwiseAbs().maxCoeff();
+  double worst = 0.0;
+  for (Index f = 0; f < n; ++f)  // owned and ghost entries alike: every rank gets its ghosts' values
+    worst =
+        std::max(worst, std::abs(xl[f] - x_ref[part.global_unknown[static_cast<std::size_t>(f)]]) / scale);
+  EXPECT_LT(worst, 1e-9) << "rank " << rank << ", " << solver->iterations() << " Krylov iterations";
+  std::printf(
+      "rank %d: %d unknowns (%d owned), %d Krylov iterations, largest difference %.2e of the largest entry\n",
+      rank, n, part.n_owned_unknowns, solver->iterations(), worst);
+}
+
+}  // namespace
+}  // namespace peristat
+
+int main(int argc, char** argv) {
+  const peristat::parallel::Session mpi;
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
