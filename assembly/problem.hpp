@@ -128,6 +128,13 @@ class Problem {
     return {"finite state", "residual recomputed from scratch within the solver's tolerance"};
   }
 
+  /// The Euclidean norm of a vector over the unknowns, and whether it is finite, the same on
+  /// every rank: a problem on a rank's part of the model (ModelPart: its own unknowns first,
+  /// then a ghost tail) sums its own entries over the ranks; otherwise the vector is whole
+  /// here. Collective in a distributed run: every rank calls them at the same point.
+  virtual double norm(const VectorXd& v) const { return v.norm(); }
+  virtual bool all_finite(const VectorXd& v) const { return v.allFinite(); }
+
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;
 };

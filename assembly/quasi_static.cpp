@@ -116,7 +116,10 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
     find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component, m_graph_parts.get());
     m_fragment.assign(n, 0);
   }
-  for (Index i = 0; i < n; ++i) m_energy_unit += model.particles.volume[i] * model.bodies[model.particles.body[i]].material.E;
+  for (Index i = 0; i < n; ++i)
+    if (!part() || options.rows.contains(i))  // a part: its own particles, summed over the ranks
+      m_energy_unit += model.particles.volume[i] * model.bodies[model.particles.body[i]].material.E;
+  m_energy_unit = over_ranks(m_energy_unit);
   if (m_failure && model.constraints.has_images()) {
     m_mirror_zone.assign(n, 0);
     for (const MirrorImage& im : model.constraints.images) m_mirror_zone[im.ghost] = m_mirror_zone[im.source] = 1;
@@ -173,7 +176,7 @@ void QuasiStaticProblem::set_load_factor(double lambda) {
 
 ConstraintUpdate QuasiStaticProblem::update_multipliers(const VectorXd& x) {
   if (!m_contact) return {};
-  expand(x, m_u);
+  expand_state(x);
   const MultiplierUpdate m = m_contact->update_multipliers(m_u);
   ConstraintUpdate out;
   out.violation = m.violation;
@@ -204,7 +207,7 @@ std::string QuasiStaticProblem::check_converged_state(const VectorXd& x) {
   m_pending = false;
   char buf[400];
   if (m_contact) {
-    expand(x, m_u);
+    expand_state(x);
     if (const double slide = m_contact->slide_since_search(m_u); slide > m_contact->max_slide_between_searches()) {
       std::snprintf(buf, sizeof buf,
                     "the contact faces slid %.3g dx since the last partner search, more than a search covers "
@@ -260,15 +263,21 @@ std::string QuasiStaticProblem::measure_increment(const VectorXd& x, bool check)
   L = m_ledger;
   L.strain_energy = energy_next;
   const std::vector<Index>& free = m_model.constraints.free_index;
-  double bond_work = 0.0;
+  // On a part, each rank's particles' work (the ghosts' forces are zero here), summed over the ranks.
+  double work[4] = {0.0, 0.0, 0.0, 0.0};  // bonds, contact, on the unknowns, on the prescribed components
   for (Index d = 0; d < n2; ++d) {
     const double du = m_u_next[d] - m_u_accepted[d];
     const double fb = 0.5 * (m_fbond_accepted[d] + m_fbond_next[d]);
     const double fc = m_fcontact_accepted.size() ? 0.5 * (m_fcontact_accepted[d] + m_fcontact_next[d]) : 0.0;
-    bond_work += fb * du;
-    L.contact_work += fc * du;
-    (free[d] >= 0 ? L.residual_work : L.external_work) += (fb + fc) * du;
+    work[0] += fb * du;
+    work[1] += fc * du;
+    work[free[d] >= 0 ? 2 : 3] += (fb + fc) * du;
   }
+  for (double& w : work) w = over_ranks(w);
+  const double bond_work = work[0];
+  L.contact_work += work[1];
+  L.residual_work += work[2];
+  L.external_work += work[3];
   const double change = energy_next - m_ledger.strain_energy;
   std::string why;
   if (m_bonds_changed) {
@@ -284,7 +293,7 @@ std::string QuasiStaticProblem::measure_increment(const VectorXd& x, bool check)
       rule = 0.0;
       for (Index d = 0; d < n2; ++d)
         rule += (m_fbond_accepted[d] + 4.0 * m_force[d] + m_fbond_next[d]) * (m_u_next[d] - m_u_accepted[d]);
-      rule /= 6.0;
+      rule = over_ranks(rule) / 6.0;
       evaluate(x, m_scratch, nullptr);
     }
     L.quadrature += bond_work - change;
@@ -294,6 +303,7 @@ std::string QuasiStaticProblem::measure_increment(const VectorXd& x, bool check)
     // which Simpson's is a higher order: measured 1e-4 of it for 3% stretch + 5% shear in one step).
     double max_du = 0.0;
     for (Index d = 0; d < n2; ++d) max_du = std::max(max_du, std::abs(m_u_next[d] - m_u_accepted[d]));
+    if (part()) max_du = m_options.max_over_ranks(max_du);
     const double scale = std::max({std::abs(energy_next), std::abs(m_ledger.strain_energy), std::abs(bond_work)});
     const double tolerance = kEnergyTolerance * scale + 0.1 * std::abs(rule - bond_work) +
                              kRoundOffWork * m_energy_unit * std::max(1.0, max_du / m_model.spacing);
@@ -345,7 +355,7 @@ void QuasiStaticProblem::commit(const VectorXd& x) {
   m_committed_lambda = m_lambda;
   if (m_failure) m_failure->commit();
   if (!m_contact) return;
-  expand(x, m_u);
+  expand_state(x);
   const std::uint64_t version = m_contact->version();
   m_contact->commit(m_u);
   if (m_contact->version() != version) {  // new partners: the pattern grows
@@ -403,7 +413,7 @@ std::uint64_t QuasiStaticProblem::preconditioner_state() const {
 
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {
   m_pending = false;  // a check measured an earlier evaluation
-  expand(x, m_u);
+  expand_state(x);
   if (m_own_rows_only && K)
     throw std::logic_error("QuasiStaticProblem::evaluate: own rows only, with a tangent");
   bond_forces(K != nullptr);
@@ -767,8 +777,26 @@ void QuasiStaticProblem::gather_forces() {
   }
 }
 
+void QuasiStaticProblem::expand_state(const VectorXd& x) {
+  if (!m_options.import_ghosts) return expand(x, m_u);
+  m_x_ghosts = x;  // the same size every time: the storage stays
+  m_options.import_ghosts(m_x_ghosts);
+  expand(m_x_ghosts, m_u);
+}
+
+double QuasiStaticProblem::norm(const VectorXd& v) const {
+  if (!part()) return v.norm();
+  return std::sqrt(m_options.sum_over_ranks(v.head(m_options.owned_unknowns).squaredNorm()));
+}
+
+bool QuasiStaticProblem::all_finite(const VectorXd& v) const {
+  if (!part()) return v.allFinite();
+  return m_options.max_over_ranks(v.head(m_options.owned_unknowns).allFinite() ? 0.0 : 1.0) == 0.0;
+}
+
 double QuasiStaticProblem::force_norm() const {
-  if (!m_own_rows_only) return m_force.norm();
+  // A part's forces are its own particles' (and those without an owner, alike on every rank).
+  if (!m_own_rows_only && !part()) return m_force.norm();
   // Each rank's own particles, summed over the ranks, and the particles without a row (every
   // rank computes those alike), added once.
   const OwnedRows& rows = m_options.rows;
@@ -957,7 +985,7 @@ void QuasiStaticProblem::set_velocity(const VectorXd& v) {
 
 Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at_most) {
   if (!m_failure) return 0;
-  expand(x, m_u);
+  expand_state(x);
   const Index n = m_model.particles.size();
 #pragma omp parallel for schedule(static)
   for (Index i = 0; i < n; ++i) family_displacements(i, m_eta.data() + m_model.bonds.start[i]);

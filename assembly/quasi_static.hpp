@@ -72,6 +72,16 @@ struct ProblemOptions {
   /// one value per particle with each owner's entries copied to every rank (the damage).
   GatherOverRanks gather_over_ranks;
   std::function<void(VectorXd& per_particle)> share_particle_values;
+  /// On a rank's part of the model (ModelPart, docs/guide/distributed.md "The partitioned
+  /// model"): the unknowns this rank owns, the first ones of every vector over the unknowns
+  /// (-1: the model is whole here). With it, sum_over_ranks and max_over_ranks, and rows the
+  /// part's owners; share_forces is then not needed (a part's own rows read no other rank's
+  /// forces).
+  Index owned_unknowns = -1;
+  /// With owned_unknowns: fills the ghost tail of a vector over the part's unknowns from the
+  /// owners (parallel::PartExchange). Every evaluation of a state x imports x's tail first, so a
+  /// solver need only keep the owned entries right.
+  std::function<void(VectorXd& x)> import_ghosts;
 };
 
 /// apply_tangent()'s schedule: chunks of `chunk` consecutive particles (chunk c holds
@@ -90,6 +100,9 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   double load_factor() const override { return m_lambda; }
   void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override;
   double force_scale() const override { return m_force_scale; }
+  /// On a part (ProblemOptions::owned_unknowns): over the owned entries, summed over the ranks.
+  double norm(const VectorXd& v) const override;
+  bool all_finite(const VectorXd& v) const override;
   SparseMatrix make_tangent() const override {
     return m_options.matrix_free ? SparseMatrix() : m_pattern.make_matrix(m_model.constraints);
   }
@@ -232,6 +245,12 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   bool partitioned() const { return !m_model.holds_every_family(); }
   /// The families and forces evaluated are those of m_family_needed and m_force_needed.
   bool restricted() const { return m_own_rows_only || partitioned(); }
+  /// The model is a rank's part (ProblemOptions::owned_unknowns).
+  bool part() const { return m_options.owned_unknowns >= 0; }
+  /// On a part, a sum of the ranks' values (collective); the value itself otherwise.
+  double over_ranks(double value) const { return part() ? m_options.sum_over_ranks(value) : value; }
+  /// m_u from the state x: on a part, x's ghost tail imported first (ProblemOptions::import_ghosts).
+  void expand_state(const VectorXd& x);
   /// The families' forces (and with want_tangent their Hessians' factors) at m_u into
   /// m_force and m_energy; partitioned: the rank's, then shared and summed over the ranks.
   void bond_forces(bool want_tangent);
@@ -309,6 +328,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
 
   // State of the last evaluate.
   VectorXd m_u, m_force;
+  VectorXd m_x_ghosts;  ///< on a part: the state with its ghost tail imported (expand_state)
   VectorXd m_velocity;  ///< full pseudo-velocity (velocity-sign friction only)
   double m_force_scale = 0.0, m_energy = 0.0;
   std::vector<Vec2> m_eta;                    ///< per bond, with failure: for its criterion

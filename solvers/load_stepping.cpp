@@ -63,13 +63,15 @@ SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& tria
     r.reason = std::move(why);
     return r;
   };
-  if (!trial.allFinite()) {
-    Index k = 0;
-    while (std::isfinite(trial[k])) ++k;
-    return reject("the solver's state holds a non-finite value (unknown " + std::to_string(k) + ")");
+  if (!problem.all_finite(trial)) {
+    Index k = 0;  // this rank's first (on a rank whose entries are all finite: none)
+    while (k < trial.size() && std::isfinite(trial[k])) ++k;
+    return reject(
+        "the solver's state holds a non-finite value" +
+        (k < trial.size() ? " (unknown " + std::to_string(k) + ")" : std::string(" on another rank")));
   }
   problem.evaluate(trial, r_check, nullptr);
-  const double norm = r_check.norm(), scale = problem.force_scale();
+  const double norm = problem.norm(r_check), scale = problem.force_scale();
   r.true_residual = norm / std::max(scale, std::numeric_limits<double>::min());
   if (!std::isfinite(norm))
     return reject("the residual recomputed at the solver's state is not finite");

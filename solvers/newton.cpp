@@ -172,7 +172,7 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
   report.factorizations += static_cast<int>(factorizations() - f0);
   report.linear_iterations += lin.iterations();
   report.predictor_solves = 1;
-  if (lin.info() == Eigen::Success && m_dx.allFinite()) x += m_dx;
+  if (lin.info() == Eigen::Success && m_problem.all_finite(m_dx)) x += m_dx;
   return report;
 }
 
@@ -226,7 +226,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
     report.seconds_evaluate += wall_seconds() - t0;
     use_existing = false;
   }
-  double norm = m_r.norm();
+  double norm = m_problem.norm(m_r);
   report.residuals.push_back(relative(norm));
   if (monitor) monitor(0, report.residuals.back(), 0.0, 0);
   // Discrete states (contact active set) of the accepted iterates, to count changes and
@@ -275,7 +275,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
     report.linear_iterations += lin.iterations();
     ++report.iterations;
     use_existing = false;
-    if (lin.info() != Eigen::Success || !m_dx.allFinite()) {
+    if (lin.info() != Eigen::Success || !m_problem.all_finite(m_dx)) {
       report.reason = "linear solve failed: " + describe(lin.info());
       return report;
     }
@@ -289,7 +289,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
       m_problem.evaluate(m_trial, m_trial_r, reuse_factor() ? nullptr : &m_K);
       if (!reuse_factor()) m_K_symmetric = m_problem.tangent_symmetric();
       report.seconds_evaluate += wall_seconds() - t0;
-      const double trial_norm = m_trial_r.norm();
+      const double trial_norm = m_problem.norm(m_trial_r);
       const bool accept =
           !o.line_search || converged(trial_norm) || trial_norm <= (1.0 - kArmijo * alpha) * norm;
       if (accept && std::isfinite(trial_norm)) {
@@ -313,7 +313,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
       ++report.active_set_changes;
       if (it >= 2 && state[0] == state[2]) ++two_cycles;
     }
-    report.increments.push_back(alpha * m_dx.norm() / std::max(x.norm(), kTiny));
+    report.increments.push_back(alpha * m_problem.norm(m_dx) / std::max(m_problem.norm(x), kTiny));
     report.residuals.push_back(relative(norm));
     if (monitor) monitor(it, report.residuals.back(), alpha, krylov);
   }

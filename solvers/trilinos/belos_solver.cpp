@@ -654,7 +654,7 @@ class BelosSolver final : public LinearSolver {
     if (x.size() != n) x = VectorXd::Zero(n);
     m_iterations = 0;
     m_error = 0.0;
-    if (b.norm() == 0.0) {
+    if (rhs_is_zero(b)) {
       x.setZero();
       m_info = Eigen::Success;
       return;
@@ -691,6 +691,16 @@ class BelosSolver final : public LinearSolver {
 
  private:
   bool matrix_free() const { return m_options.tangent == BelosTangent::matrix_free; }
+
+  /// Whether b is zero on every rank: on a part, over every rank's own rows (collective), so
+  /// that no rank returns while the others solve.
+  bool rhs_is_zero(const VectorXd& b) const {
+    if (!m_layout.part()) return b.norm() == 0.0;
+    double owned = 0.0;
+    for (const Index k : m_copy.d.unknown_of_local)
+      if (k >= 0) owned = std::max(owned, std::abs(b[k]));
+    return parallel::max_over_ranks(owned) == 0.0;
+  }
 
   void build_preconditioner() {
     m_reuse.built();

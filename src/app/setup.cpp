@@ -241,7 +241,10 @@ UnknownShare unknown_share(const QuasiStaticProblem& problem) {
 }
 
 std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProblem& problem,
-                                             std::unique_ptr<LinearSolver>& linear) {
+                                             std::unique_ptr<LinearSolver>& linear, const ModelPart* part) {
+  if (part &&
+      (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::belos))
+    throw std::logic_error("make_step_solver: a rank's part of the model runs Newton with belos only");
   if (scene.solver.type == SolverKind::adr)
     return std::make_unique<AdrSolver>(problem, scene.solver.adr, problem.pseudo_velocity_input(),
                                        unknown_share(problem));
@@ -262,7 +265,9 @@ std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProb
     linear->set_operator([&problem](const VectorXd& v, VectorXd& y) { problem.apply_tangent(v, y); });
     linear->set_operator_reads([&problem] { return problem.action_reads(); });
   }
-  if (linear->needs_unknown_layout()) {
+  if (part) {
+    linear->set_unknown_layout(part_unknown_layout(*part, problem.owned_rows().rank));
+  } else if (linear->needs_unknown_layout()) {
     UnknownLayout layout = unknown_layout(problem.model(), problem.n_unknowns());
     layout.owner = problem.owned_rows().owner;  // the ranks' rows, as the problem assembles them
     linear->set_unknown_layout(layout);

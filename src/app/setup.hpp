@@ -89,8 +89,11 @@ UnknownLayout part_unknown_layout(const ModelPart& part, int rank);
 UnknownShare unknown_share(const QuasiStaticProblem& problem);
 
 /// The step solver the scene asks for (Newton or ADR); `linear` receives Newton's linear
-/// solver (it must outlive the step solver) and stays empty for ADR.
+/// solver (it must outlive the step solver) and stays empty for ADR. With `part`, the problem
+/// is built on that rank's part of the model (ProblemOptions::owned_unknowns): Newton with
+/// belos only, its layout part_unknown_layout()'s (collective).
 std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProblem& problem,
-                                             std::unique_ptr<LinearSolver>& linear);
+                                             std::unique_ptr<LinearSolver>& linear,
+                                             const ModelPart* part = nullptr);
 
 }  // namespace peristat

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <string>
 
 #include <Eigen/CholmodSupport>
@@ -13,6 +14,7 @@
 #include "assembly/quasi_static.hpp"
 #include "discretisation/model_part.hpp"
 #include "solvers/linear/linear_solver.hpp"
+#include "solvers/load_stepping.hpp"
 #include "solvers/trilinos/parallel.hpp"
 #include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
@@ -146,6 +148,91 @@ TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
   std::printf(
       "rank %d: %d unknowns (%d owned), %d Krylov iterations, largest difference %.2e of the largest entry\n",
       rank, n, part.n_owned_unknowns, solver->iterations(), worst);
+}
+
+/// The run of `scene` (its load steps, from zero) on this process's whole model with CHOLMOD:
+/// the reference every rank computes alike.
+VectorXd whole_run(Scene scene, std::vector<double>* residuals) {
+  scene.solver.linear.type = LinearSolverKind::cholmod;
+  const Model model = discretise(scene);
+  QuasiStaticProblem problem(model, problem_options(scene));
+  std::unique_ptr<LinearSolver> linear;
+  const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear);
+  VectorXd x = VectorXd::Zero(problem.n_unknowns());
+  LoadSteppingCallbacks cb;
+  cb.on_step = [&](const StepReport& s, const VectorXd&) {
+    residuals->insert(residuals->end(), s.residuals.begin(), s.residuals.end());
+  };
+  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
+  EXPECT_TRUE(run.completed) << run.message;
+  return x;
+}
+
+TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
+  // The load steps of a tension plate between mirror grips (finite kinematics, a 1 % stretch in
+  // two steps), run by each rank on its part of the model: Newton with belos (the matrix-free
+  // tangent, MueLu) over the parts' unknowns, norms summed over the ranks, each evaluation
+  // importing its ghosts. Every state check of a run applies (finite state, the residual
+  // recomputed). The owned and ghost entries must be the whole model's answer (CHOLMOD, one
+  // process) within 1e-8 of its largest entry (both Newton runs stop at rtol 1e-10), and
+  // every rank must take the same Newton iterations (the same decisions).
+  const int rank = parallel::rank();
+  test::PlateSpec spec;
+  spec.nx = 60;
+  spec.ny = 24;
+  spec.steps = 2;
+  spec.boundary = test::mirror_tension_boundary(1e-2, spec);
+  spec.solver = "  type: newton\n  linear: belos\n  newton: {rtol: 1.0e-10}\n";
+  const Scene scene = test::scene_from_yaml(test::plate_yaml(spec));
+  std::vector<double> whole_residuals;
+  const VectorXd x_ref = whole_run(scene, &whole_residuals);
+
+  Parted p{scene, discretise(scene), {}, {}};
+  p.owner = strip_owners(p.whole.constraints, parallel::size());
+  complete_owners(p.whole, p.owner);
+  p.part = extract_part(p.whole, p.owner, rank, families_to_hold(p.whole, OwnedRows{rank, p.owner}, 1));
+  const ModelPart& part = p.part;
+  ProblemOptions options = problem_options(scene);
+  ASSERT_TRUE(options.matrix_free);
+  options.rows = OwnedRows{rank, part.owner};
+  options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
+  options.max_over_ranks = parallel::max_over_ranks;
+  options.share_forces = [](VectorXd&) {};
+  options.owned_unknowns = part.n_owned_unknowns;
+  std::vector<int> unknown_owner;
+  for (std::size_t c = 0; c < part.model.constraints.free_index.size(); ++c)
+    if (part.model.constraints.free_index[c] >= 0) unknown_owner.push_back(part.owner[c / 2]);
+  auto ghosts = std::make_shared<parallel::PartExchange>(part.global_unknown, unknown_owner,
+                                                         static_cast<std::size_t>(part.n_owned_unknowns));
+  options.import_ghosts = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
+  QuasiStaticProblem problem(part.model, options);
+  std::unique_ptr<LinearSolver> linear;
+  const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, &part);
+  VectorXd x = VectorXd::Zero(problem.n_unknowns());
+  std::vector<double> residuals;
+  LoadSteppingCallbacks cb;
+  cb.on_step = [&](const StepReport& s, const VectorXd&) {
+    residuals.insert(residuals.end(), s.residuals.begin(), s.residuals.end());
+  };
+  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
+  ASSERT_TRUE(run.completed) << run.message;
+  ghosts->share(x.data());
+  const double scale = x_ref.cwiseAbs().maxCoeff();
+  double worst = 0.0;
+  for (Index f = 0; f < x.size(); ++f)
+    worst = std::max(worst, std::abs(x[f] - x_ref[part.global_unknown[static_cast<std::size_t>(f)]]) / scale);
+  EXPECT_LT(worst, 1e-8) << "rank " << rank;
+  // The same decisions on every rank: the residual histories (relative residuals, collective) alike.
+  const std::vector<double> all = parallel::gather_over_ranks(residuals);
+  ASSERT_EQ(all.size(), residuals.size() * static_cast<std::size_t>(parallel::size()));
+  for (std::size_t k = 0; k < residuals.size(); ++k)
+    EXPECT_EQ(all[k], all[k + residuals.size()]) << "residual " << k;
+  std::printf("rank %d: %d unknowns (%d owned); Newton residuals", rank, problem.n_unknowns(),
+              part.n_owned_unknowns);
+  for (const double r : residuals) std::printf(" %.2e", r);
+  std::printf("; whole (CHOLMOD)");
+  for (const double r : whole_residuals) std::printf(" %.2e", r);
+  std::printf("; largest difference %.2e of the largest entry\n", worst);
 }
 
 }  // namespace
