@@ -617,12 +617,14 @@ class BelosSolver final : public LinearSolver {
       return;
     }
     m_copy.analyze(matrix_free() ? *m_P : A, m_layout, m_comm);
-    m_replicated =
-        rcp(new map_t(static_cast<Tpetra::global_size_t>(m_copy.d.n_rows), GO(0), m_comm, Tpetra::LocallyReplicated));
-    m_import = rcp(new import_t(m_copy.map, m_replicated));
+    if (!m_layout.part()) {  // the whole solution on every rank after each solve
+      m_replicated = rcp(new map_t(static_cast<Tpetra::global_size_t>(m_copy.d.n_rows), GO(0), m_comm,
+                                   Tpetra::LocallyReplicated));
+      m_import = rcp(new import_t(m_copy.map, m_replicated));
+      m_X_all = rcp(new mv_t(m_replicated, 1));
+    }
     m_X = rcp(new mv_t(m_copy.map, 1));
     m_B = rcp(new mv_t(m_copy.map, 1));
-    m_X_all = rcp(new mv_t(m_replicated, 1));
     m_problem = rcp(new Belos::LinearProblem<double, mv_t, op_t>());
     if (matrix_free()) {
       std::vector<Index> reads;
@@ -824,6 +826,12 @@ class BelosSolver final : public LinearSolver {
       m_info = result == Belos::Converged ? Eigen::Success : Eigen::NoConvergence;
     } catch (const std::exception&) {
       m_info = Eigen::NumericalIssue;
+      return;
+    }
+    if (m_layout.part()) {  // a rank's part: its own unknowns; the caller imports its ghosts
+      const Teuchos::ArrayRCP<const double> own = m_X->getData(0);
+      for (LO r = 0; r < local; ++r)
+        if (d.unknown_of_local[r] >= 0) x[d.unknown_of_local[r]] = own[r];
       return;
     }
     // Every rank gets the whole solution: the model above the seam is the same on all ranks.
