@@ -107,6 +107,32 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
   return layout;
 }
 
+ModelPart part_model(const Scene& scene, int rank, int ranks) {
+  OwnedRows rows;
+  const Model whole = discretise(scene, [&](const Model& unbonded) {
+    rows = owned_rows(scene, unbonded, rank, ranks);
+    return families_to_hold(unbonded, rows, 1);
+  });
+  return extract_part(whole, rows.owner, rank, whole.family_held);
+}
+
+ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, int rank) {
+  ProblemOptions options = problem_options(scene);
+  options.rows = OwnedRows{rank, part.owner};
+  options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
+  options.max_over_ranks = parallel::max_over_ranks;
+  options.share_forces = [](VectorXd&) {};  // a part's own rows read no other rank's forces
+  options.owned_unknowns = part.n_owned_unknowns;
+  std::vector<int> unknown_owner;
+  const std::vector<Index>& free = part.model.constraints.free_index;
+  for (std::size_t c = 0; c < free.size(); ++c)
+    if (free[c] >= 0) unknown_owner.push_back(part.owner[c / 2]);
+  auto ghosts = std::make_shared<parallel::PartExchange>(part.global_unknown, unknown_owner,
+                                                         static_cast<std::size_t>(part.n_owned_unknowns));
+  options.import_ghosts = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
+  return options;
+}
+
 UnknownLayout part_unknown_layout(const ModelPart& part, int rank) {
   const Model& m = part.model;
   UnknownLayout layout = unknown_layout(m, m.constraints.n_free);

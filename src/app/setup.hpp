@@ -79,6 +79,15 @@ std::function<void(VectorXd&)> particle_exchange(const OwnedRows& rows);
 
 /// Each unknown's particle and direction, and the particles' positions (LinearSolver's hint).
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
+/// This rank's part of the model (docs/guide/distributed.md, "The partitioned model"): the
+/// owners by solver.belos.partition (owned_rows(), every particle owned), the whole model
+/// discretised with only the families the part holds (one ring: Newton's matrix-free tangent),
+/// the part extracted from it and the whole model freed.
+ModelPart part_model(const Scene& scene, int rank, int ranks);
+/// The problem's options on that part, under mpirun: its rows, the sums and maxima over the
+/// ranks, the owned unknowns and the import of the ghost tail (collective: it builds a
+/// parallel::PartExchange over the unknowns).
+ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, int rank);
 /// The layout of a rank's part of the model (collective under mpirun): the nodes numbered rank
 /// by rank (each rank's own in the part's order, from the sum of the lower ranks' counts), its
 /// ghosts' numbers asked of their owners (parallel::PartExchange), and the whole model's centre.

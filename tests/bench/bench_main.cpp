@@ -17,6 +17,10 @@
 //       Newton's matrix-free problem on it: per partition, the largest and mean bytes of a
 //       part's model and problem state (ModelSize::memory_bytes) against the whole model's,
 //       and its particles (owned, and the ring and the particles without a row it adds).
+//   mpirun -n P peristat_bench part-newton SCENE [--set KEY=VALUE]...   the scene's load steps
+//       run by Newton with belos on each rank's part of the model (the partitioned model,
+//       stages 1-2, below the command line): per rank, the particles and unknowns it holds,
+//       the resident memory once the part is built and at the end, the peak, and the times.
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
@@ -35,6 +39,7 @@
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
 #include "solvers/newton.hpp"
+#include "solvers/trilinos/parallel.hpp"
 
 using namespace peristat;
 
@@ -264,6 +269,68 @@ int parts(const std::string& path, int ranks, const std::vector<Override>& overr
   return 0;
 }
 
+/// Resident memory now [MB] (/proc/self/statm).
+double resident_mb() {
+  long pages = 0, resident = 0;
+  if (FILE* f = std::fopen("/proc/self/statm", "r")) {
+    if (std::fscanf(f, "%ld %ld", &pages, &resident) != 2) resident = 0;
+    std::fclose(f);
+  }
+  return static_cast<double>(resident) * 4096.0 / 1e6;
+}
+
+int part_newton(const std::string& path, const std::vector<Override>& overrides) {
+  const parallel::Session mpi;
+  const int rank = parallel::rank(), ranks = parallel::size();
+  Scene scene = parse_scene(path, overrides);
+  scene.solver.type = SolverKind::newton;
+  scene.solver.linear.type = LinearSolverKind::belos;
+  const double t0 = wall_seconds();
+  const ModelPart part = part_model(scene, rank, ranks);
+  const double t_part = wall_seconds() - t0, rss_part = resident_mb();
+  QuasiStaticProblem problem(part.model, part_problem_options(scene, part, rank));
+  std::unique_ptr<LinearSolver> linear;
+  const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, &part);
+  const double t_problem = wall_seconds() - t0 - t_part;
+  VectorXd x = VectorXd::Zero(problem.n_unknowns());
+  int newton = 0, krylov = 0;
+  double residual = 0.0;
+  LoadSteppingCallbacks cb;
+  cb.on_step = [&](const StepReport& s, const VectorXd&) {
+    newton += s.newton_iterations;
+    krylov += s.linear_iterations;
+    residual = s.final_residual;
+  };
+  const double t1 = wall_seconds();
+  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
+  const double t_run = wall_seconds() - t1;
+  const std::vector<double> mine = {static_cast<double>(part.model.particles.size()),
+                                    static_cast<double>(part.n_owned),
+                                    static_cast<double>(problem.n_unknowns()),
+                                    static_cast<double>(part.n_owned_unknowns),
+                                    rss_part,
+                                    resident_mb(),
+                                    peak_mb() * 1.024 * 1.024,
+                                    t_part,
+                                    t_problem,
+                                    t_run};
+  const std::vector<double> all = parallel::gather_over_ranks(mine);
+  if (rank == 0) {
+    std::printf(
+        "scene=%s ranks=%d particles_whole=%lld completed=%d newton=%d krylov=%d final_residual=%.3e %s\n",
+        scene.name.c_str(), ranks, static_cast<long long>(part.n_particles_whole), run.completed ? 1 : 0,
+        newton, krylov, residual, run.completed ? "" : run.message.c_str());
+    for (int r = 0; r < ranks; ++r) {
+      const double* v = all.data() + static_cast<std::size_t>(r) * mine.size();
+      std::printf(
+          "rank=%d particles=%.0f owned=%.0f unknowns=%.0f owned_unknowns=%.0f rss_after_part_MB=%.0f "
+          "rss_end_MB=%.0f peak_MB=%.0f part_s=%.1f problem_s=%.1f run_s=%.1f\n",
+          r, v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9]);
+    }
+  }
+  return run.completed ? 0 : 3;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -273,6 +340,8 @@ int main(int argc, char** argv) {
   if (argc >= 3 && std::strcmp(argv[1], "action") == 0) return action(argv[2], argc >= 4 ? std::atoi(argv[3]) : 200);
   if (argc >= 4 && std::strcmp(argv[1], "partition") == 0)
     return partition(argv[2], std::atoi(argv[3]), overrides_from(argc, argv, 4));
+  if (argc >= 3 && std::strcmp(argv[1], "part-newton") == 0)
+    return part_newton(argv[2], overrides_from(argc, argv, 3));
   if (argc >= 4 && std::strcmp(argv[1], "parts") == 0)
     return parts(argv[2], std::atoi(argv[3]), overrides_from(argc, argv, 4));
   std::fprintf(stderr,
@@ -280,6 +349,7 @@ int main(int argc, char** argv) {
                "       peristat_bench factor N tangent|bond default|amd|metis|nesdis\n"
                "       peristat_bench action SCENE [REPS]\n"
                "       peristat_bench partition SCENE P [--set KEY=VALUE]...\n"
-               "       peristat_bench parts SCENE P [--set KEY=VALUE]...\n");
+               "       peristat_bench parts SCENE P [--set KEY=VALUE]...\n"
+               "       mpirun -n P peristat_bench part-newton SCENE [--set KEY=VALUE]...\n");
   return 2;
 }

@@ -196,24 +196,11 @@ TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
   std::vector<double> whole_residuals;
   const VectorXd x_ref = whole_run(scene, &whole_residuals);
 
-  Parted p{scene, discretise(scene), {}, {}};
-  p.owner = strip_owners(p.whole.constraints, parallel::size());
-  complete_owners(p.whole, p.owner);
-  p.part = extract_part(p.whole, p.owner, rank, families_to_hold(p.whole, OwnedRows{rank, p.owner}, 1));
-  const ModelPart& part = p.part;
-  ProblemOptions options = problem_options(scene);
+  Scene strips = scene;
+  strips.solver.linear.belos.partition = BelosPartition::strips;
+  const ModelPart part = part_model(strips, rank, parallel::size());
+  const ProblemOptions options = part_problem_options(scene, part, rank);
   ASSERT_TRUE(options.matrix_free);
-  options.rows = OwnedRows{rank, part.owner};
-  options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
-  options.max_over_ranks = parallel::max_over_ranks;
-  options.share_forces = [](VectorXd&) {};
-  options.owned_unknowns = part.n_owned_unknowns;
-  std::vector<int> unknown_owner;
-  for (std::size_t c = 0; c < part.model.constraints.free_index.size(); ++c)
-    if (part.model.constraints.free_index[c] >= 0) unknown_owner.push_back(part.owner[c / 2]);
-  auto ghosts = std::make_shared<parallel::PartExchange>(part.global_unknown, unknown_owner,
-                                                         static_cast<std::size_t>(part.n_owned_unknowns));
-  options.import_ghosts = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
   QuasiStaticProblem problem(part.model, options);
   std::unique_ptr<LinearSolver> linear;
   const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, &part);
@@ -225,7 +212,7 @@ TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
   };
   const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
   ASSERT_TRUE(run.completed) << run.message;
-  ghosts->share(x.data());
+  options.import_ghosts(x);  // the run keeps the owned entries right; the ghosts from their owners
   const double scale = x_ref.cwiseAbs().maxCoeff();
   double worst = 0.0;
   for (Index f = 0; f < x.size(); ++f)
