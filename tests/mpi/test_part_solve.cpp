@@ -30,15 +30,15 @@ struct Parted {
   ModelPart part;
 };
 
-Parted parted_plate(int nx, int ny) {
+Parted parted_plate(int nx, int ny, BelosPartition kind = BelosPartition::strips) {
   test::PlateSpec spec;
   spec.nx = nx;
   spec.ny = ny;
   spec.boundary = test::mirror_tension_boundary(1e-3, spec);
   Parted p{test::scene_from_yaml(test::plate_yaml(spec)), {}, {}, {}};
+  p.scene.solver.linear.belos.partition = kind;
   p.whole = discretise(p.scene);
-  p.owner = strip_owners(p.whole.constraints, parallel::size());
-  complete_owners(p.whole, p.owner);
+  p.owner = owned_rows(p.scene, p.whole, parallel::rank(), parallel::size()).owner;  // every particle owned
   const int rank = parallel::rank();
   p.part = extract_part(p.whole, p.owner, rank, families_to_hold(p.whole, OwnedRows{rank, p.owner}, 1));
   return p;
@@ -60,33 +60,37 @@ TEST(PartExchange, EveryGhostGetsItsOwnersValue) {
 
 TEST(PartLayout, EveryNodeHasOneGlobalNumber) {
   // The whole model's nodes (particles with an unknown) numbered 0 .. N-1 once each over the
-  // ranks, a part's ghosts carrying their owners' numbers.
-  const Parted p = parted_plate(40, 16);
-  const UnknownLayout layout = part_unknown_layout(p.part, parallel::rank());
-  const Constraints& wc = p.whole.constraints;
-  std::int64_t nodes = 0;
-  for (Index g = 0; g < p.whole.particles.size(); ++g)
-    nodes += wc.free_index[2 * g] >= 0 || wc.free_index[2 * g + 1] >= 0;
-  EXPECT_EQ(layout.global_nodes, nodes);
-  // Rank by rank and, within a rank, in the whole model's order: the node numbering of a
-  // layout whose owners every rank holds, recomputed here from the whole model.
-  std::vector<std::int64_t> expected(static_cast<std::size_t>(p.whole.particles.size()), -1);
-  std::int64_t next = 0;
-  for (int r = 0; r < parallel::size(); ++r)
+  // ranks, a part's ghosts carrying their owners' numbers; with strips (each rank's nodes a
+  // range of the whole model's) and RCB (not a range: the numbering must follow the owners).
+  for (const BelosPartition kind : {BelosPartition::strips, BelosPartition::rcb}) {
+    SCOPED_TRACE(std::string(to_string(kind)));
+    const Parted p = parted_plate(16, 40, kind);  // tall: RCB cuts across y, strips (by index) across x
+    const UnknownLayout layout = part_unknown_layout(p.part, parallel::rank());
+    const Constraints& wc = p.whole.constraints;
+    std::int64_t nodes = 0;
     for (Index g = 0; g < p.whole.particles.size(); ++g)
-      if (p.owner[static_cast<std::size_t>(g)] == r &&
-          (wc.free_index[2 * g] >= 0 || wc.free_index[2 * g + 1] >= 0))
-        expected[static_cast<std::size_t>(g)] = next++;
-  for (std::size_t l = 0; l < layout.global_node.size(); ++l)
-    ASSERT_EQ(layout.global_node[l], expected[static_cast<std::size_t>(p.part.global_id[l])])
-        << "particle " << l;
-  double cx = 0.0, cy = 0.0;
-  for (const Vec2& X : p.whole.particles.position) {
-    cx += X.x();
-    cy += X.y();
+      nodes += wc.free_index[2 * g] >= 0 || wc.free_index[2 * g + 1] >= 0;
+    EXPECT_EQ(layout.global_nodes, nodes);
+    // Rank by rank and, within a rank, in the whole model's order: the node numbering of a
+    // layout whose owners every rank holds, recomputed here from the whole model.
+    std::vector<std::int64_t> expected(static_cast<std::size_t>(p.whole.particles.size()), -1);
+    std::int64_t next = 0;
+    for (int r = 0; r < parallel::size(); ++r)
+      for (Index g = 0; g < p.whole.particles.size(); ++g)
+        if (p.owner[static_cast<std::size_t>(g)] == r &&
+            (wc.free_index[2 * g] >= 0 || wc.free_index[2 * g + 1] >= 0))
+          expected[static_cast<std::size_t>(g)] = next++;
+    for (std::size_t l = 0; l < layout.global_node.size(); ++l)
+      ASSERT_EQ(layout.global_node[l], expected[static_cast<std::size_t>(p.part.global_id[l])])
+          << "particle " << l;
+    double cx = 0.0, cy = 0.0;
+    for (const Vec2& X : p.whole.particles.position) {
+      cx += X.x();
+      cy += X.y();
+    }
+    EXPECT_NEAR(layout.centre_x, cx / p.whole.particles.size(), 1e-15);
+    EXPECT_NEAR(layout.centre_y, cy / p.whole.particles.size(), 1e-15);
   }
-  EXPECT_NEAR(layout.centre_x, cx / p.whole.particles.size(), 1e-15);
-  EXPECT_NEAR(layout.centre_y, cy / p.whole.particles.size(), 1e-15);
 }
 
 TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
@@ -179,16 +183,16 @@ VectorXd whole_run(Scene scene, std::vector<double>* residuals) {
 
 TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
   // The load steps of a tension plate between mirror grips (finite kinematics, a 1 % stretch in
-  // two steps), run by each rank on its part of the model: Newton with belos (the matrix-free
-  // tangent, MueLu) over the parts' unknowns, norms summed over the ranks, each evaluation
+  // two steps), run by each rank on its part of the model (strips, and RCB): Newton with belos (the
+  // matrix-free tangent, MueLu) over the parts' unknowns, norms summed over the ranks, each evaluation
   // importing its ghosts. Every state check of a run applies (finite state, the residual
   // recomputed). The owned and ghost entries must be the whole model's answer (CHOLMOD, one
   // process) within 1e-8 of its largest entry (both Newton runs stop at rtol 1e-10), and
   // every rank must take the same Newton iterations (the same decisions).
   const int rank = parallel::rank();
-  test::PlateSpec spec;
-  spec.nx = 60;
-  spec.ny = 24;
+  test::PlateSpec spec;  // tall: RCB's parts (across y) are not strips of the particle order (across x)
+  spec.nx = 24;
+  spec.ny = 60;
   spec.steps = 2;
   spec.boundary = test::mirror_tension_boundary(1e-2, spec);
   spec.solver = "  type: newton\n  linear: belos\n  newton: {rtol: 1.0e-10}\n";
@@ -196,39 +200,43 @@ TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
   std::vector<double> whole_residuals;
   const VectorXd x_ref = whole_run(scene, &whole_residuals);
 
-  Scene strips = scene;
-  strips.solver.linear.belos.partition = BelosPartition::strips;
-  const ModelPart part = part_model(strips, rank, parallel::size());
-  const ProblemOptions options = part_problem_options(scene, part, rank);
-  ASSERT_TRUE(options.matrix_free);
-  QuasiStaticProblem problem(part.model, options);
-  std::unique_ptr<LinearSolver> linear;
-  const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, &part);
-  VectorXd x = VectorXd::Zero(problem.n_unknowns());
-  std::vector<double> residuals;
-  LoadSteppingCallbacks cb;
-  cb.on_step = [&](const StepReport& s, const VectorXd&) {
-    residuals.insert(residuals.end(), s.residuals.begin(), s.residuals.end());
-  };
-  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
-  ASSERT_TRUE(run.completed) << run.message;
-  options.import_ghosts(x);  // the run keeps the owned entries right; the ghosts from their owners
-  const double scale = x_ref.cwiseAbs().maxCoeff();
-  double worst = 0.0;
-  for (Index f = 0; f < x.size(); ++f)
-    worst = std::max(worst, std::abs(x[f] - x_ref[part.global_unknown[static_cast<std::size_t>(f)]]) / scale);
-  EXPECT_LT(worst, 1e-8) << "rank " << rank;
-  // The same decisions on every rank: the residual histories (relative residuals, collective) alike.
-  const std::vector<double> all = parallel::gather_over_ranks(residuals);
-  ASSERT_EQ(all.size(), residuals.size() * static_cast<std::size_t>(parallel::size()));
-  for (std::size_t k = 0; k < residuals.size(); ++k)
-    EXPECT_EQ(all[k], all[k + residuals.size()]) << "residual " << k;
-  std::printf("rank %d: %d unknowns (%d owned); Newton residuals", rank, problem.n_unknowns(),
-              part.n_owned_unknowns);
-  for (const double r : residuals) std::printf(" %.2e", r);
-  std::printf("; whole (CHOLMOD)");
-  for (const double r : whole_residuals) std::printf(" %.2e", r);
-  std::printf("; largest difference %.2e of the largest entry\n", worst);
+  for (const BelosPartition kind : {BelosPartition::strips, BelosPartition::rcb}) {
+    SCOPED_TRACE(std::string(to_string(kind)));
+    Scene parted = scene;
+    parted.solver.linear.belos.partition = kind;
+    const ModelPart part = part_model(parted, rank, parallel::size());
+    const ProblemOptions options = part_problem_options(scene, part, rank);
+    ASSERT_TRUE(options.matrix_free);
+    QuasiStaticProblem problem(part.model, options);
+    std::unique_ptr<LinearSolver> linear;
+    const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, &part);
+    VectorXd x = VectorXd::Zero(problem.n_unknowns());
+    std::vector<double> residuals;
+    LoadSteppingCallbacks cb;
+    cb.on_step = [&](const StepReport& s, const VectorXd&) {
+      residuals.insert(residuals.end(), s.residuals.begin(), s.residuals.end());
+    };
+    const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
+    ASSERT_TRUE(run.completed) << run.message;
+    options.import_ghosts(x);  // the run keeps the owned entries right; the ghosts from their owners
+    const double scale = x_ref.cwiseAbs().maxCoeff();
+    double worst = 0.0;
+    for (Index f = 0; f < x.size(); ++f)
+      worst =
+          std::max(worst, std::abs(x[f] - x_ref[part.global_unknown[static_cast<std::size_t>(f)]]) / scale);
+    EXPECT_LT(worst, 1e-8) << "rank " << rank;
+    // The same decisions on every rank: the residual histories (relative residuals, collective) alike.
+    const std::vector<double> all = parallel::gather_over_ranks(residuals);
+    ASSERT_EQ(all.size(), residuals.size() * static_cast<std::size_t>(parallel::size()));
+    for (std::size_t k = 0; k < residuals.size(); ++k)
+      EXPECT_EQ(all[k], all[k + residuals.size()]) << "residual " << k;
+    std::printf("%s, rank %d: %d unknowns (%d owned); Newton residuals", std::string(to_string(kind)).c_str(),
+                rank, problem.n_unknowns(), part.n_owned_unknowns);
+    for (const double r : residuals) std::printf(" %.2e", r);
+    std::printf("; whole (CHOLMOD)");
+    for (const double r : whole_residuals) std::printf(" %.2e", r);
+    std::printf("; largest difference %.2e of the largest entry\n", worst);
+  }
 }
 
 }  // namespace
