@@ -134,6 +134,12 @@ ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int ra
   Bonds& b = m.bonds;
   m.family_held.assign(static_cast<std::size_t>(nl), 0);
   b.start.assign(static_cast<std::size_t>(nl) + 1, 0);
+  std::size_t n_part_bonds = 0;  // exact capacities: the bonds are most of a part's bytes
+  for (const Index g : order)
+    if (held[static_cast<std::size_t>(g)]) n_part_bonds += static_cast<std::size_t>(wb.family_size(g));
+  b.neighbour.reserve(n_part_bonds);
+  b.xi.reserve(n_part_bonds);
+  b.weight.reserve(n_part_bonds);
   std::vector<Index> bond_of(static_cast<std::size_t>(wb.n_bonds()), -1);  // whole bond -> part bond
   for (Index l = 0; l < nl; ++l) {
     const Index g = order[l];
