@@ -163,6 +163,11 @@ void OwnedExchange::share(double* x) {
 std::vector<long long> Halo::ask_owners(const std::vector<long long>& asked) {
   const auto R = static_cast<std::size_t>(size());
   m_recv_displs.assign(R, 0);
+  if (R <= 1) {  // one process (MPI perhaps not started): nothing to ask, nothing to share
+    m_send_counts.assign(R, 0);
+    m_send_displs.assign(R, 0);
+    return {};
+  }
   for (std::size_t p = 1; p < R; ++p) m_recv_displs[p] = m_recv_displs[p - 1] + m_recv_counts[p - 1];
   m_send_counts.assign(R, 0);
   MPI_Alltoall(m_recv_counts.data(), 1, MPI_INT, m_send_counts.data(), 1, MPI_INT, MPI_COMM_WORLD);

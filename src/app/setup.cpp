@@ -111,6 +111,8 @@ ModelPart part_model(const Scene& scene, int rank, int ranks) {
   OwnedRows rows;
   const Model whole = discretise(scene, [&](const Model& unbonded) {
     rows = owned_rows(scene, unbonded, rank, ranks);
+    if (rows.owner.empty())
+      rows = OwnedRows{0, std::vector<int>(static_cast<std::size_t>(unbonded.particles.size()), 0)};
     return families_to_hold(unbonded, rows, 1);
   });
   return extract_part(whole, rows.owner, rank, whole.family_held);
