@@ -107,6 +107,14 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
   return layout;
 }
 
+std::vector<int> unknown_owners(const Constraints& constraints, const std::vector<int>& particle_owner) {
+  std::vector<int> owner(static_cast<std::size_t>(constraints.n_free), -1);
+  const std::vector<Index>& free = constraints.free_index;
+  for (std::size_t c = 0; c < free.size(); ++c)
+    if (free[c] >= 0) owner[static_cast<std::size_t>(free[c])] = particle_owner[c / 2];
+  return owner;
+}
+
 ModelPart part_model(const Scene& scene, int rank, int ranks) {
   OwnedRows rows;
   const Model whole = discretise(scene, [&](const Model& unbonded) {
@@ -125,11 +133,8 @@ ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, i
   options.max_over_ranks = parallel::max_over_ranks;
   options.share_forces = [](VectorXd&) {};  // a part's own rows read no other rank's forces
   options.owned_unknowns = part.n_owned_unknowns;
-  std::vector<int> unknown_owner;
-  const std::vector<Index>& free = part.model.constraints.free_index;
-  for (std::size_t c = 0; c < free.size(); ++c)
-    if (free[c] >= 0) unknown_owner.push_back(part.owner[c / 2]);
-  auto ghosts = std::make_shared<parallel::PartExchange>(part.global_unknown, unknown_owner,
+  auto ghosts = std::make_shared<parallel::PartExchange>(part.global_unknown,
+                                                         unknown_owners(part.model.constraints, part.owner),
                                                          static_cast<std::size_t>(part.n_owned_unknowns));
   options.import_ghosts = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
   return options;
@@ -239,10 +244,7 @@ UnknownShare unknown_share(const QuasiStaticProblem& problem) {
   const OwnedRows& rows = problem.owned_rows();
   UnknownShare share;
   if (rows.all()) return share;
-  const std::vector<Index>& free = problem.model().constraints.free_index;
-  std::vector<int> owner(static_cast<std::size_t>(problem.n_unknowns()), -1);
-  for (std::size_t c = 0; c < free.size(); ++c)
-    if (free[c] >= 0) owner[static_cast<std::size_t>(free[c])] = rows.owner[c / 2];
+  const std::vector<int> owner = unknown_owners(problem.model().constraints, rows.owner);
   share.owned.resize(owner.size());
   for (std::size_t f = 0; f < owner.size(); ++f) share.owned[f] = owner[f] == rows.rank;
   share.sum = parallel::sum_in_rank_order;

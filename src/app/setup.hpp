@@ -79,6 +79,9 @@ std::function<void(VectorXd&)> particle_exchange(const OwnedRows& rows);
 
 /// Each unknown's particle and direction, and the particles' positions (LinearSolver's hint).
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
+/// Per unknown (in the order of `constraints.free_index`), the owner of its particle.
+std::vector<int> unknown_owners(const Constraints& constraints, const std::vector<int>& particle_owner);
+
 /// This rank's part of the model (docs/guide/distributed.md, "The partitioned model"): the
 /// owners by solver.belos.partition (owned_rows(), every particle owned), the whole model
 /// discretised with only the families the part holds (one ring: Newton's matrix-free tangent),

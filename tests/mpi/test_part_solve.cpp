@@ -147,10 +147,8 @@ TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
   // The solver writes the owned entries only; the ghosts come from their owners.
   for (Index f = 0; f < part.n_owned_unknowns; ++f)
     ASSERT_TRUE(std::isfinite(xl[f])) << "owned unknown " << f;
-  std::vector<int> unknown_owner;
-  for (std::size_t c = 0; c < part.model.constraints.free_index.size(); ++c)
-    if (part.model.constraints.free_index[c] >= 0) unknown_owner.push_back(part.owner[c / 2]);
-  parallel::PartExchange(part.global_unknown, unknown_owner, static_cast<std::size_t>(part.n_owned_unknowns))
+  parallel::PartExchange(part.global_unknown, unknown_owners(part.model.constraints, part.owner),
+                         static_cast<std::size_t>(part.n_owned_unknowns))
       .share(xl.data());
   const double scale = x_ref.cwiseAbs().maxCoeff();
   double worst = 0.0;
