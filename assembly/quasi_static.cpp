@@ -157,8 +157,20 @@ void QuasiStaticProblem::check_partition() const {
 
 Vec2 QuasiStaticProblem::reaction(std::size_t k) const {
   Vec2 f = Vec2::Zero();
-  for (const Index d : m_model.constraints.condition_dofs.at(k)) f[d % 2] += m_force[d];
-  return f;
+  if (!part()) {
+    for (const Index d : m_model.constraints.condition_dofs.at(k)) f[d % 2] += m_force[d];
+    return f;
+  }
+  // A part's forces are right at its own particles (and those without an owner, which rank 0
+  // counts): their sum, summed over the ranks.
+  const OwnedRows& rows = m_options.rows;
+  for (const Index d : m_model.constraints.condition_dofs.at(k)) {
+    const int owner = rows.owner[static_cast<std::size_t>(d / 2)];
+    if (owner == rows.rank || (owner < 0 && rows.rank == 0)) f[d % 2] += m_force[d];
+  }
+  double sums[2] = {f.x(), f.y()};
+  m_options.sum_in_rank_order(sums, 2);
+  return Vec2(sums[0], sums[1]);
 }
 
 Mat2 QuasiStaticProblem::stress(Index i) const {

@@ -82,6 +82,8 @@ struct ProblemOptions {
   /// owners (parallel::PartExchange). Every evaluation of a state x imports x's tail first, so a
   /// solver need only keep the owned entries right.
   std::function<void(VectorXd& x)> import_ghosts;
+  /// With owned_unknowns: sums n numbers over the ranks in place, in rank order (reaction()).
+  std::function<void(double* values, int n)> sum_in_rank_order;
 };
 
 /// apply_tangent()'s schedule: chunks of `chunk` consecutive particles (chunk c holds
@@ -182,7 +184,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// The force boundary condition k applies to hold its particles, from the last evaluate:
   /// the sum of dPi/du over the components it prescribes [N]. For layers and surface grips it
   /// is the reaction on the body; for a mirror condition, the force its ghosts take from the
-  /// body (pairs between ghosts cancel in the sum).
+  /// body (pairs between ghosts cancel in the sum). On a part (ProblemOptions::owned_unknowns)
+  /// the sum over every rank's own particles: collective.
   Vec2 reaction(std::size_t k) const;
   /// First Piola stress at particle i from the last evaluate, P = sum_b t_b M_b xi_b^T: the
   /// derivative of W with respect to the deformation gradient when the family deforms

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <limits>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <Tpetra_Core.hpp>
@@ -272,6 +273,75 @@ std::int64_t sum_over_lower_ranks(std::int64_t value, std::int64_t* total) {
   }
   if (total) *total = all;
   return lower;
+}
+
+std::vector<double> gather_rows_on_root(const std::vector<std::int64_t>& ids,
+                                        const std::vector<double>& values, int width, std::int64_t n_rows) {
+  const auto w = static_cast<std::size_t>(width);
+  if (width < 1 || values.size() != w * ids.size())
+    throw std::invalid_argument("gather_rows_on_root: `width` values per id");
+  const int ranks = size(), me = rank();
+  const bool root = me == 0;
+  std::vector<std::int64_t> all_ids;
+  std::vector<double> all_values;
+  if (ranks <= 1) {
+    all_ids = ids;
+    all_values = values;
+  } else {
+    if (values.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+      throw std::length_error("gather_rows_on_root: more than 2^31 values from one rank");
+    const int count = static_cast<int>(ids.size());
+    std::vector<int> counts(root ? static_cast<std::size_t>(ranks) : 0);
+    MPI_Gather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+    std::vector<int> displs(counts.size(), 0), value_counts(counts.size()), value_displs(counts.size(), 0);
+    if (root) {
+      long long total = 0;
+      for (std::size_t p = 0; p < counts.size(); ++p) {
+        displs[p] = static_cast<int>(total);
+        total += counts[p];
+        if (total * width > std::numeric_limits<int>::max())
+          throw std::length_error("gather_rows_on_root: more than 2^31 values over the ranks");
+        value_counts[p] = counts[p] * width;
+        value_displs[p] = displs[p] * width;
+      }
+      all_ids.resize(static_cast<std::size_t>(total));
+      all_values.resize(static_cast<std::size_t>(total) * w);
+    }
+    static_assert(sizeof(long long) == sizeof(std::int64_t));
+    MPI_Gatherv(ids.data(), count, MPI_LONG_LONG, all_ids.data(), counts.data(), displs.data(), MPI_LONG_LONG,
+                0, MPI_COMM_WORLD);
+    MPI_Gatherv(values.data(), count * width, MPI_DOUBLE, all_values.data(), value_counts.data(),
+                value_displs.data(), MPI_DOUBLE, 0, MPI_COMM_WORLD);
+  }
+  if (!root) return {};
+  std::vector<double> table(static_cast<std::size_t>(n_rows) * w);
+  std::vector<char> seen(static_cast<std::size_t>(n_rows), 0);
+  for (std::size_t k = 0; k < all_ids.size(); ++k) {
+    const std::int64_t id = all_ids[k];
+    if (id < 0 || id >= n_rows || seen[static_cast<std::size_t>(id)]++)
+      throw std::logic_error("gather_rows_on_root: row " + std::to_string(id) +
+                             " given twice or out of range");
+    std::copy_n(all_values.begin() + static_cast<std::ptrdiff_t>(k * w), w,
+                table.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(id) * w));
+  }
+  if (all_ids.size() != static_cast<std::size_t>(n_rows))
+    throw std::logic_error(
+        "gather_rows_on_root: " + std::to_string(n_rows - static_cast<std::int64_t>(all_ids.size())) +
+        " rows given by no rank");
+  return table;
+}
+
+std::vector<double> rows_of(const std::vector<double>& table, int width,
+                            const std::vector<std::int64_t>& ids) {
+  const auto w = static_cast<std::size_t>(width);
+  std::vector<double> out(ids.size() * w);
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    const auto id = static_cast<std::size_t>(ids[k]);
+    if (ids[k] < 0 || (id + 1) * w > table.size()) throw std::out_of_range("rows_of: an id past the table");
+    std::copy_n(table.begin() + static_cast<std::ptrdiff_t>(id * w), w,
+                out.begin() + static_cast<std::ptrdiff_t>(k * w));
+  }
+  return out;
 }
 
 void abort_if_distributed(int code) {

@@ -105,6 +105,19 @@ class PartExchange : public Halo {
 /// the first global number of this rank's items when each rank numbers its own in turn.
 std::int64_t sum_over_lower_ranks(std::int64_t value, std::int64_t* total);
 
+/// Rank 0 receives every rank's rows of a table spread over the ranks by global id (the output
+/// of a run on the parts, docs/guide/distributed.md "The partitioned model"): each rank gives
+/// the ids of its rows and `width` values per row, row by row; rank 0 returns the n_rows x
+/// width table (row-major) with each row at its id, the other ranks an empty vector.
+/// Collective (one MPI_Gather of the counts, two MPI_Gatherv). Throws std::logic_error on rank
+/// 0 when the ranks' ids do not cover [0, n_rows) once each, std::length_error past 2^31 values.
+std::vector<double> gather_rows_on_root(const std::vector<std::int64_t>& ids,
+                                        const std::vector<double>& values, int width, std::int64_t n_rows);
+/// The inverse for a table every rank holds alike (a checkpoint's state read on every rank):
+/// the rows `ids` of `table` (n_rows x width, row-major), row by row. No communication.
+std::vector<double> rows_of(const std::vector<double>& table, int width,
+                            const std::vector<std::int64_t>& ids);
+
 /// Ends every rank with `code` when more than one runs (an error that one rank meets alone
 /// would leave the others waiting in a collective operation); returns otherwise.
 void abort_if_distributed(int code);

@@ -16,6 +16,7 @@
 #include "app/progress.hpp"
 #include "app/setup.hpp"
 #include "app/step_recorder.hpp"
+#include "app/whole_view.hpp"
 #include "assembly/quasi_static.hpp"
 #include "core/clock.hpp"
 #include "core/error.hpp"
@@ -100,18 +101,29 @@ void check_same_run(const StateArchive& checkpoint, const std::string& path, con
   }
 }
 
-/// This process's model and the rows it owns: under mpirun with partitioned bonds, the model
-/// holds the families of the rank's rows and their neighbours only (docs/guide/distributed.md),
-/// so that `check` measures what `run` will hold.
+/// This process's model and the rows it owns: under mpirun on the parts (solver.belos.model),
+/// the rank's part of the model; with partitioned bonds, the whole particle table with the
+/// families of the rank's rows and their neighbours only (docs/guide/distributed.md), so that
+/// `check` measures what `run` will hold.
 struct ProcessModel {
   Model model;
+  std::optional<ModelPart> part;
   OwnedRows rows;
   BondsChoice bonds;
+  ModelChoice choice;
+  const Model& held() const { return part ? part->model : model; }
+  const ModelPart* part_or_null() const { return part ? &*part : nullptr; }
 };
 
 ProcessModel process_model(const Scene& scene) {
   ProcessModel m;
   const int ranks = parallel::size();
+  m.choice = part_model_choice(scene, ranks);
+  if (m.choice.part) {
+    m.part.emplace(part_model(scene, parallel::rank(), ranks));
+    m.bonds = {true, 1, "a rank's part holds the families of its particles and their neighbours"};
+    return m;
+  }
   m.bonds = partitioned_bonds(scene, ranks);
   if (m.bonds.partitioned) {
     m.model = discretise(scene, [&](const Model& unbonded) {
@@ -127,6 +139,7 @@ ProcessModel process_model(const Scene& scene) {
 
 /// The problem's options for this process: under mpirun, the rank's own rows.
 ProblemOptions process_problem_options(const Scene& scene, const ProcessModel& m) {
+  if (m.part) return part_problem_options(scene, *m.part, parallel::rank());
   ProblemOptions options = problem_options(scene);
   if (parallel::size() > 1) {
     options.rows = m.rows;
@@ -141,6 +154,15 @@ ProblemOptions process_problem_options(const Scene& scene, const ProcessModel& m
   return options;
 }
 
+/// What `run` and `check` print of how the model is spread over the ranks.
+std::string held_text(const ProcessModel& m) {
+  if (m.part) return "model in parts: " + m.choice.reason;
+  return std::string("bonds ") + (m.bonds.partitioned ? "partitioned" : "whole") + ": " + m.bonds.reason +
+         (m.choice.reason.empty() || m.choice.reason == "solver.belos.model: whole"
+              ? std::string()
+              : "; the whole particle table on every rank (" + m.choice.reason + ")");
+}
+
 }  // namespace
 
 int check_command(const std::string& scene_path, const std::vector<std::string>& overrides) {
@@ -150,18 +172,18 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   const SizeEstimate estimate = estimate_size(scene);
   for (const std::string& w : preflight(scene, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
   const ProcessModel pm = process_model(scene);
-  const Model& model = pm.model;
+  const Model& model = pm.held();
   const QuasiStaticProblem problem(model, process_problem_options(scene, pm));
+  const ModelSize size = measure(model, problem, pm.part_or_null());
+  if (parallel::rank() != 0) return exit_success;
   std::printf("%s: scene '%s' is valid\n", scene_path.c_str(), scene.name.c_str());
   std::printf("  bodies         %zu, materials %zu, pre-cracks %zu, conditions %zu\n", scene.bodies.size(),
               scene.materials.size(), scene.cracks.size(), scene.boundary.size());
   std::printf("  spacing        %g m, horizon %g m (m = %g), %zu bonds per interior family\n", model.spacing,
               model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
-  print_size(measure(model, problem));
+  print_size(size);
   if (!linear_choice.empty()) std::printf("  solver.linear  auto: %s\n", linear_choice.c_str());
-  if (parallel::size() > 1)
-    std::printf("  bonds          %s: %s\n", pm.bonds.partitioned ? "partitioned" : "whole",
-                pm.bonds.reason.c_str());
+  if (parallel::size() > 1 || pm.part) std::printf("  ranks          %s\n", held_text(pm).c_str());
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
               estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,
               estimate.available_bytes / 1e6);
@@ -201,14 +223,14 @@ int run_command(const RunArguments& args) {
   for (const std::string& w : warnings) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
 
   const ProcessModel pm = process_model(scene);
-  const Model& model = pm.model;
+  const Model& model = pm.held();
   QuasiStaticProblem problem(model, process_problem_options(scene, pm));
-  if (ranks > 1 && !args.quiet && root)
-    std::printf("peristat: bonds %s: %s\n", pm.bonds.partitioned ? "partitioned" : "whole",
-                pm.bonds.reason.c_str());
-  const ModelSize size = measure(model, problem);
+  if ((ranks > 1 || pm.part) && !args.quiet && root) std::printf("peristat: %s\n", held_text(pm).c_str());
+  const ModelSize size = measure(model, problem, pm.part_or_null());
   std::unique_ptr<LinearSolver> linear;
-  const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear);
+  const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, pm.part_or_null());
+  // What rank 0 writes is the whole model's: gathered from the parts on a part.
+  const WholeView view(model, pm.part_or_null(), parallel::rank());
   const std::string method = linear ? "Newton, linear solver " + linear->name() : std::string("ADR");
 
   const std::string out = args.out.empty() ? "results/" + scene.name : args.out;
@@ -218,8 +240,7 @@ int run_command(const RunArguments& args) {
   if (args.resume) {
     const StateArchive checkpoint = read_checkpoint(checkpoint_path);
     check_same_run(checkpoint, checkpoint_path, scene, args);
-    const std::vector<double>& saved = checkpoint.get("state/x", problem.n_unknowns());
-    x = Eigen::Map<const VectorXd>(saved.data(), problem.n_unknowns());
+    x = view.unknowns_from(checkpoint.get("state/x", size.unknowns));  // the whole model's unknowns
     steps_done = static_cast<int>(checkpoint.scalar("state/steps_done"));
     problem.restore_state(checkpoint, x);
   } else {
@@ -229,7 +250,7 @@ int run_command(const RunArguments& args) {
   const bool verbose = !args.quiet && root;
   const ProgressPrinter progress(verbose, scene.solver.type, problem);
   progress.header(scene, size, wall_seconds() - t_start, method);
-  StepRecorder recorder(out, scene, problem, size, linear ? linear->name() : "", omp_get_max_threads(),
+  StepRecorder recorder(out, scene, problem, view, size, linear ? linear->name() : "", omp_get_max_threads(),
                         args.resume ? steps_done : -1, root);
   for (const std::string& w : warnings) recorder.add_warning(w);
   if (args.resume && verbose)
@@ -244,7 +265,7 @@ int run_command(const RunArguments& args) {
     recorder.record(step, state);
     if (recorder.due(step.step)) progress.step_done(step);
     checkpoint.arrays.clear();
-    checkpoint.put("state/x", {state.data(), state.data() + state.size()});
+    checkpoint.put("state/x", view.unknowns(state));  // collective on the parts
     checkpoint.put("state/steps_done", step.step);
     problem.save_state(checkpoint);
     if (root) write_checkpoint(checkpoint_path, checkpoint);

@@ -6,16 +6,29 @@
 
 namespace peristat {
 
-ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
+ModelSize measure(const Model& model, const QuasiStaticProblem& problem, const ModelPart* part) {
   ModelSize s;
   const Particles& p = model.particles;
   s.particles = p.size();
   for (char f : p.fictitious) s.fictitious += f;
+  if (part) {  // the whole model's counts: each rank's own particles (rank 0's also those without an owner)
+    long long own = 0, own_fictitious = 0;
+    for (std::size_t i = 0; i < part->owner.size(); ++i)
+      if (part->owner[i] == parallel::rank() || (part->owner[i] < 0 && parallel::rank() == 0)) {
+        ++own;
+        own_fictitious += p.fictitious[i];
+      }
+    s.particles = static_cast<Index>(parallel::sum_over_ranks(own));
+    s.fictitious = static_cast<Index>(parallel::sum_over_ranks(own_fictitious));
+    s.part = true;
+    s.largest_rank_particles =
+        static_cast<long long>(parallel::max_over_ranks(static_cast<double>(p.size())));
+  }
   s.bonds = static_cast<long long>(model.n_bonds_whole /
                                    2);  // a rank with partitioned bonds holds some families only
   s.cut_bonds = model.n_cut_bonds;
-  s.unknowns = model.constraints.n_free;
-  s.prescribed = 2 * p.size() - s.unknowns;
+  s.unknowns = part ? static_cast<Index>(part->n_unknowns_whole) : model.constraints.n_free;
+  s.prescribed = 2 * s.particles - s.unknowns;
   // A rank of a distributed run stores its own rows (every rank's pattern is partial then).
   s.nonzeros = problem.pattern().partial ? parallel::sum_over_ranks(problem.pattern().nonzeros)
                                          : problem.pattern().nonzeros;
@@ -41,6 +54,11 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem) {
 
 void print_size(const ModelSize& s) {
   std::printf("  particles      %d (%d fictitious)\n", s.particles, s.fictitious);
+  if (s.part)
+    std::printf(
+        "                 in parts: a rank holds at most %lld particles, its own and its neighbours "
+        "(%.1f%%)\n",
+        s.largest_rank_particles, 100.0 * static_cast<double>(s.largest_rank_particles) / s.particles);
   std::printf("  bonds          %lld (%d cut by pre-cracks)\n", s.bonds, s.cut_bonds);
   if (s.bonds_partitioned)
     std::printf(

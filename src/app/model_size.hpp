@@ -3,6 +3,7 @@
 #pragma once
 
 #include "assembly/quasi_static.hpp"
+#include "discretisation/model_part.hpp"
 
 namespace peristat {
 
@@ -16,9 +17,14 @@ struct ModelSize {
   /// Under mpirun with partitioned bonds: the most directed bonds one rank holds (of 2 x bonds).
   bool bonds_partitioned = false;
   long long largest_rank_bonds = 0;
+  /// Under mpirun on the parts (solver.belos.model): the most particles one rank's part holds.
+  bool part = false;
+  long long largest_rank_particles = 0;
 };
 
-ModelSize measure(const Model& model, const QuasiStaticProblem& problem);
+/// The counts are the whole model's: with `part` (this rank's part of it, collective), summed
+/// over the ranks' own particles; the memory is this process's.
+ModelSize measure(const Model& model, const QuasiStaticProblem& problem, const ModelPart* part = nullptr);
 void print_size(const ModelSize& size);
 
 }  // namespace peristat

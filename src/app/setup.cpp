@@ -115,6 +115,37 @@ std::vector<int> unknown_owners(const Constraints& constraints, const std::vecto
   return owner;
 }
 
+ModelChoice part_model_choice(const Scene& scene, int ranks) {
+  const BelosModel asked = scene.solver.linear.belos.model;
+  if (asked == BelosModel::whole) return {false, "solver.belos.model: whole"};
+  // What a part cannot run yet, first: an explicit `part` is refused with it.
+  std::string cannot;
+  if (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::belos)
+    cannot = "a part runs Newton with solver.linear=belos only (this run has " +
+             (scene.solver.type == SolverKind::adr
+                  ? std::string("ADR")
+                  : "solver.linear=" + std::string(to_string(scene.solver.linear.type))) +
+             ")";
+  else if (scene.solver.linear.belos.tangent != BelosTangent::matrix_free)
+    cannot =
+        "a part holds the families one horizon around its particles, which the matrix-free tangent reads "
+        "and solver.belos.tangent=assembled does not (it reads two)";
+  else if (scene.contact.enabled)
+    cannot = "the scene has contact, and contact pairs across the parts are not built yet";
+  else if (scene.failure.enabled)
+    cannot = "the scene has a failure criterion, and bonds breaking across the parts are not built yet";
+  if (!cannot.empty()) {
+    if (asked == BelosModel::part)
+      throw InputError("solver.belos.model: part: " + cannot + "; use solver.belos.model=whole (or auto)");
+    return {false, cannot};
+  }
+  if (asked == BelosModel::automatic && ranks <= 1) return {false, "one process"};
+  return {true, asked == BelosModel::part
+                    ? "solver.belos.model: part"
+                    : "each rank holds its own particles and their neighbours, and vectors "
+                      "over their unknowns only"};
+}
+
 ModelPart part_model(const Scene& scene, int rank, int ranks) {
   OwnedRows rows;
   const Model whole = discretise(scene, [&](const Model& unbonded) {
@@ -137,6 +168,7 @@ ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, i
                                                          unknown_owners(part.model.constraints, part.owner),
                                                          static_cast<std::size_t>(part.n_owned_unknowns));
   options.import_ghosts = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
+  options.sum_in_rank_order = parallel::sum_in_rank_order;
   return options;
 }
 

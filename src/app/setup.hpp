@@ -82,6 +82,18 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
 /// Per unknown (in the order of `constraints.free_index`), the owner of its particle.
 std::vector<int> unknown_owners(const Constraints& constraints, const std::vector<int>& particle_owner);
 
+/// Whether each rank holds only its part of the model (solver.belos.model), and why. A part
+/// runs Newton with belos's matrix-free tangent on a scene without contact and without a
+/// failure criterion (contact pairs and broken bonds across the parts are not built:
+/// docs/guide/distributed.md, "The partitioned model"). `auto` picks the part under mpirun
+/// where it can run, the whole model elsewhere; `part` where it cannot throws InputError
+/// saying why. Call after resolve_linear_solver().
+struct ModelChoice {
+  bool part = false;
+  std::string reason;
+};
+ModelChoice part_model_choice(const Scene& scene, int ranks);
+
 /// This rank's part of the model (docs/guide/distributed.md, "The partitioned model"): the
 /// owners by solver.belos.partition (owned_rows(), every particle owned), the whole model
 /// discretised with only the families the part holds (one ring: Newton's matrix-free tangent),

@@ -45,10 +45,12 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                        {"solver", solver},
                                        {"checks", checks}};
   // Under mpirun: how the rows were split (solver.belos.partition).
-  if (parallel::size() > 1) {
+  if (parallel::size() > 1 || s.part) {
+    info["model"] = s.part ? "part" : "whole";  // solver.belos.model
     info["partition"] = to_string(scene.solver.linear.belos.partition);
     info["bonds_held"] = s.bonds_partitioned ? "partitioned" : "whole";
     if (s.bonds_partitioned) info["largest_rank_bonds"] = s.largest_rank_bonds;
+    if (s.part) info["largest_rank_particles"] = s.largest_rank_particles;
   }
   {
     const SurfaceCorrectionStats& c = s.correction_stats;
@@ -77,18 +79,6 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
   return info.dump();
 }
 
-ParticleTable particle_table(const Scene& scene, const Model& model) {
-  ParticleTable t;
-  const Particles& p = model.particles;
-  t.position = p.position;
-  t.volume = p.volume;
-  t.body = p.body;
-  t.fictitious.assign(p.fictitious.begin(), p.fictitious.end());
-  for (const Body& b : scene.bodies) t.body_names.push_back(b.name);
-  t.spacing = model.spacing;
-  return t;
-}
-
 }  // namespace
 
 std::string compliance_warning(const QuasiStaticProblem& problem, const StepReport& step) {
@@ -105,16 +95,22 @@ std::string compliance_warning(const QuasiStaticProblem& problem, const StepRepo
 }
 
 StepRecorder::StepRecorder(const std::string& dir, const Scene& scene, const QuasiStaticProblem& problem,
-                           const ModelSize& size, const std::string& linear, int threads, int resume_after,
-                           bool writes)
-    : m_scene(scene), m_problem(problem) {
-  if (!writes) return;
-  const std::string info = run_info_json(scene, size, linear, threads, problem.state_checks());
-  m_writer = resume_after >= 0
-                 ? std::make_unique<ResultsWriter>(dir, scene.name, resume_after,
-                                                   static_cast<std::size_t>(problem.model().particles.size()), info)
-                 : std::make_unique<ResultsWriter>(dir, scene.name, scene.text,
-                                                   particle_table(scene, problem.model()), info);
+                           const WholeView& view, const ModelSize& size, const std::string& linear,
+                           int threads, int resume_after, bool writes)
+    : m_scene(scene), m_problem(problem), m_view(view) {
+  if (resume_after >= 0) {
+    if (writes)
+      m_writer = std::make_unique<ResultsWriter>(
+          dir, scene.name, resume_after, view.particles(),
+          run_info_json(scene, size, linear, threads, problem.state_checks()));
+    return;
+  }
+  if (!writes && !view.gathers()) return;
+  ParticleTable table = view.particle_table(scene);  // collective on the parts
+  if (writes)
+    m_writer =
+        std::make_unique<ResultsWriter>(dir, scene.name, scene.text, std::move(table),
+                                        run_info_json(scene, size, linear, threads, problem.state_checks()));
 }
 
 bool StepRecorder::due(int step) const {
@@ -122,7 +118,14 @@ bool StepRecorder::due(int step) const {
 }
 
 void StepRecorder::record(const StepReport& s, const VectorXd& x) {
-  if (!m_writer) return;
+  if (!m_writer && !m_view.gathers()) return;
+  if (!m_writer) {  // a rank other than 0 of a run on the parts: its share of the collective calls
+    if (!due(s.step)) return;
+    m_problem.expand(x, m_u);
+    m_view.particle_values(m_u, 2, m_u_whole);
+    for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) m_problem.reaction(k);
+    return;
+  }
   const double step_contact_seconds = m_problem.contact_seconds() - m_contact_seconds_before;
   m_contact_seconds_before = m_problem.contact_seconds();
   if (std::string warning = compliance_warning(m_problem, s); !warning.empty()) m_writer->add_warning(warning);
@@ -149,6 +152,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   }
   if (!due(s.step)) return;
   m_problem.expand(x, m_u);
+  if (m_view.gathers()) m_view.particle_values(m_u, 2, m_u_whole);  // the whole model's, from the parts
   StepRecord rec;
   rec.index = s.step;
   rec.load_factor = s.load_factor;
@@ -156,7 +160,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   rec.active_set_iterations = s.active_set_changes;
   rec.residual_norm = s.final_residual;
   rec.wall_seconds = s.wall_seconds;
-  rec.displacement = &m_u;
+  rec.displacement = m_view.gathers() ? &m_u_whole : &m_u;
   rec.residual_history = s.residuals;
   rec.counts = {{"substeps", s.substeps},
                 {"cutbacks", s.cutbacks},

@@ -4,10 +4,10 @@
 #pragma once
 
 #include <memory>
-
 #include <string>
 
 #include "app/model_size.hpp"
+#include "app/whole_view.hpp"
 #include "io/results.hpp"
 #include "scene/scene.hpp"
 #include "solvers/load_stepping.hpp"
@@ -25,10 +25,11 @@ class StepRecorder {
   /// (model size, resolved options; `linear` is the linear solver's name, empty for ADR).
   /// With `resume_after` >= 0 the files of a stopped run in `dir` are continued after that
   /// step instead (ResultsWriter's resume constructor). Without `writes` (the ranks other
-  /// than 0 of a distributed run) nothing is written and every call does nothing.
+  /// than 0 of a distributed run) nothing is written; every call does nothing unless `view`
+  /// gathers (a run on the parts), where every rank must make every call alike (collective).
   StepRecorder(const std::string& dir, const Scene& scene, const QuasiStaticProblem& problem,
-               const ModelSize& size, const std::string& linear, int threads, int resume_after = -1,
-               bool writes = true);
+               const WholeView& view, const ModelSize& size, const std::string& linear, int threads,
+               int resume_after = -1, bool writes = true);
 
   /// Whether step k is written (every output.every-th and the last).
   bool due(int step) const;
@@ -48,11 +49,12 @@ class StepRecorder {
  private:
   const Scene& m_scene;
   const QuasiStaticProblem& m_problem;
+  const WholeView& m_view;
   std::unique_ptr<ResultsWriter> m_writer;
   double m_contact_seconds_before = 0.0;  ///< contact evaluation time up to the previous step
   Index m_fragment_particles = 0;         ///< fragment particles already warned about
   bool m_fragment_contact_warned = false;  ///< contact on held fragments already warned about
-  VectorXd m_u, m_contact_force, m_damage;
+  VectorXd m_u, m_u_whole, m_contact_force, m_damage;
   std::vector<int> m_contact_state;
 };
 

@@ -96,6 +96,14 @@ enum class BelosBonds {
   whole         ///< every family on every rank
 };
 
+/// solver.belos.model: what a rank of a distributed run holds of the model
+/// (docs/guide/distributed.md, "The partitioned model").
+enum class BelosModel {
+  automatic,  ///< `part` where a part can run the scene (part_model_choice()), `whole` elsewhere
+  whole,      ///< every particle and vectors over every unknown on every rank (bonds per `bonds`)
+  part        ///< its own particles and their neighbours, vectors over those only (ModelPart)
+};
+
 /// The Trilinos path (solver.linear: belos; solver.belos.*).
 struct BelosOptions {
   BelosMethod method = BelosMethod::automatic;
@@ -107,6 +115,7 @@ struct BelosOptions {
   BelosPartition partition = BelosPartition::rcb;
   BelosTangent tangent = BelosTangent::matrix_free;
   BelosBonds bonds = BelosBonds::automatic;
+  BelosModel model = BelosModel::automatic;
   double rtol = 1e-10;        ///< relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;  ///< Krylov iterations per solve
   int restart = 100;          ///< GMRES basis vectors before a restart
@@ -155,6 +164,7 @@ std::string_view to_string(BelosPreconditioner kind);
 std::string_view to_string(BelosPartition kind);
 std::string_view to_string(BelosTangent kind);
 std::string_view to_string(BelosBonds kind);
+std::string_view to_string(BelosModel kind);
 
 // ---- physics ---------------------------------------------------------------------------
 

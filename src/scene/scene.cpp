@@ -472,8 +472,8 @@ AdrOptions read_adr(const Field& field) {
 }
 
 BelosOptions read_belos(const Field& field) {
-  const Map m = checked_map(field, {"method", "preconditioner", "partition", "tangent", "bonds", "rtol",
-                                    "max_iterations", "restart", "muelu_parameters"});
+  const Map m = checked_map(field, {"method", "preconditioner", "partition", "tangent", "bonds", "model",
+                                    "rtol", "max_iterations", "restart", "muelu_parameters"});
   BelosOptions o;
   if (auto f = m.find("method")) o.method = read_kind(*f, {BelosMethod::automatic, BelosMethod::cg, BelosMethod::gmres});
   if (auto f = m.find("preconditioner"))
@@ -485,6 +485,8 @@ BelosOptions read_belos(const Field& field) {
     o.tangent = read_kind(*f, {BelosTangent::assembled, BelosTangent::matrix_free});
   if (auto f = m.find("bonds"))
     o.bonds = read_kind(*f, {BelosBonds::automatic, BelosBonds::partitioned, BelosBonds::whole});
+  if (auto f = m.find("model"))
+    o.model = read_kind(*f, {BelosModel::automatic, BelosModel::whole, BelosModel::part});
   if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
   if (auto f = m.find("max_iterations")) o.max_iterations = schema::int_at_least(*f, 1);
   if (auto f = m.find("restart")) o.restart = schema::int_at_least(*f, 1);

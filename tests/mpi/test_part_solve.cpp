@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "app/setup.hpp"
+#include "app/whole_view.hpp"
 #include "assembly/quasi_static.hpp"
 #include "discretisation/model_part.hpp"
 #include "solvers/linear/linear_solver.hpp"
@@ -177,6 +178,65 @@ VectorXd whole_run(Scene scene, std::vector<double>* residuals) {
   const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
   EXPECT_TRUE(run.completed) << run.message;
   return x;
+}
+
+TEST(WholeView, RankZeroGathersTheWholeModelFromTheParts) {
+  // What a run on the parts writes (app/whole_view.hpp): rank 0 gathers the particle table, a
+  // field per particle and the state over the unknowns by global id; each must be the whole
+  // model's exactly (a gather moves bits), and a whole state read back gives each part its own
+  // and its ghosts' entries. RCB on a tall plate: the parts are not ranges of the whole's order.
+  const Parted p = parted_plate(24, 40, BelosPartition::rcb);
+  const int rank = parallel::rank();
+  const WholeView view(p.part.model, &p.part, rank);
+  EXPECT_TRUE(view.gathers());
+  ASSERT_EQ(view.particles(), static_cast<std::size_t>(p.whole.particles.size()));
+  const ParticleTable table = view.particle_table(p.scene);
+  const Particles& whole = p.whole.particles;
+  if (rank == 0) {
+    ASSERT_EQ(table.size(), static_cast<std::size_t>(whole.size()));
+    for (Index i = 0; i < whole.size(); ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      ASSERT_EQ(table.position[k], whole.position[k]) << "particle " << i;
+      ASSERT_EQ(table.volume[k], whole.volume[k]) << "particle " << i;
+      ASSERT_EQ(table.body[k], whole.body[k]) << "particle " << i;
+      ASSERT_EQ(table.fictitious[k], static_cast<int>(whole.fictitious[k])) << "particle " << i;
+    }
+  } else {
+    EXPECT_EQ(table.size(), 0u) << "only rank 0 receives";
+  }
+  // A field of two values per particle, known by global id.
+  const Index n = p.part.model.particles.size();
+  VectorXd mine(2 * n), gathered;
+  for (Index l = 0; l < n; ++l) {
+    const double id = static_cast<double>(p.part.global_id[static_cast<std::size_t>(l)]);
+    mine[2 * l] = id;
+    mine[2 * l + 1] = -0.5 * id;
+  }
+  view.particle_values(mine, 2, gathered);
+  if (rank == 0) {
+    ASSERT_EQ(gathered.size(), 2 * whole.size());
+    for (Index i = 0; i < whole.size(); ++i) {
+      ASSERT_EQ(gathered[2 * i], static_cast<double>(i));
+      ASSERT_EQ(gathered[2 * i + 1], -0.5 * static_cast<double>(i));
+    }
+  }
+  // The state: owned entries gathered; the ghosts' entries are not sent (NaN here, so a gather
+  // that read them would show).
+  VectorXd x(p.part.model.constraints.n_free);
+  x.setConstant(std::numeric_limits<double>::quiet_NaN());
+  for (Index f = 0; f < p.part.n_owned_unknowns; ++f)
+    x[f] = 1.0 + static_cast<double>(p.part.global_unknown[static_cast<std::size_t>(f)]);
+  const std::vector<double> state = view.unknowns(x);
+  std::vector<double> reference(static_cast<std::size_t>(p.whole.constraints.n_free));
+  for (std::size_t f = 0; f < reference.size(); ++f) reference[f] = 1.0 + static_cast<double>(f);
+  if (rank == 0) {
+    EXPECT_EQ(state, reference);
+  }
+  const VectorXd back = view.unknowns_from(reference);
+  ASSERT_EQ(back.size(), x.size());
+  for (Index f = 0; f < back.size(); ++f)
+    ASSERT_EQ(back[f], 1.0 + static_cast<double>(p.part.global_unknown[static_cast<std::size_t>(f)]))
+        << "unknown " << f;
 }
 
 TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {

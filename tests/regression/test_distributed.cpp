@@ -82,7 +82,96 @@ void expect_same_answer(const Pair& p, const std::string& bonds = "partitioned")
 }
 
 TEST(Distributed, TensionPlateOnTwoRanksEqualsSerial) {
-  expect_same_answer(run_both("tension_plate", "tension_plate", " --set discretization.spacing=2e-3"));
+  // solver.belos.model: auto runs this scene (no contact, no failure) on the ranks' parts of the
+  // model: the results rank 0 writes are gathered from them by global id, particle for particle.
+  const Pair p = run_both("tension_plate", "tension_plate", " --set discretization.spacing=2e-3");
+  expect_same_answer(p);
+  const nlohmann::json mpi = test::read_json(p.dir / "mpi" / "summary.json"),
+                       serial = test::read_json(p.dir / "serial" / "summary.json");
+  EXPECT_EQ(mpi["run"]["model"], "part");
+  // Each part holds its own particles and their neighbours: more than half, fewer than all.
+  const long long held = mpi["run"]["largest_rank_particles"], all = mpi["run"]["particles"];
+  EXPECT_LT(held, all);
+  EXPECT_GT(2 * held, all);
+  // The whole model's counts, summed over the parts' own particles.
+  for (const char* key : {"particles", "fictitious", "bonds", "unknowns"})
+    EXPECT_EQ(mpi["run"][key], serial["run"][key]) << key;
+  // The reactions are sums over the ranks' own particles: the serial ones within 1e-8 of the
+  // grip force (both stop at Newton's rtol 1e-10 of the force scale).
+  const nlohmann::json &a = mpi["steps"].back()["counts"], &b = serial["steps"].back()["counts"];
+  const double grip = std::abs(b["reaction_1_x"].get<double>());
+  EXPECT_GT(grip, 0.0);
+  for (const char* key : {"reaction_0_x", "reaction_0_y", "reaction_1_x", "reaction_1_y", "reaction_2_y"})
+    EXPECT_LE(std::abs(a[key].get<double>() - b[key].get<double>()), 1e-8 * grip) << key;
+  EXPECT_LE(std::abs(a["energy_strain"].get<double>() - b["energy_strain"].get<double>()),
+            1e-8 * b["energy_strain"].get<double>());
+}
+
+TEST(Distributed, TensionPlateOnThePartsEqualsTheWholeModelOnTheRanks) {
+  // solver.belos.model: part against whole, both on two ranks with the same solver: the two
+  // paths differ in what a rank holds and in the order of sums, not in the answer (1e-8, as above).
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+  const fs::path dir = test::fresh_directory("distributed_part_whole");
+  const std::string run = "run " + scene + " --quiet --set discretization.spacing=2e-3 --out ";
+  const test::CliResult part =
+      test::run_mpi(2, run + (dir / "part").string() + " --set solver.belos.model=part");
+  const test::CliResult whole =
+      test::run_mpi(2, run + (dir / "whole").string() + " --set solver.belos.model=whole");
+  ASSERT_EQ(part.exit_code, 0) << part.out << part.err;
+  ASSERT_EQ(whole.exit_code, 0) << whole.out << whole.err;
+  EXPECT_EQ(test::read_json(dir / "part" / "summary.json")["run"]["model"], "part");
+  EXPECT_EQ(test::read_json(dir / "whole" / "summary.json")["run"]["model"], "whole");
+  const test::CliResult cmp = test::run_cli("compare " + (dir / "part" / "tension_plate.h5").string() + " " +
+                                            (dir / "whole" / "tension_plate.h5").string() + " --json");
+  ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
+  EXPECT_LE(test::json_number(cmp.out, "relative_l2"), 1e-8);
+  // The particle tables are the same, particle for particle (rank 0 gathered the parts').
+  const ResultsReader a((dir / "part" / "tension_plate.h5").string()),
+      b((dir / "whole" / "tension_plate.h5").string());
+  ASSERT_EQ(a.particles().position.size(), b.particles().position.size());
+  for (std::size_t i = 0; i < a.particles().position.size(); ++i) {
+    ASSERT_EQ(a.particles().position[i], b.particles().position[i]) << "particle " << i;
+    ASSERT_EQ(a.particles().volume[i], b.particles().volume[i]) << "particle " << i;
+    ASSERT_EQ(a.particles().fictitious[i], b.particles().fictitious[i]) << "particle " << i;
+  }
+}
+
+// A run on the parts writes the whole model's state into its checkpoint (gathered by global id),
+// so it resumes on the parts, on one process, and a serial checkpoint resumes on the parts. The
+// two-step tension plate is killed inside the write of step 2's results: the checkpoint holds
+// step 1. Each resumed run must end where the uninterrupted run on the parts ends: 1e-10, the
+// resume tests' bound (measured 2.8e-12 to 4.1e-12).
+TEST(Distributed, ARunOnThePartsResumesOnAnyNumberOfRanks) {
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+  const std::string options = " --quiet --set discretization.spacing=2e-3 --set solver.linear=belos";
+  const fs::path reference = test::fresh_directory("distributed_part_resume_reference");
+  const test::CliResult r = test::run_mpi(2, "run " + scene + " --out " + reference.string() + options);
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const auto& [first, then] : {std::pair{2, 2}, std::pair{2, 1}, std::pair{1, 2}}) {
+    SCOPED_TRACE("stopped on " + std::to_string(first) + ", resumed on " + std::to_string(then));
+    const fs::path dir =
+        test::fresh_directory("distributed_part_resume_" + std::to_string(first) + std::to_string(then));
+    const std::string run = "run " + scene + " --out " + dir.string() + options;
+    const auto launch = [&](int ranks, const std::string& command) {
+      return ranks == 1 ? test::run_cli(command) : test::run_mpi(ranks, command);
+    };
+    setenv("PERISTAT_FAULT_KILL_IN_WRITE", "2", 1);
+    const test::CliResult killed = launch(first, run);
+    unsetenv("PERISTAT_FAULT_KILL_IN_WRITE");
+    ASSERT_NE(killed.exit_code, 0) << "the run was not stopped";
+    ASSERT_EQ(test::read_json(dir / "summary.json")["steps"].size(), 1u);
+    const test::CliResult resumed = launch(then, run + " --resume");
+    ASSERT_EQ(resumed.exit_code, 0) << resumed.out << resumed.err;
+    const nlohmann::json summary = test::read_json(dir / "summary.json");
+    EXPECT_EQ(summary["status"], "completed");
+    EXPECT_EQ(summary["steps"].size(), 2u);
+    EXPECT_EQ(summary["run"].value("model", "none"), then == 2 ? "part" : "none")
+        << "the resumed run's own record";
+    const test::CliResult cmp = test::run_cli("compare " + (dir / "tension_plate.h5").string() + " " +
+                                              (reference / "tension_plate.h5").string() + " --json");
+    ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
+    EXPECT_LT(test::json_number(cmp.out, "relative_l2"), 1e-10);
+  }
 }
 
 TEST(Distributed, SlidingPlatesOnTwoRanksEqualSerial) {
@@ -311,6 +400,28 @@ TEST(Distributed, OtherSolversAreRefusedUnderMpirun) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("solver.linear=belos"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "tension_plate.h5")) << "nothing is written";
+}
+
+TEST(Distributed, APartIsRefusedWhereItCannotRun) {
+  // solver.belos.model: part with contact (case 4.3), or with the assembled tangent: exit 2,
+  // the key and the reason, nothing written. `auto` runs those scenes on the whole model.
+  const fs::path dir = test::fresh_directory("distributed_part_refused");
+  const std::string c43 = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_3_precracked_plate/scene.yaml";
+  const test::CliResult contact =
+      test::run_mpi(2, "run " + c43 + " --quiet --out " + (dir / "contact").string() +
+                           " --set discretization.spacing=0.02 --set solver.belos.model=part");
+  EXPECT_EQ(contact.exit_code, 2);
+  EXPECT_NE(contact.err.find("solver.belos.model"), std::string::npos) << contact.err;
+  EXPECT_NE(contact.err.find("contact"), std::string::npos) << contact.err;
+  EXPECT_FALSE(fs::exists(dir / "contact")) << "nothing is written";
+  const std::string plate = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
+  const test::CliResult assembled =
+      test::run_mpi(2, "run " + plate + " --quiet --out " + (dir / "assembled").string() +
+                           " --set discretization.spacing=5e-3 --set solver.belos.model=part"
+                           " --set solver.belos.tangent=assembled");
+  EXPECT_EQ(assembled.exit_code, 2);
+  EXPECT_NE(assembled.err.find("solver.belos.tangent=assembled"), std::string::npos) << assembled.err;
+  EXPECT_FALSE(fs::exists(dir / "assembled"));
 }
 
 TEST(Distributed, AMueLuListThatIsNotXmlIsRefused) {

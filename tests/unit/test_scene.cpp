@@ -934,6 +934,13 @@ TEST(Scene, BelosKeys) {
   const std::string bonds = error_of(k_minimal, {parse_override("solver.belos.bonds=some")});
   EXPECT_NE(bonds.find("solver.belos.bonds"), std::string::npos) << bonds;
   EXPECT_NE(bonds.find("partitioned"), std::string::npos) << "the choices are listed: " << bonds;
+  EXPECT_EQ(d.solver.linear.belos.model, BelosModel::automatic);
+  EXPECT_EQ(parse(k_minimal, {parse_override("solver.belos.model=part")}).solver.linear.belos.model,
+            BelosModel::part);
+  EXPECT_EQ(parse(k_minimal, {parse_override("solver.belos.model=whole")}).solver.linear.belos.model,
+            BelosModel::whole);
+  const std::string model = error_of(k_minimal, {parse_override("solver.belos.model=parts")});
+  EXPECT_NE(model.find("solver.belos.model"), std::string::npos) << model;
   const Scene s =
       parse(k_minimal,
             {parse_override("solver.linear=belos"), parse_override("solver.belos.method=gmres"),

@@ -1,0 +1,96 @@
+#include "app/whole_view.hpp"
+
+#include <stdexcept>
+
+#include "solvers/trilinos/parallel.hpp"
+
+namespace peristat {
+
+WholeView::WholeView(const Model& model, const ModelPart* part, int rank)
+    : m_model(model), m_part(part), m_root(rank == 0) {
+  if (!part) return;
+  if (&part->model != &model) throw std::logic_error("WholeView: the part's own model");
+  // Each particle's row comes from its owner; those without one (held alike by every rank)
+  // from rank 0.
+  for (std::size_t p = 0; p < part->owner.size(); ++p) {
+    const int owner = part->owner[p];
+    if (owner == rank || (owner < 0 && rank == 0)) {
+      m_given.push_back(static_cast<Index>(p));
+      m_given_ids.push_back(part->global_id[p]);
+    }
+  }
+  m_owned_unknowns.assign(part->global_unknown.begin(),
+                          part->global_unknown.begin() + static_cast<std::ptrdiff_t>(part->n_owned_unknowns));
+}
+
+std::size_t WholeView::particles() const {
+  return m_part ? static_cast<std::size_t>(m_part->n_particles_whole)
+                : static_cast<std::size_t>(m_model.particles.size());
+}
+
+ParticleTable WholeView::particle_table(const Scene& scene) const {
+  ParticleTable t;
+  const Particles& p = m_model.particles;
+  if (!m_part) {
+    t.position = p.position;
+    t.volume = p.volume;
+    t.body = p.body;
+    t.fictitious.assign(p.fictitious.begin(), p.fictitious.end());
+  } else {
+    // x, y, volume, body, fictitious per particle: small integers are exact in a double.
+    constexpr int width = 5;
+    std::vector<double> rows;
+    rows.reserve(width * m_given.size());
+    for (const Index i : m_given)
+      rows.insert(rows.end(), {p.position[i].x(), p.position[i].y(), p.volume[i],
+                               static_cast<double>(p.body[i]), static_cast<double>(p.fictitious[i])});
+    const std::vector<double> table =
+        parallel::gather_rows_on_root(m_given_ids, rows, width, m_part->n_particles_whole);
+    if (!m_root) return t;
+    const std::size_t n = particles();
+    t.position.resize(n);
+    t.volume.resize(n);
+    t.body.resize(n);
+    t.fictitious.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double* r = &table[width * i];
+      t.position[i] = Vec2(r[0], r[1]);
+      t.volume[i] = r[2];
+      t.body[i] = static_cast<int>(r[3]);
+      t.fictitious[i] = static_cast<int>(r[4]);
+    }
+  }
+  for (const Body& b : scene.bodies) t.body_names.push_back(b.name);
+  t.spacing = m_model.spacing;
+  return t;
+}
+
+void WholeView::particle_values(const VectorXd& mine, int width, VectorXd& whole) const {
+  if (!m_part) {
+    whole = mine;
+    return;
+  }
+  const auto w = static_cast<std::size_t>(width);
+  m_buffer.resize(w * m_given.size());
+  for (std::size_t k = 0; k < m_given.size(); ++k)
+    for (std::size_t c = 0; c < w; ++c)
+      m_buffer[w * k + c] = mine[static_cast<Index>(w) * m_given[k] + static_cast<Index>(c)];
+  const std::vector<double> table =
+      parallel::gather_rows_on_root(m_given_ids, m_buffer, width, m_part->n_particles_whole);
+  whole = Eigen::Map<const VectorXd>(table.data(), static_cast<Index>(table.size()));
+}
+
+std::vector<double> WholeView::unknowns(const VectorXd& x) const {
+  if (!m_part) return {x.data(), x.data() + x.size()};
+  return parallel::gather_rows_on_root(m_owned_unknowns,
+                                       std::vector<double>(x.data(), x.data() + m_part->n_owned_unknowns), 1,
+                                       m_part->n_unknowns_whole);
+}
+
+VectorXd WholeView::unknowns_from(const std::vector<double>& whole) const {
+  if (!m_part) return Eigen::Map<const VectorXd>(whole.data(), static_cast<Index>(whole.size()));
+  const std::vector<double> mine = parallel::rows_of(whole, 1, m_part->global_unknown);
+  return Eigen::Map<const VectorXd>(mine.data(), static_cast<Index>(mine.size()));
+}
+
+}  // namespace peristat
