@@ -29,10 +29,10 @@ constexpr double kEnergyTolerance = 1e-6;
 constexpr double kRoundOffWork = 1e-14;
 
 std::unique_ptr<ContactSystem> make_contact(const Model& model, const ContactOptions& options,
-                                            double& seconds) {
+                                            const ContactRanks& ranks, double& seconds) {
   if (!options.enabled) return nullptr;
   const double t0 = wall_seconds();
-  auto contact = std::make_unique<ContactSystem>(model, options);
+  auto contact = std::make_unique<ContactSystem>(model, options, ranks);
   seconds = wall_seconds() - t0;
   return contact;
 }
@@ -72,7 +72,7 @@ FailureRanks failure_ranks(const Model& model, const ProblemOptions& options) {
 QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions& options)
     : m_model(model),
       m_options(options),
-      m_contact(make_contact(model, options.contact, m_contact_setup_seconds)),
+      m_contact(make_contact(model, options.contact, options.contact_ranks, m_contact_setup_seconds)),
       m_failure(options.failure.enabled
                     ? std::make_unique<BondFailure>(model, options.failure, failure_ranks(model, options))
                     : nullptr),
@@ -227,18 +227,25 @@ std::string QuasiStaticProblem::check_converged_state(const VectorXd& x) {
                     slide / m_model.spacing, m_contact->max_slide_between_searches() / m_model.spacing);
       return buf;
     }
-    if (const Index k = m_contact->first_crossed(m_u); k >= 0) {
-      const ContactPair& c = m_contact->pairs()[k];
-      const Particles& p = m_model.particles;
-      const Vec2 du(m_u[2 * c.j] - m_u[2 * c.i], m_u[2 * c.j + 1] - m_u[2 * c.i + 1]);
-      const PairGap g = pair_gap(c, p.position[c.j] - p.position[c.i], du);
-      std::snprintf(buf, sizeof buf,
-                    "contact pair (%ld, %ld) has crossed: particle %ld (reference (%.6g, %.6g) m) passed particle "
-                    "%ld (reference (%.6g, %.6g) m) along the interface normal, n.Y = %.3g dx",
-                    static_cast<long>(c.i), static_cast<long>(c.j), static_cast<long>(c.j), p.position[c.j].x(),
-                    p.position[c.j].y(), static_cast<long>(c.i), p.position[c.i].x(), p.position[c.i].y(),
-                    g.normal / m_model.spacing);
+    if (const CrossedPair c = m_contact->first_crossed_pair(m_u); c.any()) {
+      std::snprintf(
+          buf, sizeof buf,
+          "contact pair (%ld, %ld) has crossed: particle %ld (reference (%.6g, %.6g) m) passed particle "
+          "%ld (reference (%.6g, %.6g) m) along the interface normal, n.Y = %.3g dx",
+          static_cast<long>(c.i), static_cast<long>(c.j), static_cast<long>(c.j), c.Xj.x(), c.Xj.y(),
+          static_cast<long>(c.i), c.Xi.x(), c.Xi.y(), c.normal / m_model.spacing);
       return buf;
+    }
+    // On a part: every partner a search could find must be held by the part of the rank that
+    // owns the face particle. No smaller increment helps once the faces slid that far.
+    if (const std::int64_t outside = m_contact->partners_outside(m_u); outside > 0) {
+      std::snprintf(
+          buf, sizeof buf,
+          "the contact faces slid past the ranks' parts of the model: %ld face particles have a partner "
+          "within the search radius that their rank does not hold; solver.belos.model=whole runs this "
+          "scene",
+          static_cast<long>(outside));
+      throw ModelLimit(buf);
     }
   }
   if (std::string why = check_damage(); !why.empty()) return why;
@@ -341,6 +348,8 @@ std::vector<std::string> QuasiStaticProblem::state_checks() const {
   if (m_contact) {
     checks.emplace_back("no crossed contact pair");
     checks.emplace_back("contact slide since the partner search within its reach");
+    if (m_contact->partitioned())
+      checks.emplace_back("every partner of a face particle held by its rank's part");
   }
   if (m_failure) checks.emplace_back("damage never decreasing");
   checks.emplace_back(m_small_kinematics ? "energy balance of the bonds (trapezoid rule, exact for linearised kinematics)"

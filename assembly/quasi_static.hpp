@@ -84,6 +84,9 @@ struct ProblemOptions {
   std::function<void(VectorXd& x)> import_ghosts;
   /// With owned_unknowns: sums n numbers over the ranks in place, in rank order (reaction()).
   std::function<void(double* values, int n)> sum_in_rank_order;
+  /// With owned_unknowns and contact: the part's share of the pairs (global ids, own particles,
+  /// the gathers; ContactRanks).
+  ContactRanks contact_ranks;
 };
 
 /// apply_tangent()'s schedule: chunks of `chunk` consecutive particles (chunk c holds
@@ -163,7 +166,9 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// Rejects a state in which a contact pair has crossed (docs/theory/contact.md, section 9),
   /// or whose faces slid further than a partner search covers (section 10).
   /// Also checks that no particle's damage decreased since the last accepted state, and the
-  /// energy balance of the bonds over the increment (EnergyLedger).
+  /// energy balance of the bonds over the increment (EnergyLedger). On a rank's part with
+  /// contact, throws ModelLimit (collectively) when the faces slid past what the parts hold
+  /// (ContactSystem::partners_outside): the run stops with exit 3.
   std::string check_converged_state(const VectorXd& x) override;
   std::vector<std::string> state_checks() const override;
 

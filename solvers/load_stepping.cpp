@@ -189,7 +189,16 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
         trial += ((next - lambda) / (lambda - lambda_before)) * (x - x_before);
       else if (loading.extrapolate)
         accumulate(step, solver.predict(trial, lambda));  // no secant: the solver's tangent
-      const SolveReport r = solve_and_check(problem, solver, trial, r_check, cb, step);
+      SolveReport r;
+      try {
+        r = solve_and_check(problem, solver, trial, r_check, cb, step);
+      } catch (const ModelLimit& limit) {  // no smaller increment can help: stop at x
+        problem.set_load_factor(lambda);
+        char buf[512];
+        std::snprintf(buf, sizeof buf, "load step %d/%d at load factor %.6g: %s", k, n, next, limit.what());
+        run.message = buf;
+        return run;
+      }
       if (r.converged || r.accepted_unconverged) {
         x_before = x;
         lambda_before = lambda;

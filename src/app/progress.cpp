@@ -34,7 +34,7 @@ void ProgressPrinter::header(const Scene& scene, const ModelSize& size, double m
     std::printf(
         "  contact        %d candidate pairs (found in %.3f s), radius %g m, %s law, friction %g, "
         "%s enforcement\n",
-        contact->size(), m_problem.contact_setup_seconds(), contact->law().radius,
+        contact->counts().candidates, m_problem.contact_setup_seconds(), contact->law().radius,
         scene.contact.normal == NormalLaw::paper ? "paper" : "pair", contact->law().friction,
         std::string(to_string(scene.contact.enforcement)).c_str());
   if (const ContactSystem* contact = m_problem.contact(); contact && contact->augmentation_capped())

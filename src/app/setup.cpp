@@ -118,28 +118,39 @@ std::vector<int> unknown_owners(const Constraints& constraints, const std::vecto
 ModelChoice part_model_choice(const Scene& scene, int ranks) {
   const BelosModel asked = scene.solver.linear.belos.model;
   if (asked == BelosModel::whole) return {false, "solver.belos.model: whole"};
+  // Like every solver.belos key, it applies to Newton with belos; in one process a run with
+  // another linear solver ignores it. ADR under mpirun, which distributes its own way, cannot
+  // honour an explicit `part`.
+  const bool belos =
+      scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::belos;
+  if (!belos && (ranks <= 1 || scene.solver.type == SolverKind::newton))
+    return {false, "solver.linear is not belos"};
   // What a part cannot run yet, first: an explicit `part` is refused with it.
   std::string cannot;
-  if (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::belos)
-    cannot = "a part runs Newton with solver.linear=belos only (this run has " +
-             (scene.solver.type == SolverKind::adr
-                  ? std::string("ADR")
-                  : "solver.linear=" + std::string(to_string(scene.solver.linear.type))) +
-             ")";
+  if (!belos)
+    cannot =
+        "ADR under mpirun runs on the whole model (each rank relaxes its own unknowns); a part runs Newton "
+        "with belos";
   else if (scene.solver.linear.belos.tangent != BelosTangent::matrix_free)
     cannot =
         "a part holds the families one horizon around its particles, which the matrix-free tangent reads "
         "and solver.belos.tangent=assembled does not (it reads two)";
-  else if (scene.contact.enabled)
-    cannot = "the scene has contact, and contact pairs across the parts are not built yet";
   else if (scene.failure.enabled)
     cannot = "the scene has a failure criterion, and bonds breaking across the parts are not built yet";
+  else if (scene.contact.enabled && scene.contact.enforcement == ContactEnforcement::exact)
+    cannot = "contact.enforcement: exact, whose multiplier updates are not built for the parts yet";
+  else if (scene.contact.enabled && scene.contact.velocity_sign)
+    cannot = "the velocity-sign friction law, which the parts do not run";
   if (!cannot.empty()) {
     if (asked == BelosModel::part)
       throw InputError("solver.belos.model: part: " + cannot + "; use solver.belos.model=whole (or auto)");
     return {false, cannot};
   }
   if (asked == BelosModel::automatic && ranks <= 1) return {false, "one process"};
+  if (asked == BelosModel::automatic && scene.contact.enabled)
+    return {false,
+            "contact: a part holds the pairs within its reach, which faces that slide far can exceed "
+            "(the run would then stop with exit 3); solver.belos.model=part runs it on the parts"};
   return {true, asked == BelosModel::part
                     ? "solver.belos.model: part"
                     : "each rank holds its own particles and their neighbours, and vectors "
@@ -169,6 +180,16 @@ ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, i
                                                          static_cast<std::size_t>(part.n_owned_unknowns));
   options.import_ghosts = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
   options.sum_in_rank_order = parallel::sum_in_rank_order;
+  if (scene.contact.enabled) {
+    ContactRanks& c = options.contact_ranks;
+    c.global_id = part.global_id;
+    c.counted.resize(part.owner.size());
+    for (std::size_t p = 0; p < part.owner.size(); ++p)
+      c.counted[p] = part.owner[p] == rank || (part.owner[p] < 0 && rank == 0);
+    c.n_particles_whole = part.n_particles_whole;
+    c.gather = parallel::gather_over_ranks;
+    c.gather_on_root = parallel::gather_rows_on_root;
+  }
   return options;
 }
 

@@ -113,6 +113,19 @@ StepRecorder::StepRecorder(const std::string& dir, const Scene& scene, const Qua
                                         run_info_json(scene, size, linear, threads, problem.state_checks()));
 }
 
+void StepRecorder::gather_contact_fields(const ContactSystem& contact) {
+  contact.contact_force(m_contact_force);
+  contact.particle_states(m_contact_state);
+  if (!m_view.gathers()) return;
+  // A part's own particles' values, the whole model's on rank 0 (the states exact in doubles).
+  VectorXd mine = m_contact_force, whole;
+  m_view.particle_values(mine, 2, m_contact_force);
+  mine.resize(static_cast<Index>(m_contact_state.size()));
+  for (std::size_t q = 0; q < m_contact_state.size(); ++q) mine[static_cast<Index>(q)] = m_contact_state[q];
+  m_view.particle_values(mine, 1, whole);
+  m_contact_state.assign(whole.data(), whole.data() + whole.size());
+}
+
 bool StepRecorder::due(int step) const {
   return step % m_scene.output.every == 0 || step == m_scene.loading.steps;
 }
@@ -124,6 +137,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     m_problem.expand(x, m_u);
     m_view.particle_values(m_u, 2, m_u_whole);
     for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) m_problem.reaction(k);
+    if (const ContactSystem* contact = m_problem.contact()) gather_contact_fields(*contact);
     return;
   }
   const double step_contact_seconds = m_problem.contact_seconds() - m_contact_seconds_before;
@@ -211,9 +225,8 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   }
   if (const ContactSystem* contact = m_problem.contact()) {
     // The commit evaluated the pairs at this state (before updating the slip history).
-    contact->contact_force(m_contact_force);
+    gather_contact_fields(*contact);
     rec.contact_force = &m_contact_force;
-    contact->particle_states(m_contact_state);
     rec.contact_state = &m_contact_state;
     const ContactCounts& c = contact->counts();
     rec.counts["contact_candidates"] = c.candidates;

@@ -47,6 +47,10 @@ class StepRecorder {
   std::string h5_path() const { return m_writer ? m_writer->h5_path() : std::string(); }
 
  private:
+  /// The contact force and state of each particle into m_contact_force and m_contact_state:
+  /// the whole model's on rank 0 (collective on the parts).
+  void gather_contact_fields(const ContactSystem& contact);
+
   const Scene& m_scene;
   const QuasiStaticProblem& m_problem;
   const WholeView& m_view;

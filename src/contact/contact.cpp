@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -222,7 +224,20 @@ double contact_modulus(const Material& m1, const Material& m2, double override_v
 
 }  // namespace
 
-ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_model(model) {
+ContactSystem::ContactSystem(const Model& model, const ContactOptions& o, ContactRanks ranks)
+    : m_model(model), m_ranks(std::move(ranks)) {
+  if (partitioned()) {
+    if (m_ranks.global_id.size() != static_cast<std::size_t>(model.particles.size()) ||
+        m_ranks.counted.size() != m_ranks.global_id.size() || !m_ranks.gather || !m_ranks.gather_on_root)
+      throw std::logic_error(
+          "ContactSystem: a part needs a global id and a counted flag per particle, and the gathers");
+    if (o.enforcement == ContactEnforcement::exact || o.velocity_sign)
+      throw std::logic_error("ContactSystem: a part runs penalty contact without the velocity-sign law only");
+    m_by_global.reserve(m_ranks.global_id.size());
+    for (std::size_t q = 0; q < m_ranks.global_id.size(); ++q)
+      m_by_global.emplace_back(m_ranks.global_id[q], static_cast<Index>(q));
+    std::sort(m_by_global.begin(), m_by_global.end());
+  }
   const double dx = model.spacing;
   m_law.normal = o.normal;
   m_law.radius = o.radius_factor * dx;
@@ -244,6 +259,8 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
   m_modulus_override = o.stiffness;
   m_delta3 = delta3;
   auto add_pair = [&](Index i, Index j, const Vec2& normal) {
+    if (gid(j) < gid(i)) std::swap(i, j);    // the whole model's orientation (on a part: by global id)
+    if (!counted(i) && !counted(j)) return;  // a part's pairs touch its own particles
     const Vec2 X = p.position[j] - p.position[i];
     const double proj = normal.dot(X);
     if (std::abs(proj) < min_gap) return;
@@ -339,8 +356,9 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
     m_surfaces.push_back(std::move(surface));
   }
 
-  std::sort(m_pairs.begin(), m_pairs.end(),
-            [](const ContactPair& x, const ContactPair& y) { return x.i != y.i ? x.i < y.i : x.j < y.j; });
+  std::sort(m_pairs.begin(), m_pairs.end(), [this](const ContactPair& x, const ContactPair& y) {
+    return std::pair(gid(x.i), gid(x.j)) < std::pair(gid(y.i), gid(y.j));
+  });
   m_pairs.erase(
       std::unique(m_pairs.begin(), m_pairs.end(),
                   [](const ContactPair& x, const ContactPair& y) { return x.i == y.i && x.j == y.j; }),
@@ -361,7 +379,14 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o) : m_mo
     }
   }
   m_counts.candidates = np;
-  m_counts.open = np;
+  if (partitioned()) {  // every rank's own pairs
+    Index own = 0;
+    for (const ContactPair& c : m_pairs) own += counted(c.i);
+    const std::vector<double> all = m_ranks.gather({static_cast<double>(own)});
+    m_counts.candidates = 0;
+    for (const double v : all) m_counts.candidates += static_cast<Index>(v);
+  }
+  m_counts.open = m_counts.candidates;
   m_round_start = np;
   m_search_radius = model.horizon + dx;
   m_search_slide = kSearchSlide * dx;
@@ -402,7 +427,7 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
   const Particles& p = m_model.particles;
   m_round_start = size();
   for (const auto& [a, b] : bonds) {
-    const Index i = std::min(a, b), j = std::max(a, b);
+    const Index i = gid(a) < gid(b) ? a : b, j = i == a ? b : a;
     if (p.fictitious[i] || p.fictitious[j]) continue;
     const Vec2 X = p.position[j] - p.position[i];
     ContactPair c;
@@ -480,6 +505,7 @@ void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
   double closure = 0.0;
   bool symmetric = true;
   for (Index k = 0; k < np; ++k) {
+    if (!counted(m_pairs[k].i)) continue;  // on a part: another rank's pair
     const PairStatus s = m_result[k].status;
     const Mat2& J = m_result[k].J;
     symmetric = symmetric && std::abs(J(0, 1) - J(1, 0)) <= kSymmetryTolerance * J.cwiseAbs().maxCoeff();
@@ -498,12 +524,67 @@ void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
   if (want_jacobian) m_symmetric = symmetric;  // describes the last Jacobian computed
   m_min_distance = np > 0 ? dmin : 0.0;
   m_max_closure = closure;
+  if (partitioned()) reduce_over_ranks(want_jacobian);
+}
+
+void ContactSystem::reduce_over_ranks(bool want_jacobian) {
+  // Each rank's figures of its own pairs; every rank combines them in rank order alike.
+  Index own = 0;
+  for (const ContactPair& c : m_pairs) own += counted(c.i);
+  const std::uint64_t h = m_signature;
+  const std::vector<double> mine = {static_cast<double>(own),
+                                    static_cast<double>(m_counts.open),
+                                    static_cast<double>(m_counts.stick),
+                                    static_cast<double>(m_counts.slip),
+                                    own > 0 ? m_min_distance : std::numeric_limits<double>::infinity(),
+                                    m_max_closure,
+                                    m_symmetric ? 1.0 : 0.0,
+                                    static_cast<double>(h & 0xffff),
+                                    static_cast<double>((h >> 16) & 0xffff),
+                                    static_cast<double>((h >> 32) & 0xffff),
+                                    static_cast<double>(h >> 48)};
+  constexpr std::size_t width = 11;
+  const std::vector<double> all = m_ranks.gather(mine);
+  ContactCounts counts;
+  std::uint64_t hash = 1469598103934665603ull;
+  double dmin = std::numeric_limits<double>::infinity(), closure = 0.0;
+  bool symmetric = true;
+  for (std::size_t at = 0; at + width <= all.size(); at += width) {
+    counts.candidates += static_cast<Index>(all[at]);
+    counts.open += static_cast<Index>(all[at + 1]);
+    counts.stick += static_cast<Index>(all[at + 2]);
+    counts.slip += static_cast<Index>(all[at + 3]);
+    dmin = std::min(dmin, all[at + 4]);
+    closure = std::max(closure, all[at + 5]);
+    symmetric = symmetric && all[at + 6] != 0.0;
+    for (std::size_t q = 0; q < 4; ++q)
+      hash = (hash ^ static_cast<std::uint64_t>(all[at + 7 + q])) * 1099511628211ull;
+  }
+  m_counts = counts;
+  m_signature = hash;
+  if (want_jacobian) m_symmetric = symmetric;
+  m_min_distance = counts.candidates > 0 ? dmin : 0.0;
+  m_max_closure = closure;
+}
+
+double ContactSystem::max_over_ranks(double value) const {
+  if (!partitioned()) return value;
+  double out = value;
+  for (const double v : m_ranks.gather({value})) out = std::max(out, v);
+  return out;
+}
+
+Index ContactSystem::local_of(std::int64_t g) const {
+  const auto it =
+      std::lower_bound(m_by_global.begin(), m_by_global.end(), std::pair<std::int64_t, Index>(g, -1));
+  return it != m_by_global.end() && it->first == g ? it->second : -1;
 }
 
 void ContactSystem::add_internal_force(VectorXd& force) const {
   const Index n = m_model.particles.size();
 #pragma omp parallel for schedule(static)
   for (Index q = 0; q < n; ++q) {
+    if (!counted(q)) continue;  // on a part: another rank's particle (its rows add its pairs)
     for (const Incidence* e = incident_begin(q); e != incident_end(q); ++e) {
       const Vec2& g = m_result[e->pair].g;
       force[2 * q] += e->sign * g.x();
@@ -618,12 +699,91 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
   return m;
 }
 
+CrossedPair ContactSystem::first_crossed_pair(const VectorXd& u) const {
+  const Particles& p = m_model.particles;
+  CrossedPair out;
+  const Index k = first_crossed(u);
+  if (k >= 0) {
+    const ContactPair& c = m_pairs[k];
+    const Vec2 du(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
+    out = {gid(c.i), gid(c.j), p.position[c.i], p.position[c.j],
+           pair_gap(c, p.position[c.j] - p.position[c.i], du).normal};
+  }
+  if (!partitioned()) return out;
+  // Every rank's first own crossed pair; the first of those in the whole model's order.
+  const std::vector<double> all =
+      m_ranks.gather({static_cast<double>(out.i), static_cast<double>(out.j), out.Xi.x(), out.Xi.y(),
+                      out.Xj.x(), out.Xj.y(), out.normal});
+  CrossedPair first;
+  for (std::size_t at = 0; at + 7 <= all.size(); at += 7) {
+    const auto i = static_cast<std::int64_t>(all[at]), j = static_cast<std::int64_t>(all[at + 1]);
+    if (i < 0 || (first.any() && std::pair(first.i, first.j) < std::pair(i, j))) continue;
+    first = {i, j, Vec2(all[at + 2], all[at + 3]), Vec2(all[at + 4], all[at + 5]), all[at + 6]};
+  }
+  return first;
+}
+
+std::int64_t ContactSystem::partners_outside(const VectorXd& u) const {
+  if (!partitioned() || m_surfaces.empty()) return 0;
+  const Particles& p = m_model.particles;
+  const auto current = [&](Index q) {
+    return Vec2(p.position[q].x() + u[2 * q], p.position[q].y() + u[2 * q + 1]);
+  };
+  // Every rank's own face particles: (surface, side, global id, current x, y).
+  std::vector<double> mine;
+  for (std::size_t s = 0; s < m_surfaces.size(); ++s)
+    for (int side = 0; side < 2; ++side)
+      for (const Index q : side == 0 ? m_surfaces[s].side_a : m_surfaces[s].side_b)
+        if (counted(q)) {
+          const Vec2 x = current(q);
+          mine.insert(mine.end(), {static_cast<double>(s), static_cast<double>(side),
+                                   static_cast<double>(gid(q)), x.x(), x.y()});
+        }
+  const std::vector<double> all = m_ranks.gather(mine);
+  const double R = m_search_radius;
+  std::int64_t outside = 0;
+  for (std::size_t s = 0; s < m_surfaces.size(); ++s)
+    for (int side = 0; side < 2; ++side) {
+      // The other side's particles, every rank's, in cells R wide.
+      std::unordered_map<std::uint64_t, std::vector<std::size_t>> grid;
+      const auto cell = [R](double x, double y) {
+        return std::pair<std::int64_t, std::int64_t>(static_cast<std::int64_t>(std::floor(x / R)),
+                                                     static_cast<std::int64_t>(std::floor(y / R)));
+      };
+      const auto key = [](std::int64_t cx, std::int64_t cy) {
+        return (static_cast<std::uint64_t>(cx) << 32) ^ (static_cast<std::uint64_t>(cy) & 0xffffffffull);
+      };
+      for (std::size_t at = 0; at + 5 <= all.size(); at += 5)
+        if (all[at] == static_cast<double>(s) && all[at + 1] != static_cast<double>(side)) {
+          const auto [cx, cy] = cell(all[at + 3], all[at + 4]);
+          grid[key(cx, cy)].push_back(at);
+        }
+      for (const Index q : side == 0 ? m_surfaces[s].side_a : m_surfaces[s].side_b) {
+        if (!counted(q)) continue;
+        const Vec2 x = current(q);
+        const auto [cx, cy] = cell(x.x(), x.y());
+        for (std::int64_t dx = -1; dx <= 1; ++dx)
+          for (std::int64_t dy = -1; dy <= 1; ++dy) {
+            const auto it = grid.find(key(cx + dx, cy + dy));
+            if (it == grid.end()) continue;
+            for (const std::size_t at : it->second)
+              if ((Vec2(all[at + 3], all[at + 4]) - x).norm() < R &&
+                  local_of(static_cast<std::int64_t>(all[at + 2])) < 0)
+                ++outside;
+          }
+      }
+    }
+  std::int64_t total = 0;
+  for (const double v : m_ranks.gather({static_cast<double>(outside)})) total += static_cast<std::int64_t>(v);
+  return total;
+}
+
 Index ContactSystem::first_crossed(const VectorXd& u) const {
   const Particles& p = m_model.particles;
   const Index np = size();
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
-    if (excluded(c)) continue;
+    if (excluded(c) || !counted(c.i)) continue;  // on a part: its own pairs
     const Vec2 du(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]);
     if (crossed(pair_gap(c, p.position[c.j] - p.position[c.i], du), m_model.spacing)) return k;
   }
@@ -665,7 +825,7 @@ double ContactSystem::slide_since_search(const VectorXd& u) const {
                  u[2 * c.j + 1] - m_u_search[2 * c.j + 1] - u[2 * c.i + 1] + m_u_search[2 * c.i + 1]);
     slide = std::max(slide, std::abs(c.tangent().dot(d)));
   }
-  return slide;
+  return max_over_ranks(slide);
 }
 
 bool ContactSystem::search(const VectorXd& u) {
@@ -701,7 +861,8 @@ bool ContactSystem::search(const VectorXd& u) {
           if (it == grid.end()) continue;
           for (Index j : it->second) {
             if ((current(j) - xi).norm() >= R) continue;
-            const Index lo = std::min(i, j), hi = std::max(i, j);
+            const Index lo = gid(i) < gid(j) ? i : j, hi = lo == i ? j : i;
+            if (!counted(lo) && !counted(hi)) continue;  // a part's pairs touch its own particles
             if (known.count(key(lo, hi))) continue;
             const Vec2 &Xi = p.position[lo], &Xj = p.position[hi];
             if (surface.crack) {
@@ -725,7 +886,25 @@ bool ContactSystem::search(const VectorXd& u) {
   }
   m_u_search = u;
   ++m_searches;
-  if (size() == before) return false;
+  // On a part, every rank changes its version when any rank found a pair: the solvers rebuild
+  // what depends on the pairs together.
+  if (max_over_ranks(size() > before ? 1.0 : 0.0) == 0.0) return false;
+  if (partitioned()) {  // the new pairs in the whole model's order too
+    std::vector<Index> order(static_cast<std::size_t>(size() - before));
+    for (std::size_t k = 0; k < order.size(); ++k) order[k] = before + static_cast<Index>(k);
+    std::sort(order.begin(), order.end(), [this](Index a, Index b) {
+      return std::pair(gid(m_pairs[a].i), gid(m_pairs[a].j)) <
+             std::pair(gid(m_pairs[b].i), gid(m_pairs[b].j));
+    });
+    std::vector<ContactPair> pairs;
+    std::vector<double> slip;
+    for (const Index k : order) {
+      pairs.push_back(m_pairs[k]);
+      if (!m_slip.empty()) slip.push_back(m_slip[k]);
+    }
+    std::copy(pairs.begin(), pairs.end(), m_pairs.begin() + before);
+    if (!m_slip.empty()) std::copy(slip.begin(), slip.end(), m_slip.begin() + before);
+  }
   m_counts.candidates = size();
   m_round_start = size();
   build_incidence();
@@ -764,6 +943,45 @@ void ContactSystem::append_state(const ContactPair& c, const VectorXd& u) {
 }
 
 void ContactSystem::save(StateArchive& archive) const {
+  if (partitioned()) {
+    // Every rank's own pairs with their slip, by global id in the whole model's order; the
+    // displacement of the last search from the particles' owners (collective).
+    const std::size_t width = m_slip.empty() ? 6 : 7;
+    std::vector<double> mine;
+    for (std::size_t k = 0; k < m_pairs.size(); ++k) {
+      const ContactPair& c = m_pairs[k];
+      if (!counted(c.i)) continue;
+      mine.insert(mine.end(), {static_cast<double>(gid(c.i)), static_cast<double>(gid(c.j)), c.normal.x(),
+                               c.normal.y(), c.gap0, c.stiffness});
+      if (!m_slip.empty()) mine.push_back(m_slip[k]);
+    }
+    const std::vector<double> all = m_ranks.gather(mine);
+    std::vector<std::size_t> rows(all.size() / width);
+    for (std::size_t r = 0; r < rows.size(); ++r) rows[r] = r * width;
+    std::sort(rows.begin(), rows.end(), [&](std::size_t a, std::size_t b) {
+      return std::pair(all[a], all[a + 1]) < std::pair(all[b], all[b + 1]);
+    });
+    std::vector<double> pairs, slip;
+    for (const std::size_t r : rows) {
+      pairs.insert(pairs.end(), all.begin() + static_cast<std::ptrdiff_t>(r),
+                   all.begin() + static_cast<std::ptrdiff_t>(r + 6));
+      if (!m_slip.empty()) slip.push_back(all[r + 6]);
+    }
+    archive.put("contact/pairs", std::move(pairs));
+    if (!m_slip.empty()) archive.put("contact/slip", std::move(slip));
+    if (!m_surfaces.empty()) {
+      std::vector<std::int64_t> ids;
+      std::vector<double> values;
+      for (Index q = 0; q < m_model.particles.size(); ++q)
+        if (counted(q)) {
+          ids.push_back(gid(q));
+          values.insert(values.end(), {m_u_search[2 * q], m_u_search[2 * q + 1]});
+        }
+      archive.put("contact/u_search", m_ranks.gather_on_root(ids, values, 2, m_ranks.n_particles_whole));
+      archive.put("contact/searches", m_searches);
+    }
+    return;
+  }
   std::vector<double> pairs;
   pairs.reserve(6 * m_pairs.size());
   for (const ContactPair& c : m_pairs)
@@ -786,19 +1004,42 @@ void ContactSystem::save(StateArchive& archive) const {
 void ContactSystem::restore(const StateArchive& archive) {
   const std::vector<double>& flat = archive.get("contact/pairs");
   if (flat.size() % 6 != 0) throw InputError("the checkpoint's 'contact/pairs' is not a list of pairs");
-  const Index n = m_model.particles.size(), np = static_cast<Index>(flat.size() / 6);
-  m_pairs.resize(np);
-  for (Index k = 0; k < np; ++k) {
+  const Index n = m_model.particles.size(), rows = static_cast<Index>(flat.size() / 6);
+  const bool friction = m_law.friction > 0.0 && !m_law.velocity_sign;
+  const std::vector<double> no_slip;
+  const std::vector<double>& slip = friction ? archive.get("contact/slip", rows) : no_slip;
+  m_pairs.clear();
+  m_slip.clear();
+  for (Index k = 0; k < rows; ++k) {
     const double* v = &flat[6 * k];
-    ContactPair& c = m_pairs[k];
-    c.i = StateArchive::index(v[0], 0, n, "contact/pairs");
-    c.j = StateArchive::index(v[1], 0, n, "contact/pairs");
+    ContactPair c;
+    if (partitioned()) {  // the pairs that touch this part's own particles
+      const std::int64_t whole = m_ranks.n_particles_whole;
+      const auto gi =
+          static_cast<std::int64_t>(StateArchive::index(v[0], 0, static_cast<Index>(whole), "contact/pairs"));
+      const auto gj =
+          static_cast<std::int64_t>(StateArchive::index(v[1], 0, static_cast<Index>(whole), "contact/pairs"));
+      c.i = local_of(gi);
+      c.j = local_of(gj);
+      const bool mine = (c.i >= 0 && counted(c.i)) || (c.j >= 0 && counted(c.j));
+      if (!mine) continue;
+      if (c.i < 0 || c.j < 0)
+        throw InputError(
+            "the checkpoint's contact pair (" + std::to_string(gi) + ", " + std::to_string(gj) +
+            ") reaches past this rank's part of the model (the faces slid too far for the parts): "
+            "resume with solver.belos.model=whole");
+    } else {
+      c.i = StateArchive::index(v[0], 0, n, "contact/pairs");
+      c.j = StateArchive::index(v[1], 0, n, "contact/pairs");
+    }
     c.normal = Vec2(v[2], v[3]);
     c.gap0 = v[4];
     c.stiffness = v[5];
+    m_pairs.push_back(c);
+    if (friction) m_slip.push_back(slip[static_cast<std::size_t>(k)]);
   }
+  const auto np = static_cast<Index>(m_pairs.size());
   m_result.assign(np, PairResult{});
-  if (m_law.friction > 0.0 && !m_law.velocity_sign) m_slip = archive.get("contact/slip", np);
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
   if (m_law.exact) {
     m_multiplier_committed = archive.get("contact/multiplier", np);
@@ -809,12 +1050,19 @@ void ContactSystem::restore(const StateArchive& archive) {
     m_augmentation_capped = archive.scalar("contact/augmentation_capped") != 0.0;
   }
   if (!m_surfaces.empty()) {
-    const std::vector<double>& u = archive.get("contact/u_search", 2 * static_cast<std::int64_t>(n));
-    m_u_search = Eigen::Map<const VectorXd>(u.data(), static_cast<Eigen::Index>(u.size()));
+    if (partitioned()) {
+      const std::vector<double>& u = archive.get("contact/u_search", 2 * m_ranks.n_particles_whole);
+      m_u_search.resize(2 * n);
+      for (Index q = 0; q < n; ++q)
+        for (int d = 0; d < 2; ++d) m_u_search[2 * q + d] = u[static_cast<std::size_t>(2 * gid(q) + d)];
+    } else {
+      const std::vector<double>& u = archive.get("contact/u_search", 2 * static_cast<std::int64_t>(n));
+      m_u_search = Eigen::Map<const VectorXd>(u.data(), static_cast<Eigen::Index>(u.size()));
+    }
     m_searches = static_cast<int>(archive.scalar("contact/searches"));
   }
   m_counts = ContactCounts{};
-  m_counts.candidates = m_counts.open = np;
+  m_counts.candidates = m_counts.open = partitioned() ? rows : np;
   m_round_start = np;
   m_multiplier_updates = 0;
   build_incidence();

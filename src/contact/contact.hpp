@@ -7,12 +7,14 @@
 #pragma once
 
 #include <array>
-#include <cstdlib>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <functional>
 #include <vector>
 
 #include "core/options.hpp"
+#include "core/partition.hpp"
 #include "core/state_archive.hpp"
 #include "core/types.hpp"
 #include "discretisation/model.hpp"
@@ -108,12 +110,39 @@ struct ContactCounts {
   Index active() const { return stick + slip; }
 };
 
+/// A rank's share of the pairs when its model is its part of the whole (ModelPart;
+/// docs/guide/distributed.md, "The partitioned model"). A part holds every pair that touches
+/// one of its own particles (both ends are in the part: a partner lies within a horizon), with
+/// i the end of the smaller global id, in the whole model's order; the pair is owned by the
+/// rank that counts i. Counts, signature and checks are reduced over the ranks, so every rank
+/// takes the same decisions. Empty (no global ids): the model is whole.
+struct ContactRanks {
+  std::vector<std::int64_t> global_id;  ///< per particle of the part: its index in the whole model
+  std::vector<char> counted;  ///< per particle: this rank's own (the forces it adds, the pairs it owns)
+  std::int64_t n_particles_whole = 0;
+  GatherOverRanks gather;  ///< every rank's values in rank order, on every rank (collective)
+  /// Rows by global id to rank 0 (parallel::gather_rows_on_root: collective; empty elsewhere).
+  std::function<std::vector<double>(const std::vector<std::int64_t>& ids, const std::vector<double>& values,
+                                    int width, std::int64_t n_rows)>
+      gather_on_root;
+};
+
+/// A pair that has crossed: its ends by global id (the particle index in one process) and
+/// reference positions, and n.Y [m].
+struct CrossedPair {
+  std::int64_t i = -1, j = -1;
+  Vec2 Xi = Vec2::Zero(), Xj = Vec2::Zero();
+  double normal = 0.0;
+  bool any() const { return i >= 0; }
+};
+
 class ContactSystem {
  public:
   /// Builds the candidate pairs the options ask for (the faces of the model's pre-cracks if
   /// options.cracks, declared interfaces between the model's bodies). Throws InputError when
-  /// a declared interface has no common boundary.
-  ContactSystem(const Model& model, const ContactOptions& options);
+  /// a declared interface has no common boundary. With `ranks` (a rank's part of the model)
+  /// the part's share, and the constructor is collective.
+  ContactSystem(const Model& model, const ContactOptions& options, ContactRanks ranks = {});
 
   const std::vector<ContactPair>& pairs() const { return m_pairs; }
   const ContactLaw& law() const { return m_law; }
@@ -156,6 +185,16 @@ class ContactSystem {
   MultiplierUpdate update_multipliers(const VectorXd& u);
   /// The first candidate that has crossed at u (n.Y < 0 while facing, `crossed()`), or -1.
   Index first_crossed(const VectorXd& u) const;
+  /// The first crossed pair in the whole model's order (on a part: over every rank's own
+  /// pairs, collective), or none.
+  CrossedPair first_crossed_pair(const VectorXd& u) const;
+  /// On a part: the particles of a face, within the search radius of another rank's or this
+  /// rank's own particle of the other face at u, that this part does not hold, summed over the
+  /// ranks (collective). A partner search on the part would miss their pairs: the run cannot
+  /// go on on the parts. 0 on a whole model.
+  std::int64_t partners_outside(const VectorXd& u) const;
+  /// A rank's part of the model (ContactRanks given).
+  bool partitioned() const { return !m_ranks.global_id.empty(); }
   /// Largest normal closure a - n.Y [m] over the pairs that carried a force in the last
   /// evaluation (0 when none did).
   double max_closure() const { return m_max_closure; }
@@ -199,7 +238,8 @@ class ContactSystem {
   std::size_t memory_bytes() const;
 
   /// Large sliding (docs/theory/contact.md, section 10). The largest relative tangential
-  /// motion t.(du_j - du_i) of a pair since the last partner search [m].
+  /// motion t.(du_j - du_i) of a pair since the last partner search [m] (on a part: over
+  /// every rank's pairs, collective).
   double slide_since_search(const VectorXd& u) const;
   /// Searches the faces of the pre-cracks and interfaces for partners in the current
   /// configuration u: every pair of particles of the two sides within one horizon plus one
@@ -255,8 +295,22 @@ class ContactSystem {
   /// Exact enforcement: the boost a new pair starts with (the cap by default).
   double initial_boost(const ContactPair& c);
   void build_incidence();
+  /// On a part: the counts, signature, symmetry and distances of the last evaluation over
+  /// every rank's own pairs (collective).
+  void reduce_over_ranks(bool want_jacobian);
+  /// The pair's end of the smaller global id first.
+  std::int64_t gid(Index i) const {
+    return partitioned() ? m_ranks.global_id[static_cast<std::size_t>(i)] : i;
+  }
+  bool counted(Index i) const { return !partitioned() || m_ranks.counted[static_cast<std::size_t>(i)]; }
+  /// The particle of the part with global id g, or -1.
+  Index local_of(std::int64_t g) const;
+  /// The largest of a value over the ranks (itself on a whole model; collective on a part).
+  double max_over_ranks(double value) const;
 
   const Model& m_model;
+  ContactRanks m_ranks;
+  std::vector<std::pair<std::int64_t, Index>> m_by_global;  ///< on a part: (global id, particle), sorted
   ContactLaw m_law;
   double m_closure_tolerance = 0.0;
   int m_max_multiplier_updates = 0;

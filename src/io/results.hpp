@@ -104,9 +104,14 @@ class ResultsReader {
   VectorXd displacement(int step) const;
   /// Damage of step K (N); throws if the step is absent or the run modelled no failure.
   VectorXd damage(int step) const;
+  /// Contact state of step K (N: 0 no closed pair, 1 stick, 2 slip); throws if the step is
+  /// absent or the run modelled no contact.
+  VectorXd contact_state(int step) const;
   double load_factor(int step) const;
 
  private:
+  /// One value per particle of step K's dataset `name`; `absent` says why it may be missing.
+  VectorXd per_particle(int step, const std::string& name, const std::string& absent) const;
   std::string m_path;
   ParticleTable m_particles;
   std::string m_scene_text;

@@ -159,18 +159,26 @@ VectorXd ResultsReader::displacement(int step) const {
   });
 }
 
-VectorXd ResultsReader::damage(int step) const {
+VectorXd ResultsReader::per_particle(int step, const std::string& name, const std::string& absent) const {
   const std::string group = step_path(m_path, m_steps, step);
   return as_input_error([&] {
     h5::File file = h5::File::open(m_path, false);
-    const std::string dataset = group + "/damage";
+    const std::string dataset = group + "/" + name;
     if (!file.link_exists(file.id(), dataset))
-      throw InputError("'" + m_path + "': step " + std::to_string(step) +
-                       " has no damage (the scene has no failure section)");
+      throw InputError("'" + m_path + "': step " + std::to_string(step) + " has no " + name + " (" + absent +
+                       ")");
     require_shape(file, dataset, {static_cast<hsize_t>(m_particles.size())});
     const std::vector<double> values = file.read_doubles(file.id(), dataset);
     return VectorXd(Eigen::Map<const VectorXd>(values.data(), static_cast<Eigen::Index>(values.size())));
   });
+}
+
+VectorXd ResultsReader::damage(int step) const {
+  return per_particle(step, "damage", "the scene has no failure section");
+}
+
+VectorXd ResultsReader::contact_state(int step) const {
+  return per_particle(step, "contact_state", "the scene has no contact section");
 }
 
 double ResultsReader::load_factor(int step) const {

@@ -18,6 +18,7 @@
 
 #include "io/results.hpp"
 #include "support/cli.hpp"
+#include "support/scenes.hpp"
 
 namespace peristat {
 namespace {
@@ -136,42 +137,146 @@ TEST(Distributed, TensionPlateOnThePartsEqualsTheWholeModelOnTheRanks) {
   }
 }
 
-// A run on the parts writes the whole model's state into its checkpoint (gathered by global id),
-// so it resumes on the parts, on one process, and a serial checkpoint resumes on the parts. The
-// two-step tension plate is killed inside the write of step 2's results: the checkpoint holds
-// step 1. Each resumed run must end where the uninterrupted run on the parts ends: 1e-10, the
-// resume tests' bound (measured 2.8e-12 to 4.1e-12).
-TEST(Distributed, ARunOnThePartsResumesOnAnyNumberOfRanks) {
-  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
-  const std::string options = " --quiet --set discretization.spacing=2e-3 --set solver.linear=belos";
-  const fs::path reference = test::fresh_directory("distributed_part_resume_reference");
+// Contact on the parts (solver.belos.model: part; `auto` keeps contact scenes whole): each rank
+// holds the pairs that touch its own particles, oriented and ordered as in the whole model,
+// owns those whose first end it owns, and reduces the counts, the signature and the checks
+// over the ranks. Cases 4.1 (an interface between two plates, friction 0.8, partner
+// searches as they slide) and 4.3 (a closed pre-crack, friction 0.8) on two ranks against the
+// serial run: the displacement within 1e-8 (measured 8.1e-12 and 7.6e-12), and at every step
+// the same counts of candidates, stick and slip pairs, and the contact state of every particle.
+void expect_contact_on_parts_as_serial(const std::string& c, const std::string& dx) {
+  SCOPED_TRACE(c);
+  const Pair p = run_both(c, c, " --set discretization.spacing=" + dx + " --set solver.belos.model=part");
+  expect_same_answer(p);
+  const nlohmann::json mpi = test::read_json(p.dir / "mpi" / "summary.json"),
+                       serial = test::read_json(p.dir / "serial" / "summary.json");
+  EXPECT_EQ(mpi["run"]["model"], "part");
+  ASSERT_EQ(mpi["steps"].size(), serial["steps"].size());
+  for (std::size_t k = 0; k < serial["steps"].size(); ++k)
+    for (const char* key : {"contact_candidates", "contact_open", "contact_stick", "contact_slip"})
+      EXPECT_EQ(mpi["steps"][k]["counts"][key], serial["steps"][k]["counts"][key])
+          << key << ", step " << k + 1;
+  const ResultsReader a(p.h5("mpi").string()), b(p.h5("serial").string());
+  for (const int step : b.steps()) {
+    const VectorXd sa = a.contact_state(step), sb = b.contact_state(step);
+    ASSERT_EQ(sa.size(), sb.size());
+    EXPECT_TRUE((sa.array() == sb.array()).all()) << "contact states, step " << step;
+    EXPECT_GT(sb.maxCoeff(), 0.0) << "pairs must close for this test to mean anything";
+  }
+}
+
+TEST(Distributed, ContactOnThePartsEqualsSerial) {
+  expect_contact_on_parts_as_serial("paper_4_1_sliding_plates", "1e-3");
+  expect_contact_on_parts_as_serial("paper_4_3_precracked_plate", "0.02");
+}
+
+// Large sliding on the parts: case 4.1's plates at dx = 1 mm with the left one pulled up by
+// 6 mm in 12 steps (friction 0.3). The partner searches add pairs as the faces slide. On two
+// ranks RCB cuts along the interface, and the slide stays within each part (its ring holds
+// the other plate's particles along the whole height): the serial answer within 1e-8 and the
+// same candidates at every step. On four ranks a cut across the height separates face
+// particles from partners 6 mm away: the run must stop with exit 3 and the reason at the first
+// state where a part would miss a partner, and never go on without the pair.
+std::string slide_scene(const fs::path& dir) {
+  const fs::path path = dir / "large_slide.yaml";
+  std::ofstream(path) << test::large_slide_yaml("6.0e-3", "friction: 0.3");
+  return path.string();
+}
+
+TEST(Distributed, LargeSlidingOnThePartsFindsThePartnersOrStops) {
+  const fs::path dir = test::fresh_directory("distributed_part_slide");
+  const std::string scene = slide_scene(dir);
+  const test::CliResult serial =
+      test::run_cli("run " + scene + " --quiet --out " + (dir / "serial").string());
+  const test::CliResult two = test::run_mpi(
+      2, "run " + scene + " --quiet --out " + (dir / "two").string() + " --set solver.belos.model=part");
+  ASSERT_EQ(serial.exit_code, 0) << serial.err;
+  ASSERT_EQ(two.exit_code, 0) << two.out << two.err;
+  const nlohmann::json s = test::read_json(dir / "serial" / "summary.json"),
+                       t = test::read_json(dir / "two" / "summary.json");
+  ASSERT_EQ(s["steps"].size(), 12u);
+  ASSERT_EQ(t["steps"].size(), 12u);
+  const auto candidates = [](const nlohmann::json& j, std::size_t k) {
+    return j["steps"][k]["counts"]["contact_candidates"].get<long long>();
+  };
+  EXPECT_GT(candidates(s, 11), candidates(s, 0))
+      << "the searches must add pairs for this test to mean anything";
+  for (std::size_t k = 0; k < 12; ++k) EXPECT_EQ(candidates(t, k), candidates(s, k)) << "step " << k + 1;
+  const test::CliResult cmp = test::run_cli("compare " + (dir / "two" / "large_slide.h5").string() + " " +
+                                            (dir / "serial" / "large_slide.h5").string() + " --json");
+  ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
+  EXPECT_LE(test::json_number(cmp.out, "relative_l2"), 1e-8);
+
+  const test::CliResult four = test::run_mpi(
+      4, "run " + scene + " --quiet --out " + (dir / "four").string() + " --set solver.belos.model=part");
+  EXPECT_EQ(four.exit_code, 3) << four.out << four.err;
+  EXPECT_NE(four.err.find("solver.belos.model=whole"), std::string::npos) << four.err;
+  const nlohmann::json f = test::read_json(dir / "four" / "summary.json");
+  EXPECT_EQ(f["status"], "no_convergence");
+  EXPECT_NE(f["message"].get<std::string>().find("slid past the ranks' parts"), std::string::npos)
+      << f["message"];
+  EXPECT_GE(f["steps"].size(), 1u) << "the converged steps are kept";
+  EXPECT_LT(f["steps"].size(), 12u);
+  // The steps it kept are the serial run's.
+  const test::CliResult kept = test::run_cli("compare " + (dir / "four" / "large_slide.h5").string() + " " +
+                                             (dir / "serial" / "large_slide.h5").string() +
+                                             " --json --step " + std::to_string(f["steps"].size()));
+  ASSERT_EQ(kept.exit_code, 0) << kept.err;
+  EXPECT_LE(test::json_number(kept.out, "relative_l2"), 1e-8);
+}
+
+/// Stops `c` inside the write of step `kill` (its checkpoint holds the step before) on `first`
+/// ranks and resumes it on `then` (1: one process), for each pair; each must end within 1e-10
+/// of the uninterrupted run on two ranks.
+void expect_resumes_on_parts(const std::string& c, const std::string& options, int steps, int kill) {
+  SCOPED_TRACE(c);
+  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/" + c + "/scene.yaml";
+  const fs::path reference = test::fresh_directory("distributed_part_resume_reference_" + c);
   const test::CliResult r = test::run_mpi(2, "run " + scene + " --out " + reference.string() + options);
   ASSERT_EQ(r.exit_code, 0) << r.err;
   for (const auto& [first, then] : {std::pair{2, 2}, std::pair{2, 1}, std::pair{1, 2}}) {
     SCOPED_TRACE("stopped on " + std::to_string(first) + ", resumed on " + std::to_string(then));
     const fs::path dir =
-        test::fresh_directory("distributed_part_resume_" + std::to_string(first) + std::to_string(then));
+        test::fresh_directory("distributed_part_resume_" + c + std::to_string(first) + std::to_string(then));
     const std::string run = "run " + scene + " --out " + dir.string() + options;
     const auto launch = [&](int ranks, const std::string& command) {
       return ranks == 1 ? test::run_cli(command) : test::run_mpi(ranks, command);
     };
-    setenv("PERISTAT_FAULT_KILL_IN_WRITE", "2", 1);
+    setenv("PERISTAT_FAULT_KILL_IN_WRITE", std::to_string(kill).c_str(), 1);
     const test::CliResult killed = launch(first, run);
     unsetenv("PERISTAT_FAULT_KILL_IN_WRITE");
     ASSERT_NE(killed.exit_code, 0) << "the run was not stopped";
-    ASSERT_EQ(test::read_json(dir / "summary.json")["steps"].size(), 1u);
+    ASSERT_EQ(test::read_json(dir / "summary.json")["steps"].size(), static_cast<std::size_t>(kill - 1));
     const test::CliResult resumed = launch(then, run + " --resume");
     ASSERT_EQ(resumed.exit_code, 0) << resumed.out << resumed.err;
     const nlohmann::json summary = test::read_json(dir / "summary.json");
     EXPECT_EQ(summary["status"], "completed");
-    EXPECT_EQ(summary["steps"].size(), 2u);
-    EXPECT_EQ(summary["run"].value("model", "none"), then == 2 ? "part" : "none")
-        << "the resumed run's own record";
-    const test::CliResult cmp = test::run_cli("compare " + (dir / "tension_plate.h5").string() + " " +
-                                              (reference / "tension_plate.h5").string() + " --json");
+    EXPECT_EQ(summary["steps"].size(), static_cast<std::size_t>(steps));
+    if (then == 2) {
+      EXPECT_EQ(summary["run"]["model"], "part") << "the resumed run's own record";
+    }
+    const test::CliResult cmp = test::run_cli("compare " + (dir / (c + ".h5")).string() + " " +
+                                              (reference / (c + ".h5")).string() + " --json");
     ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
     EXPECT_LT(test::json_number(cmp.out, "relative_l2"), 1e-10);
   }
+}
+
+// A run on the parts writes the whole model's state into its checkpoint (gathered by global
+// id: the state, and with contact every pair with its friction slip and the displacement of
+// the last partner search), so it resumes on the parts, on one process, and a one-process
+// checkpoint resumes on the parts. The tension plate (2 steps, `auto`: on the parts under
+// mpirun, whole in one process) is killed in step 2's write, case 4.3 (4 steps, friction; on
+// the parts asked, also in one process) in step 3's. Each resumed run must end where the
+// uninterrupted run on the parts ends: 1e-10, the resume tests' bound (measured 2.8e-12 to
+// 4.1e-12 on the plate).
+TEST(Distributed, ARunOnThePartsResumesOnAnyNumberOfRanks) {
+  expect_resumes_on_parts("tension_plate",
+                          " --quiet --set discretization.spacing=2e-3 --set solver.linear=belos", 2, 2);
+  expect_resumes_on_parts("paper_4_3_precracked_plate",
+                          " --quiet --set discretization.spacing=0.02 --set solver.linear=belos"
+                          " --set solver.belos.model=part",
+                          4, 3);
 }
 
 TEST(Distributed, SlidingPlatesOnTwoRanksEqualSerial) {
@@ -403,17 +508,26 @@ TEST(Distributed, OtherSolversAreRefusedUnderMpirun) {
 }
 
 TEST(Distributed, APartIsRefusedWhereItCannotRun) {
-  // solver.belos.model: part with contact (case 4.3), or with the assembled tangent: exit 2,
-  // the key and the reason, nothing written. `auto` runs those scenes on the whole model.
+  // solver.belos.model: part with a failure criterion (case 4.4), with exact contact, or with
+  // the assembled tangent: exit 2, the key and the reason, nothing written. `auto` runs those
+  // scenes on the whole model.
   const fs::path dir = test::fresh_directory("distributed_part_refused");
+  const std::string c44 = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_4_crack_growth/scene.yaml";
+  const test::CliResult failure =
+      test::run_mpi(2, "run " + c44 + " --quiet --out " + (dir / "failure").string() +
+                           " --set discretization.spacing=0.05 --set solver.belos.model=part");
+  EXPECT_EQ(failure.exit_code, 2);
+  EXPECT_NE(failure.err.find("solver.belos.model"), std::string::npos) << failure.err;
+  EXPECT_NE(failure.err.find("failure criterion"), std::string::npos) << failure.err;
+  EXPECT_FALSE(fs::exists(dir / "failure")) << "nothing is written";
   const std::string c43 = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_3_precracked_plate/scene.yaml";
-  const test::CliResult contact =
-      test::run_mpi(2, "run " + c43 + " --quiet --out " + (dir / "contact").string() +
-                           " --set discretization.spacing=0.02 --set solver.belos.model=part");
-  EXPECT_EQ(contact.exit_code, 2);
-  EXPECT_NE(contact.err.find("solver.belos.model"), std::string::npos) << contact.err;
-  EXPECT_NE(contact.err.find("contact"), std::string::npos) << contact.err;
-  EXPECT_FALSE(fs::exists(dir / "contact")) << "nothing is written";
+  const test::CliResult exact = test::run_mpi(
+      2,
+      "run " + c43 + " --quiet --out " + (dir / "exact").string() +
+          " --set discretization.spacing=0.02 --set solver.belos.model=part --set contact.enforcement=exact");
+  EXPECT_EQ(exact.exit_code, 2);
+  EXPECT_NE(exact.err.find("contact.enforcement: exact"), std::string::npos) << exact.err;
+  EXPECT_FALSE(fs::exists(dir / "exact"));
   const std::string plate = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
   const test::CliResult assembled =
       test::run_mpi(2, "run " + plate + " --quiet --out " + (dir / "assembled").string() +

@@ -98,4 +98,22 @@ solver: )" + solver + "\n";
   return y + extra;
 }
 
+std::string large_slide_yaml(const std::string& slide, const std::string& contact, const std::string& extra) {
+  return "name: large_slide\n"
+         "materials:\n  plate: {E: 60.0e9, nu: 0.2, thickness: 2.0e-3, kinematics: small}\n"
+         "discretization: {spacing: 1.0e-3, horizon_factor: 3, fictitious_layers: 3}\n"
+         "bodies:\n"
+         "  left: {material: plate, rectangle: {min: [0.0, 0.0], max: [0.032, 0.06]}}\n"
+         "  right: {material: plate, rectangle: {min: [0.032, 0.0], max: [0.064, 0.06]}}\n"
+         "boundary:\n"
+         "  - {body: right, edge: right, ux: -8.0e-4}\n"
+         "  - {body: left, edge: top, uy: " +
+         slide +
+         "}\n"
+         "  - {body: left, edge: left, ux: 0.0}\n"
+         "  - {body: right, edge: bottom, uy: 0.0}\n"
+         "contact:\n  interfaces:\n    - {bodies: [left, right]}\n  " +
+         contact + "\nloading: {steps: 12}\n" + extra;
+}
+
 }  // namespace peristat::test

@@ -50,4 +50,11 @@ std::string notch_yaml(double pull, bool failure, const std::string& solver = "{
                        const std::string& extra = "", const std::string& kinematics = "small",
                        const std::string& loading = "{steps: 1}");
 
+/// Case 4.1's two plates at dx = 1 mm (E = 60 GPa, nu = 0.2), the right one pressed by 0.8 mm
+/// and the left one pulled up by `slide` [m] in 12 steps: a large slide along their declared
+/// interface. `contact` is the contact section's body after `interfaces` (e.g. "friction: 0");
+/// `extra` is appended (e.g. a solver section).
+std::string large_slide_yaml(const std::string& slide, const std::string& contact,
+                             const std::string& extra = "");
+
 }  // namespace peristat::test

@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "support/scenes.hpp"
 #include "support/solve.hpp"
 
 namespace peristat {
@@ -144,20 +145,7 @@ TEST(ExactContact, SlidingPlatesMatchTheContinuumAtPaperResolution) {
 // 0.65 mm there, ~7 um): within 0.5% of 5.85 mm.
 TEST(ExactContact, LargeSlideKeepsAPartnerForEveryFacingParticle) {
   const std::string yaml =
-      "name: large_slide\n"
-      "materials:\n  plate: {E: 60.0e9, nu: 0.2, thickness: 2.0e-3, kinematics: small}\n"
-      "discretization: {spacing: 1.0e-3, horizon_factor: 3, fictitious_layers: 3}\n"
-      "bodies:\n"
-      "  left: {material: plate, rectangle: {min: [0.0, 0.0], max: [0.032, 0.06]}}\n"
-      "  right: {material: plate, rectangle: {min: [0.032, 0.0], max: [0.064, 0.06]}}\n"
-      "boundary:\n"
-      "  - {body: right, edge: right, ux: -8.0e-4}\n"
-      "  - {body: left, edge: top, uy: 6.0e-3}\n"
-      "  - {body: left, edge: left, ux: 0.0}\n"
-      "  - {body: right, edge: bottom, uy: 0.0}\n"
-      "contact:\n  friction: 0\n  enforcement: exact\n  interfaces:\n    - {bodies: [left, right]}\n"
-      "loading: {steps: 12}\n"
-      "solver: {linear: cg}\n";
+      test::large_slide_yaml("6.0e-3", "friction: 0\n  enforcement: exact", "solver: {linear: cg}\n");
   auto s = test::solve_scene(yaml);
   ASSERT_TRUE(s->run.completed) << s->run.message;
   const ContactSystem& c = *s->problem->contact();
