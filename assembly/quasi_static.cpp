@@ -202,12 +202,11 @@ ConstraintUpdate QuasiStaticProblem::update_multipliers(const VectorXd& x) {
       break;
     case MultiplierUpdate::Status::exhausted: {
       out.status = ConstraintUpdate::Status::exhausted;
-      const ContactPair& c = m_contact->pairs()[m.pair];
       char buf[320];
       std::snprintf(buf, sizeof buf,
                     "exact contact: closure %.3g of pair (%ld, %ld) still above contact.closure_tolerance "
                     "after %d multiplier updates (contact.max_multiplier_updates)",
-                    m.violation, static_cast<long>(c.i), static_cast<long>(c.j), m.updates);
+                    m.violation, static_cast<long>(m.pair_i), static_cast<long>(m.pair_j), m.updates);
       out.message = buf;
       break;
     }

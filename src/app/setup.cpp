@@ -137,8 +137,6 @@ ModelChoice part_model_choice(const Scene& scene, int ranks) {
         "and solver.belos.tangent=assembled does not (it reads two)";
   else if (scene.failure.enabled)
     cannot = "the scene has a failure criterion, and bonds breaking across the parts are not built yet";
-  else if (scene.contact.enabled && scene.contact.enforcement == ContactEnforcement::exact)
-    cannot = "contact.enforcement: exact, whose multiplier updates are not built for the parts yet";
   else if (scene.contact.enabled && scene.contact.velocity_sign)
     cannot = "the velocity-sign friction law, which the parts do not run";
   if (!cannot.empty()) {

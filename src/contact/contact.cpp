@@ -5,6 +5,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <unordered_map>
 #include <unordered_set>
 
@@ -231,8 +232,7 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o, Contac
         m_ranks.counted.size() != m_ranks.global_id.size() || !m_ranks.gather || !m_ranks.gather_on_root)
       throw std::logic_error(
           "ContactSystem: a part needs a global id and a counted flag per particle, and the gathers");
-    if (o.enforcement == ContactEnforcement::exact || o.velocity_sign)
-      throw std::logic_error("ContactSystem: a part runs penalty contact without the velocity-sign law only");
+    if (o.velocity_sign) throw std::logic_error("ContactSystem: a part runs without the velocity-sign law");
     m_by_global.reserve(m_ranks.global_id.size());
     for (std::size_t q = 0; q < m_ranks.global_id.size(); ++q)
       m_by_global.emplace_back(m_ranks.global_id[q], static_cast<Index>(q));
@@ -387,6 +387,7 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o, Contac
     for (const double v : all) m_counts.candidates += static_cast<Index>(v);
   }
   m_counts.open = m_counts.candidates;
+  if (m_law.exact) m_augmentation_capped = max_over_ranks(m_augmentation_capped ? 1.0 : 0.0) > 0.0;
   m_round_start = np;
   m_search_radius = model.horizon + dx;
   m_search_slide = kSearchSlide * dx;
@@ -665,11 +666,35 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
     facing[k] = 1;
     closure[k] = 1.0 - g.normal / c.gap0;
     violation[k] = m_result[k].normal_force > 0.0 ? std::abs(closure[k]) : std::max(0.0, closure[k]);
+    if (!counted(c.i)) continue;  // on a part: another rank's pair (updated alike below)
     if (m_result[k].normal_force > 0.0) m.opening = std::max(m.opening, -closure[k]);
     if (violation[k] > m.violation) {
       m.violation = violation[k];
       m.pair = k;
+      m.pair_i = gid(c.i);
+      m.pair_j = gid(c.j);
     }
+  }
+  if (partitioned()) {  // the largest over every rank's own pairs; of equals, the first in the whole model's
+                        // order
+    const std::vector<double> all = m_ranks.gather(
+        {m.violation, m.opening, static_cast<double>(m.pair_i), static_cast<double>(m.pair_j)});
+    MultiplierUpdate best;
+    for (std::size_t at = 0; at + 4 <= all.size(); at += 4) {
+      best.opening = std::max(best.opening, all[at + 1]);
+      const auto i = static_cast<std::int64_t>(all[at + 2]), j = static_cast<std::int64_t>(all[at + 3]);
+      if (all[at] > best.violation || (i >= 0 && all[at] == best.violation && best.pair_i >= 0 &&
+                                       std::pair(i, j) < std::pair(best.pair_i, best.pair_j))) {
+        best.violation = all[at];
+        best.pair_i = i;
+        best.pair_j = j;
+      }
+    }
+    if (best.pair_i != m.pair_i || best.pair_j != m.pair_j) m.pair = -1;
+    m.violation = best.violation;
+    m.opening = best.opening;
+    m.pair_i = best.pair_i;
+    m.pair_j = best.pair_j;
   }
   m.updates = m_multiplier_updates;
   if (m.violation <= m_closure_tolerance) return m;
@@ -888,6 +913,8 @@ bool ContactSystem::search(const VectorXd& u) {
   ++m_searches;
   // On a part, every rank changes its version when any rank found a pair: the solvers rebuild
   // what depends on the pairs together.
+  if (m_law.exact && partitioned())
+    m_augmentation_capped = max_over_ranks(m_augmentation_capped ? 1.0 : 0.0) > 0.0;
   if (max_over_ranks(size() > before ? 1.0 : 0.0) == 0.0) return false;
   if (partitioned()) {  // the new pairs in the whole model's order too
     std::vector<Index> order(static_cast<std::size_t>(size() - before));
@@ -896,14 +923,19 @@ bool ContactSystem::search(const VectorXd& u) {
       return std::pair(gid(m_pairs[a].i), gid(m_pairs[a].j)) <
              std::pair(gid(m_pairs[b].i), gid(m_pairs[b].j));
     });
-    std::vector<ContactPair> pairs;
-    std::vector<double> slip;
-    for (const Index k : order) {
-      pairs.push_back(m_pairs[k]);
-      if (!m_slip.empty()) slip.push_back(m_slip[k]);
-    }
-    std::copy(pairs.begin(), pairs.end(), m_pairs.begin() + before);
-    if (!m_slip.empty()) std::copy(slip.begin(), slip.end(), m_slip.begin() + before);
+    const auto reorder = [&](auto& values) {  // the new entries of a per-pair vector, in `order`
+      if (values.empty()) return;
+      std::vector<typename std::decay_t<decltype(values)>::value_type> moved;
+      for (const Index k : order) moved.push_back(values[static_cast<std::size_t>(k)]);
+      std::copy(moved.begin(), moved.end(), values.begin() + before);
+    };
+    reorder(m_pairs);
+    reorder(m_slip);
+    reorder(m_multiplier);
+    reorder(m_multiplier_committed);
+    reorder(m_boost);
+    reorder(m_last_violation);
+    reorder(m_boost_limit);
   }
   m_counts.candidates = size();
   m_round_start = size();
@@ -946,7 +978,9 @@ void ContactSystem::save(StateArchive& archive) const {
   if (partitioned()) {
     // Every rank's own pairs with their slip, by global id in the whole model's order; the
     // displacement of the last search from the particles' owners (collective).
-    const std::size_t width = m_slip.empty() ? 6 : 7;
+    // Per pair: i, j, normal, gap0, stiffness, then slip (friction), then the committed
+    // multiplier, boost and boost limit (exact enforcement).
+    const std::size_t width = 6 + (m_slip.empty() ? 0 : 1) + (m_law.exact ? 3 : 0);
     std::vector<double> mine;
     for (std::size_t k = 0; k < m_pairs.size(); ++k) {
       const ContactPair& c = m_pairs[k];
@@ -954,6 +988,7 @@ void ContactSystem::save(StateArchive& archive) const {
       mine.insert(mine.end(), {static_cast<double>(gid(c.i)), static_cast<double>(gid(c.j)), c.normal.x(),
                                c.normal.y(), c.gap0, c.stiffness});
       if (!m_slip.empty()) mine.push_back(m_slip[k]);
+      if (m_law.exact) mine.insert(mine.end(), {m_multiplier_committed[k], m_boost[k], m_boost_limit[k]});
     }
     const std::vector<double> all = m_ranks.gather(mine);
     std::vector<std::size_t> rows(all.size() / width);
@@ -961,14 +996,26 @@ void ContactSystem::save(StateArchive& archive) const {
     std::sort(rows.begin(), rows.end(), [&](std::size_t a, std::size_t b) {
       return std::pair(all[a], all[a + 1]) < std::pair(all[b], all[b + 1]);
     });
-    std::vector<double> pairs, slip;
+    std::vector<double> pairs, slip, multiplier, boost, boost_limit;
     for (const std::size_t r : rows) {
       pairs.insert(pairs.end(), all.begin() + static_cast<std::ptrdiff_t>(r),
                    all.begin() + static_cast<std::ptrdiff_t>(r + 6));
-      if (!m_slip.empty()) slip.push_back(all[r + 6]);
+      std::size_t at = r + 6;
+      if (!m_slip.empty()) slip.push_back(all[at++]);
+      if (m_law.exact) {
+        multiplier.push_back(all[at]);
+        boost.push_back(all[at + 1]);
+        boost_limit.push_back(all[at + 2]);
+      }
     }
     archive.put("contact/pairs", std::move(pairs));
     if (!m_slip.empty()) archive.put("contact/slip", std::move(slip));
+    if (m_law.exact) {
+      archive.put("contact/multiplier", std::move(multiplier));
+      archive.put("contact/boost", std::move(boost));
+      archive.put("contact/boost_limit", std::move(boost_limit));
+      archive.put("contact/augmentation_capped", m_augmentation_capped ? 1.0 : 0.0);
+    }
     if (!m_surfaces.empty()) {
       std::vector<std::int64_t> ids;
       std::vector<double> values;
@@ -1006,10 +1053,16 @@ void ContactSystem::restore(const StateArchive& archive) {
   if (flat.size() % 6 != 0) throw InputError("the checkpoint's 'contact/pairs' is not a list of pairs");
   const Index n = m_model.particles.size(), rows = static_cast<Index>(flat.size() / 6);
   const bool friction = m_law.friction > 0.0 && !m_law.velocity_sign;
-  const std::vector<double> no_slip;
-  const std::vector<double>& slip = friction ? archive.get("contact/slip", rows) : no_slip;
+  const std::vector<double> none;
+  const std::vector<double>& slip = friction ? archive.get("contact/slip", rows) : none;
+  const std::vector<double>& multiplier = m_law.exact ? archive.get("contact/multiplier", rows) : none;
+  const std::vector<double>& boost = m_law.exact ? archive.get("contact/boost", rows) : none;
+  const std::vector<double>& boost_limit = m_law.exact ? archive.get("contact/boost_limit", rows) : none;
   m_pairs.clear();
   m_slip.clear();
+  m_multiplier_committed.clear();
+  m_boost.clear();
+  m_boost_limit.clear();
   for (Index k = 0; k < rows; ++k) {
     const double* v = &flat[6 * k];
     ContactPair c;
@@ -1036,16 +1089,19 @@ void ContactSystem::restore(const StateArchive& archive) {
     c.gap0 = v[4];
     c.stiffness = v[5];
     m_pairs.push_back(c);
-    if (friction) m_slip.push_back(slip[static_cast<std::size_t>(k)]);
+    const auto row = static_cast<std::size_t>(k);
+    if (friction) m_slip.push_back(slip[row]);
+    if (m_law.exact) {
+      m_multiplier_committed.push_back(multiplier[row]);
+      m_boost.push_back(boost[row]);
+      m_boost_limit.push_back(boost_limit[row]);
+    }
   }
   const auto np = static_cast<Index>(m_pairs.size());
   m_result.assign(np, PairResult{});
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
   if (m_law.exact) {
-    m_multiplier_committed = archive.get("contact/multiplier", np);
     m_multiplier = m_multiplier_committed;
-    m_boost = archive.get("contact/boost", np);
-    m_boost_limit = archive.get("contact/boost_limit", np);
     m_last_violation.assign(np, 0.0);
     m_augmentation_capped = archive.scalar("contact/augmentation_capped") != 0.0;
   }
