@@ -190,6 +190,15 @@ void expect_part_rows_equal_the_whole(const Scene& scene) {
       part_options.sum_over_ranks = [&own](double v) { return own = v; };  // this rank's share
       part_options.max_over_ranks = [](double v) { return v; };
       part_options.share_forces = [](VectorXd&) {};  // a part's owned rows need no other rank's forces
+      if (scene.contact.enabled) {  // the part's share of the pairs; the reductions see this rank alone
+        ContactRanks& c = part_options.contact_ranks;
+        c.global_id = part.global_id;
+        for (const int o : part.owner) c.counted.push_back(o == rank || (o < 0 && rank == 0));
+        c.n_particles_whole = part.n_particles_whole;
+        c.gather = [](const std::vector<double>& mine) { return mine; };
+        c.gather_on_root = [](const std::vector<std::int64_t>&, const std::vector<double>& values, int,
+                              std::int64_t) { return values; };
+      }
       QuasiStaticProblem problem(part.model, part_options);
       problem.set_load_factor(1.0);
       const Index n = part.model.constraints.n_free;
@@ -219,6 +228,33 @@ void expect_part_rows_equal_the_whole(const Scene& scene) {
     EXPECT_NEAR(std::sqrt(own_sum + unowned), whole_problem.force_scale(),
                 1e-13 * whole_problem.force_scale());
   }
+}
+
+/// The cracked plate pressed across its crack: the faces are contact candidates (friction 0.3).
+Scene cracked_plate_with_contact() {
+  Scene scene = cracked_plate();
+  scene.contact.enabled = true;
+  scene.contact.cracks = true;
+  scene.contact.friction = 0.3;
+  return scene;
+}
+
+TEST(ModelPart, PartRowsAreTheWholeRowsWithContact) {
+  // Stage 3 (docs/guide/distributed.md, "Contact on the parts"): a part holds the pairs that
+  // touch its own particles, in the whole model's order and orientation, so its owned rows
+  // add the same pair forces in the same order: the residual bit for bit, the action (with
+  // the pairs' Jacobians) to round-off. Some pairs must carry a force at the state tested.
+  const Scene scene = cracked_plate_with_contact();
+  const Model whole = discretise(scene);
+  QuasiStaticProblem probe(whole, problem_options(scene));
+  probe.set_load_factor(1.0);
+  VectorXd r;
+  probe.evaluate(test::random_vector(whole.constraints.n_free, 2e-6, 31u), r, nullptr);
+  ASSERT_NE(probe.contact(), nullptr);
+  const ContactCounts& c = probe.contact()->counts();
+  std::printf("%ld candidate pairs: %ld stick, %ld slip\n", long(c.candidates), long(c.stick), long(c.slip));
+  ASSERT_GT(c.active(), 0) << "pairs must carry a force for this test to mean anything";
+  expect_part_rows_equal_the_whole(scene);
 }
 
 TEST(ModelPart, PartsMapOntoTheWholeModelWithMirrorGrips) {
