@@ -14,11 +14,20 @@ namespace peristat {
 /// The rows that one rank of a distributed run assembles (docs/guide/distributed.md): those
 /// of the particles whose owner is `rank`. The default (no owners) holds every row (one
 /// process).
+/// Whether rank `rank` counts a particle whose rows rank `owner` owns (-1: none) in a sum over
+/// the ranks: its owner does, and rank 0 counts a particle without an owner (every rank holds
+/// those alike), so that every particle is counted once.
+inline bool counted_by(int owner, int rank) {
+  return owner == rank || (owner < 0 && rank == 0);
+}
+
 struct OwnedRows {
   int rank = 0;
   std::vector<int> owner;  ///< per particle, the rank that owns its rows (-1: it has none); empty: all here
   bool all() const { return owner.empty(); }
   bool contains(Index p) const { return owner.empty() || owner[static_cast<std::size_t>(p)] == rank; }
+  /// counted_by() for particle p; every particle when all().
+  bool counts(Index p) const { return owner.empty() || counted_by(owner[static_cast<std::size_t>(p)], rank); }
 };
 
 /// The owners of the particles' rows on `ranks` ranks: the nodes (the particles that have an

@@ -55,8 +55,7 @@ std::vector<Index> read_unknowns(const Constraints& cons, std::vector<char>& rea
 std::vector<char> counted_families(const Model& model, const OwnedRows& rows) {
   if (model.holds_every_family()) return {};
   std::vector<char> counted(rows.owner.size(), 0);
-  for (std::size_t p = 0; p < counted.size(); ++p)
-    counted[p] = rows.owner[p] == rows.rank || (rows.owner[p] < 0 && rows.rank == 0);
+  for (std::size_t p = 0; p < counted.size(); ++p) counted[p] = rows.counts(static_cast<Index>(p));
   return counted;
 }
 
@@ -164,10 +163,8 @@ Vec2 QuasiStaticProblem::reaction(std::size_t k) const {
   // A part's forces are right at its own particles (and those without an owner, which rank 0
   // counts): their sum, summed over the ranks.
   const OwnedRows& rows = m_options.rows;
-  for (const Index d : m_model.constraints.condition_dofs.at(k)) {
-    const int owner = rows.owner[static_cast<std::size_t>(d / 2)];
-    if (owner == rows.rank || (owner < 0 && rows.rank == 0)) f[d % 2] += m_force[d];
-  }
+  for (const Index d : m_model.constraints.condition_dofs.at(k))
+    if (rows.counts(d / 2)) f[d % 2] += m_force[d];
   double sums[2] = {f.x(), f.y()};
   m_options.sum_in_rank_order(sums, 2);
   return Vec2(sums[0], sums[1]);

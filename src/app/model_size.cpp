@@ -14,7 +14,7 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem, const M
   if (part) {  // the whole model's counts: each rank's own particles (rank 0's also those without an owner)
     long long own = 0, own_fictitious = 0;
     for (std::size_t i = 0; i < part->owner.size(); ++i)
-      if (part->owner[i] == parallel::rank() || (part->owner[i] < 0 && parallel::rank() == 0)) {
+      if (counted_by(part->owner[i], parallel::rank())) {
         ++own;
         own_fictitious += p.fictitious[i];
       }

@@ -182,8 +182,7 @@ ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, i
     ContactRanks& c = options.contact_ranks;
     c.global_id = part.global_id;
     c.counted.resize(part.owner.size());
-    for (std::size_t p = 0; p < part.owner.size(); ++p)
-      c.counted[p] = part.owner[p] == rank || (part.owner[p] < 0 && rank == 0);
+    for (std::size_t p = 0; p < part.owner.size(); ++p) c.counted[p] = counted_by(part.owner[p], rank);
     c.n_particles_whole = part.n_particles_whole;
     c.gather = parallel::gather_over_ranks;
     c.gather_on_root = parallel::gather_rows_on_root;
@@ -229,7 +228,7 @@ UnknownLayout part_unknown_layout(const ModelPart& part, int rank) {
   double sums[3] = {0.0, 0.0, 0.0};
   for (Index p = 0; p < n; ++p) {
     const int o = part.owner[static_cast<std::size_t>(p)];
-    if (o == rank || (o < 0 && rank == 0)) {
+    if (counted_by(o, rank)) {
       sums[0] += m.particles.position[p].x();
       sums[1] += m.particles.position[p].y();
       sums[2] += 1.0;

@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "assembly/pattern.hpp"
 #include "solvers/trilinos/parallel.hpp"
 
 namespace peristat {
@@ -13,8 +14,7 @@ WholeView::WholeView(const Model& model, const ModelPart* part, int rank)
   // Each particle's row comes from its owner; those without one (held alike by every rank)
   // from rank 0.
   for (std::size_t p = 0; p < part->owner.size(); ++p) {
-    const int owner = part->owner[p];
-    if (owner == rank || (owner < 0 && rank == 0)) {
+    if (counted_by(part->owner[p], rank)) {
       m_given.push_back(static_cast<Index>(p));
       m_given_ids.push_back(part->global_id[p]);
     }

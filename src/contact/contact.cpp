@@ -196,6 +196,14 @@ namespace {
 
 using Segment = ContactSystem::Segment;
 
+/// The cell R wide holding point x, and its key in a hash grid (partner searches).
+std::pair<std::int64_t, std::int64_t> grid_cell(const Vec2& x, double R) {
+  return {static_cast<std::int64_t>(std::floor(x.x() / R)), static_cast<std::int64_t>(std::floor(x.y() / R))};
+}
+std::uint64_t cell_key(std::int64_t cx, std::int64_t cy) {
+  return (static_cast<std::uint64_t>(cx) << 32) ^ (static_cast<std::uint64_t>(cy) & 0xffffffffull);
+}
+
 /// The boundary segments shared by polygons A and B (collinear, overlapping edges).
 std::vector<Segment> shared_segments(const Polygon& A, const Polygon& B, double tol) {
   std::vector<Segment> out;
@@ -670,7 +678,6 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
     if (m_result[k].normal_force > 0.0) m.opening = std::max(m.opening, -closure[k]);
     if (violation[k] > m.violation) {
       m.violation = violation[k];
-      m.pair = k;
       m.pair_i = gid(c.i);
       m.pair_j = gid(c.j);
     }
@@ -690,7 +697,6 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
         best.pair_j = j;
       }
     }
-    if (best.pair_i != m.pair_i || best.pair_j != m.pair_j) m.pair = -1;
     m.violation = best.violation;
     m.opening = best.opening;
     m.pair_i = best.pair_i;
@@ -771,25 +777,18 @@ std::int64_t ContactSystem::partners_outside(const VectorXd& u) const {
     for (int side = 0; side < 2; ++side) {
       // The other side's particles, every rank's, in cells R wide.
       std::unordered_map<std::uint64_t, std::vector<std::size_t>> grid;
-      const auto cell = [R](double x, double y) {
-        return std::pair<std::int64_t, std::int64_t>(static_cast<std::int64_t>(std::floor(x / R)),
-                                                     static_cast<std::int64_t>(std::floor(y / R)));
-      };
-      const auto key = [](std::int64_t cx, std::int64_t cy) {
-        return (static_cast<std::uint64_t>(cx) << 32) ^ (static_cast<std::uint64_t>(cy) & 0xffffffffull);
-      };
       for (std::size_t at = 0; at + 5 <= all.size(); at += 5)
         if (all[at] == static_cast<double>(s) && all[at + 1] != static_cast<double>(side)) {
-          const auto [cx, cy] = cell(all[at + 3], all[at + 4]);
-          grid[key(cx, cy)].push_back(at);
+          const auto [cx, cy] = grid_cell(Vec2(all[at + 3], all[at + 4]), R);
+          grid[cell_key(cx, cy)].push_back(at);
         }
       for (const Index q : side == 0 ? m_surfaces[s].side_a : m_surfaces[s].side_b) {
         if (!counted(q)) continue;
         const Vec2 x = current(q);
-        const auto [cx, cy] = cell(x.x(), x.y());
+        const auto [cx, cy] = grid_cell(x, R);
         for (std::int64_t dx = -1; dx <= 1; ++dx)
           for (std::int64_t dy = -1; dy <= 1; ++dy) {
-            const auto it = grid.find(key(cx + dx, cy + dy));
+            const auto it = grid.find(cell_key(cx + dx, cy + dy));
             if (it == grid.end()) continue;
             for (const std::size_t at : it->second)
               if ((Vec2(all[at + 3], all[at + 4]) - x).norm() < R &&
@@ -866,20 +865,13 @@ bool ContactSystem::search(const VectorXd& u) {
   for (const Surface& surface : m_surfaces) {
     // Side b in a grid of cells R wide over its current positions.
     std::unordered_map<std::uint64_t, std::vector<Index>> grid;
-    const auto cell = [R](const Vec2& x) {
-      return std::pair<std::int64_t, std::int64_t>(static_cast<std::int64_t>(std::floor(x.x() / R)),
-                                                   static_cast<std::int64_t>(std::floor(x.y() / R)));
-    };
-    const auto cell_key = [](std::int64_t cx, std::int64_t cy) {
-      return (static_cast<std::uint64_t>(cx) << 32) ^ (static_cast<std::uint64_t>(cy) & 0xffffffffull);
-    };
     for (Index j : surface.side_b) {
-      const auto [cx, cy] = cell(current(j));
+      const auto [cx, cy] = grid_cell(current(j), R);
       grid[cell_key(cx, cy)].push_back(j);
     }
     for (Index i : surface.side_a) {
       const Vec2 xi = current(i);
-      const auto [cx, cy] = cell(xi);
+      const auto [cx, cy] = grid_cell(xi, R);
       for (std::int64_t dx = -1; dx <= 1; ++dx)
         for (std::int64_t dy = -1; dy <= 1; ++dy) {
           const auto it = grid.find(cell_key(cx + dx, cy + dy));

@@ -100,8 +100,9 @@ struct MultiplierUpdate {
   /// Largest opening -(a - n.Y) / a of a facing pair that carries a force (a force across a
   /// gap: the multipliers' complementarity error).
   double opening = 0.0;
-  Index pair = -1;  ///< the pair with that violation (-1: none; on a part, -1 where another rank holds it)
-  std::int64_t pair_i = -1, pair_j = -1;  ///< its ends by global id (the particle index in one process)
+  /// The pair with that violation, by its ends' global ids (the particle indices in one
+  /// process; -1: none).
+  std::int64_t pair_i = -1, pair_j = -1;
   int updates = 0;  ///< updates made in this increment so far
 };
 

@@ -193,7 +193,7 @@ void expect_part_rows_equal_the_whole(const Scene& scene) {
       if (scene.contact.enabled) {  // the part's share of the pairs; the reductions see this rank alone
         ContactRanks& c = part_options.contact_ranks;
         c.global_id = part.global_id;
-        for (const int o : part.owner) c.counted.push_back(o == rank || (o < 0 && rank == 0));
+        for (const int o : part.owner) c.counted.push_back(counted_by(o, rank));
         c.n_particles_whole = part.n_particles_whole;
         c.gather = [](const std::vector<double>& mine) { return mine; };
         c.gather_on_root = [](const std::vector<std::int64_t>&, const std::vector<double>& values, int,
