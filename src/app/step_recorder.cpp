@@ -130,18 +130,7 @@ bool StepRecorder::due(int step) const {
   return step % m_scene.output.every == 0 || step == m_scene.loading.steps;
 }
 
-void StepRecorder::record(const StepReport& s, const VectorXd& x) {
-  if (!m_writer && !m_view.gathers()) return;
-  if (!m_writer) {  // a rank other than 0 of a run on the parts: its share of the collective calls
-    if (!due(s.step)) return;
-    m_problem.expand(x, m_u);
-    m_view.particle_values(m_u, 2, m_u_whole);
-    for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) m_problem.reaction(k);
-    if (const ContactSystem* contact = m_problem.contact()) gather_contact_fields(*contact);
-    return;
-  }
-  const double step_contact_seconds = m_problem.contact_seconds() - m_contact_seconds_before;
-  m_contact_seconds_before = m_problem.contact_seconds();
+void StepRecorder::add_step_warnings(const StepReport& s) {
   if (std::string warning = compliance_warning(m_problem, s); !warning.empty()) m_writer->add_warning(warning);
   if (m_problem.fragment_particles() > m_fragment_particles) {
     char buf[320];
@@ -164,9 +153,26 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     m_writer->add_warning(buf);
     m_fragment_contact_warned = true;
   }
+}
+
+void StepRecorder::record(const StepReport& s, const VectorXd& x) {
+  if (!m_writer && !m_view.gathers()) return;
+  double step_contact_seconds = 0.0;  // since the previous step (recorded or not)
+  if (m_writer) {
+    step_contact_seconds = m_problem.contact_seconds() - m_contact_seconds_before;
+    m_contact_seconds_before = m_problem.contact_seconds();
+    add_step_warnings(s);
+  }
   if (!due(s.step)) return;
+  // The fields and the reactions, the whole model's: collective on the parts, so every rank
+  // computes them; rank 0 alone writes.
   m_problem.expand(x, m_u);
-  if (m_view.gathers()) m_view.particle_values(m_u, 2, m_u_whole);  // the whole model's, from the parts
+  if (m_view.gathers()) m_view.particle_values(m_u, 2, m_u_whole);
+  m_reactions.clear();
+  for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) m_reactions.push_back(m_problem.reaction(k));
+  const ContactSystem* contact = m_problem.contact();
+  if (contact) gather_contact_fields(*contact);  // the commit evaluated the pairs at this state
+  if (!m_writer) return;
   StepRecord rec;
   rec.index = s.step;
   rec.load_factor = s.load_factor;
@@ -182,8 +188,8 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
                 {"linear_iterations", s.linear_iterations},
                 {"predictor_solves", s.predictor_solves}};
   // The force each boundary condition applies (docs/guide/results.md).
-  for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) {
-    const Vec2 f = m_problem.reaction(k);
+  for (std::size_t k = 0; k < m_reactions.size(); ++k) {
+    const Vec2& f = m_reactions[k];
     rec.counts["reaction_" + std::to_string(k) + "_x"] = f.x();
     rec.counts["reaction_" + std::to_string(k) + "_y"] = f.y();
   }
@@ -223,9 +229,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     rec.counts["adr_iterations"] = s.newton_iterations;
     rec.counts["unconverged_substeps"] = s.unconverged;
   }
-  if (const ContactSystem* contact = m_problem.contact()) {
-    // The commit evaluated the pairs at this state (before updating the slip history).
-    gather_contact_fields(*contact);
+  if (contact) {
     rec.contact_force = &m_contact_force;
     rec.contact_state = &m_contact_state;
     const ContactCounts& c = contact->counts();

@@ -47,6 +47,8 @@ class StepRecorder {
   std::string h5_path() const { return m_writer ? m_writer->h5_path() : std::string(); }
 
  private:
+  /// The warnings a converged step deserves (compliance, fragments), into the record (rank 0).
+  void add_step_warnings(const StepReport& s);
   /// The contact force and state of each particle into m_contact_force and m_contact_state:
   /// the whole model's on rank 0 (collective on the parts).
   void gather_contact_fields(const ContactSystem& contact);
@@ -59,6 +61,7 @@ class StepRecorder {
   Index m_fragment_particles = 0;         ///< fragment particles already warned about
   bool m_fragment_contact_warned = false;  ///< contact on held fragments already warned about
   VectorXd m_u, m_u_whole, m_contact_force, m_damage;
+  std::vector<Vec2> m_reactions;  ///< of each boundary condition at the recorded step
   std::vector<int> m_contact_state;
 };
 
