@@ -119,7 +119,9 @@ class Problem {
 
   /// Checks a converged state before it is accepted; returns why it must be rejected (e.g. a
   /// contact pair whose particles have passed each other), or "" when it may be accepted.
-  /// The load stepping calls it right after evaluate(x, r, nullptr).
+  /// The load stepping calls it right after evaluate(x, r, nullptr). A rejected state is cut
+  /// back; a state no smaller increment can avoid throws ModelLimit instead, and the run stops
+  /// at the last converged state with the reason.
   virtual std::string check_converged_state(const VectorXd& /*x*/) { return {}; }
   /// What every accepted state has been checked for (summary.json run.checks): the load
   /// stepping's own checks (finite state, residual recomputed within the solver's

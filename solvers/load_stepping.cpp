@@ -73,14 +73,15 @@ SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& tria
   problem.evaluate(trial, r_check, nullptr);
   const double norm = problem.norm(r_check), scale = problem.force_scale();
   r.true_residual = norm / std::max(scale, std::numeric_limits<double>::min());
-  if (!std::isfinite(norm))
-    return reject("the residual recomputed at the solver's state is not finite");
+  if (!std::isfinite(norm)) return reject("the residual recomputed at the solver's state is not finite");
   if (r.converged && norm > solver.residual_tolerance(scale)) {
     char buf[320];
-    std::snprintf(buf, sizeof buf,
-                  "the residual recomputed at the solver's converged state, %.3e relative, exceeds the solver's "
-                  "tolerance (%.3e relative): the solver's convergence report was wrong",
-                  r.true_residual, solver.residual_tolerance(scale) / std::max(scale, std::numeric_limits<double>::min()));
+    std::snprintf(
+        buf, sizeof buf,
+        "the residual recomputed at the solver's converged state, %.3e relative, exceeds the solver's "
+        "tolerance (%.3e relative): the solver's convergence report was wrong",
+        r.true_residual,
+        solver.residual_tolerance(scale) / std::max(scale, std::numeric_limits<double>::min()));
     return reject(buf);
   }
   if (std::string why = problem.check_converged_state(trial); !why.empty()) return reject(std::move(why));
@@ -102,8 +103,8 @@ void accept(Problem& problem, VectorXd& x, VectorXd& trial, const SolveReport& r
 /// two rounds in a row converge. Returns "" or why the run has to stop (x is then the last
 /// converged state).
 std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x, VectorXd& trial,
-                              VectorXd& r_check, const Loading& loading, const LoadSteppingCallbacks& cb, StepReport& step,
-                              int n, double lambda) {
+                              VectorXd& r_check, const Loading& loading, const LoadSteppingCallbacks& cb,
+                              StepReport& step, int n, double lambda) {
   const int k = step.step;
   char buf[320];
   Index at_most = 0;  // 0: no cap beyond failure.fraction
@@ -179,69 +180,70 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
     solver.set_reproducible(steps_done > 0 || k > 1);
     double increment = target - lambda;
     int halvings = 0;  // current depth below the nominal increment
-    while (lambda < target - kReachedTarget * nominal) {
-      if (!solver.prepared()) solver.prepare(x);  // tangent of the converged state
-      const double next = std::min(lambda + increment, target);
-      problem.set_load_factor(next);
-      if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
-      trial = x;
-      if (loading.extrapolate && lambda_before >= 0.0 && lambda > lambda_before)
-        trial += ((next - lambda) / (lambda - lambda_before)) * (x - x_before);
-      else if (loading.extrapolate)
-        accumulate(step, solver.predict(trial, lambda));  // no secant: the solver's tangent
-      SolveReport r;
-      try {
-        r = solve_and_check(problem, solver, trial, r_check, cb, step);
-      } catch (const ModelLimit& limit) {  // no smaller increment can help: stop at x
-        problem.set_load_factor(lambda);
-        char buf[512];
-        std::snprintf(buf, sizeof buf, "load step %d/%d at load factor %.6g: %s", k, n, next, limit.what());
-        run.message = buf;
-        return run;
-      }
-      if (r.converged || r.accepted_unconverged) {
-        x_before = x;
-        lambda_before = lambda;
-        accept(problem, x, trial, r, step);
-        lambda = next;
-        ++step.substeps;
-        if (std::string why = break_and_resolve(problem, solver, x, trial, r_check, loading, cb, step, n, lambda);
-            !why.empty()) {
-          run.message = std::move(why);
+    // A ModelLimit (the model cannot follow the state: Problem::check_converged_state) stops the
+    // run at the last converged state x.
+    try {
+      while (lambda < target - kReachedTarget * nominal) {
+        if (!solver.prepared()) solver.prepare(x);  // tangent of the converged state
+        const double next = std::min(lambda + increment, target);
+        problem.set_load_factor(next);
+        if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
+        trial = x;
+        if (loading.extrapolate && lambda_before >= 0.0 && lambda > lambda_before)
+          trial += ((next - lambda) / (lambda - lambda_before)) * (x - x_before);
+        else if (loading.extrapolate)
+          accumulate(step, solver.predict(trial, lambda));  // no secant: the solver's tangent
+        const SolveReport r = solve_and_check(problem, solver, trial, r_check, cb, step);
+        if (r.converged || r.accepted_unconverged) {
+          x_before = x;
+          lambda_before = lambda;
+          accept(problem, x, trial, r, step);
+          lambda = next;
+          ++step.substeps;
+          if (std::string why =
+                  break_and_resolve(problem, solver, x, trial, r_check, loading, cb, step, n, lambda);
+              !why.empty()) {
+            run.message = std::move(why);
+            return run;
+          }
+          if (halvings > 0) {  // grow back towards the nominal increment
+            --halvings;
+            increment *= 2.0;
+          }
+          continue;
+        }
+        ++step.cutbacks;
+        ++halvings;
+        if (step.substeps + step.cutbacks > kMaxAttemptsPerStep) {
+          char buf[320];
+          std::snprintf(
+              buf, sizeof buf,
+              "load step %d/%d stopped at load factor %.6g after %d sub-steps and %d cut-backs: the "
+              "increment keeps failing %d halvings deep (last attempt: %s)",
+              k, n, lambda, step.substeps, step.cutbacks, halvings, r.reason.c_str());
+          problem.set_load_factor(lambda);
+          run.message = buf;
           return run;
         }
-        if (halvings > 0) {  // grow back towards the nominal increment
-          --halvings;
-          increment *= 2.0;
-        }
-        continue;
-      }
-      ++step.cutbacks;
-      ++halvings;
-      if (step.substeps + step.cutbacks > kMaxAttemptsPerStep) {
-        char buf[320];
-        std::snprintf(buf, sizeof buf,
-                      "load step %d/%d stopped at load factor %.6g after %d sub-steps and %d cut-backs: the "
-                      "increment keeps failing %d halvings deep (last attempt: %s)",
-                      k, n, lambda, step.substeps, step.cutbacks, halvings, r.reason.c_str());
         problem.set_load_factor(lambda);
-        run.message = buf;
-        return run;
+        solver.invalidate_factorization();  // the factor may belong to a diverged iterate
+        lambda_before = -1.0;               // the retry starts from the converged state, not a prediction
+        if (halvings > loading.max_cutbacks || !solver.cutback_helps()) {
+          char buf[256];
+          std::snprintf(buf, sizeof buf,
+                        "load step %d/%d did not converge at load factor %.6g after %d cut-backs "
+                        "(last attempt: %s)",
+                        k, n, next, step.cutbacks - 1, r.reason.c_str());
+          run.message = buf;
+          return run;
+        }
+        increment *= 0.5;
+        if (cb.on_cutback) cb.on_cutback(r.reason, increment);
       }
+    } catch (const ModelLimit& limit) {  // a check of a solve or re-solve: no smaller increment helps
       problem.set_load_factor(lambda);
-      solver.invalidate_factorization();  // the factor may belong to a diverged iterate
-      lambda_before = -1.0;  // the retry starts from the converged state, not a prediction
-      if (halvings > loading.max_cutbacks || !solver.cutback_helps()) {
-        char buf[256];
-        std::snprintf(buf, sizeof buf,
-                      "load step %d/%d did not converge at load factor %.6g after %d cut-backs "
-                      "(last attempt: %s)",
-                      k, n, next, step.cutbacks - 1, r.reason.c_str());
-        run.message = buf;
-        return run;
-      }
-      increment *= 0.5;
-      if (cb.on_cutback) cb.on_cutback(r.reason, increment);
+      run.message = "load step " + std::to_string(k) + "/" + std::to_string(n) + ": " + limit.what();
+      return run;
     }
     step.load_factor = lambda;
     step.wall_seconds = wall_seconds() - start;
