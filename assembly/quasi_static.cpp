@@ -63,7 +63,12 @@ std::vector<char> counted_families(const Model& model, const OwnedRows& rows) {
 /// of the families it counts (its own; rank 0's also those without a row).
 FailureRanks failure_ranks(const Model& model, const ProblemOptions& options) {
   if (model.holds_every_family()) return {};
-  return {counted_families(model, options.rows), options.gather_over_ranks, options.share_particle_values};
+  return {counted_families(model, options.rows),
+          options.gather_over_ranks,
+          options.share_particle_values,
+          options.owned_unknowns >= 0 ? options.global_id : std::vector<std::int64_t>{},
+          options.n_particles_whole,
+          options.gather_on_root};
 }
 
 }  // namespace
@@ -110,8 +115,10 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   if (m_failure) {
     m_damage_accepted = VectorXd::Zero(n);
     if (m_failure->partitioned())
-      m_graph_parts =
-          std::make_unique<GraphParts>(GraphParts{m_failure->ranks().proposes, m_options.gather_over_ranks});
+      m_graph_parts = std::make_unique<GraphParts>(
+          GraphParts{m_failure->ranks().proposes, m_options.gather_over_ranks, m_failure->ranks().global_id,
+                     m_failure->part() ? std::span<const int>(m_options.rows.owner) : std::span<const int>{},
+                     m_options.share_particle_values});
     find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component, m_graph_parts.get());
     m_fragment.assign(n, 0);
   }
@@ -251,16 +258,31 @@ std::string QuasiStaticProblem::check_converged_state(const VectorXd& x) {
 std::string QuasiStaticProblem::check_damage() {
   if (!m_failure) return {};
   m_failure->damage(m_damage_now);
+  // The first particle whose damage decreased: (its whole model's index, position, before,
+  // after); on a part, each rank's own particles, the smallest index over the ranks.
+  std::vector<double> found;
   for (Index i = 0; i < m_damage_now.size(); ++i) {
+    if (part() && !m_options.rows.counts(i)) continue;
     if (m_damage_now[i] >= m_damage_accepted[i] - kDamageRoundOff) continue;
-    char buf[320];
     const Vec2& X = m_model.particles.position[i];
-    std::snprintf(buf, sizeof buf,
-                  "the damage of particle %ld at (%.6g, %.6g) m decreased from %.6g to %.6g: broken bonds healed",
-                  static_cast<long>(i), X.x(), X.y(), m_damage_accepted[i], m_damage_now[i]);
-    return buf;
+    found = {static_cast<double>(m_failure->global(i)), X.x(), X.y(), m_damage_accepted[i], m_damage_now[i]};
+    break;
   }
-  return {};
+  if (part()) {
+    const std::vector<double> all = m_options.gather_over_ranks(found);
+    found.clear();
+    for (std::size_t at = 0; at < all.size(); at += 5)
+      if (found.empty() || all[at] < found[0])
+        found.assign(all.begin() + static_cast<std::ptrdiff_t>(at),
+                     all.begin() + static_cast<std::ptrdiff_t>(at + 5));
+  }
+  if (found.empty()) return {};
+  char buf[320];
+  std::snprintf(
+      buf, sizeof buf,
+      "the damage of particle %ld at (%.6g, %.6g) m decreased from %.6g to %.6g: broken bonds healed",
+      static_cast<long>(found[0]), found[1], found[2], found[3], found[4]);
+  return buf;
 }
 
 std::string QuasiStaticProblem::measure_increment(const VectorXd& x, bool check) {
@@ -443,9 +465,12 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   m_force_scale = force_norm();
   Vec2 reaction = Vec2::Zero();  // bonds inside a fragment cancel: what remains is contact
   for (const Index c : m_fragment_components) {
-    reaction[c % 2] += m_force[c];
+    if (!part() || m_options.rows.counts(c / 2)) reaction[c % 2] += m_force[c];
     m_force[c] = 0.0;
   }
+  // On a part: the sum over the ranks' own particles (collective: every rank knows that
+  // fragments exist).
+  if (part() && m_fragment_particles > 0) m_options.sum_in_rank_order(reaction.data(), 2);
   m_fragment_reaction = reaction.norm();
   m_model.constraints.gather(m_force, r);
   if (m_own_rows_only)
@@ -660,8 +685,10 @@ void QuasiStaticProblem::update_fragments() {
   for (Index i = 0; i < n; ++i) {
     m_fragment[i] = m_unsupported[i] && !m_initially_unsupported[i];
     if (!m_fragment[i]) continue;
-    ++m_fragment_particles;
-    roots.push_back(m_component[i]);
+    if (!part() || m_options.rows.counts(i)) {  // on a part, its own particles (summed below)
+      ++m_fragment_particles;
+      roots.push_back(m_component[i]);
+    }
     for (int d = 0; d < 2; ++d) {
       m_fragment_components.push_back(2 * i + d);
       if (free[2 * i + d] >= 0) {
@@ -671,7 +698,18 @@ void QuasiStaticProblem::update_fragments() {
     }
   }
   std::sort(roots.begin(), roots.end());
-  m_fragments = static_cast<Index>(std::unique(roots.begin(), roots.end()) - roots.begin());
+  roots.erase(std::unique(roots.begin(), roots.end()), roots.end());
+  if (part()) {  // the components by global id: every rank's own particles' components, once
+    const std::vector<double> all =
+        m_options.gather_over_ranks(std::vector<double>(roots.begin(), roots.end()));
+    std::vector<double> every = all;
+    std::sort(every.begin(), every.end());
+    m_fragments = static_cast<Index>(std::unique(every.begin(), every.end()) - every.begin());
+    m_fragment_particles =
+        static_cast<Index>(std::llround(over_ranks(static_cast<double>(m_fragment_particles))));
+  } else {
+    m_fragments = static_cast<Index>(roots.size());
+  }
   if (m_contact) m_contact->set_excluded(m_fragment_particles > 0 ? m_fragment : std::vector<char>{});
 }
 
@@ -680,10 +718,11 @@ Index QuasiStaticProblem::fragment_contacts() const {
   Index n = 0;
   for (std::size_t c = 0; c < m_fragment_components.size(); c += 2) {
     const Index i = m_fragment_components[c] / 2;
+    if (part() && !m_options.rows.counts(i)) continue;  // a part: its own particles, summed over the ranks
     for (auto* e = m_contact->incident_begin(i); e != m_contact->incident_end(i); ++e)
       if (!m_fragment[e->other] && m_contact->result(e->pair).status != PairStatus::open) ++n;
   }
-  return n;
+  return static_cast<Index>(std::llround(over_ranks(static_cast<double>(n))));
 }
 
 void QuasiStaticProblem::decouple_fragments(SparseMatrix& K) const {
@@ -1007,32 +1046,44 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
 #pragma omp parallel for schedule(static)
   for (Index i = 0; i < n; ++i) family_displacements(i, m_eta.data() + m_model.bonds.start[i]);
   const std::vector<std::pair<Index, Index>>& broken = m_failure->break_over_criterion(m_eta, at_most);
+  // Every rank's count (on a part `broken` holds only the pairs it holds a direction of), so
+  // that the collective steps below are taken by every rank or none.
+  const Index count = m_failure->round_pairs();
+  if (count == 0) return 0;
   check_mirror_zone(broken);
   collect_changed_families(broken);
   if (!m_changed_families.empty()) m_correction.update(m_failure->weights(), m_changed_families);
   // The new faces are contact candidates at once (when the scene models contact).
-  if (m_contact && !broken.empty()) m_contact->add_broken_bonds(broken, m_u);
-  if (!broken.empty()) {
-    m_bonds_changed = true;
-    update_fragments();
-  }
-  return static_cast<Index>(broken.size());
+  if (m_contact) m_contact->add_broken_bonds(broken, m_u);
+  m_bonds_changed = true;
+  update_fragments();
+  return count;
 }
 
 void QuasiStaticProblem::check_mirror_zone(const std::vector<std::pair<Index, Index>>& broken) {
-  if (m_mirror_zone.empty()) return;
-  for (const auto& [i, j] : broken) {
+  if (m_mirror_zone.empty() && !part()) return;  // a part without mirror images still takes part
+  std::vector<double> found;                     // the bond's ends
+  for (const auto& [i, j] : m_mirror_zone.empty() ? std::vector<std::pair<Index, Index>>{} : broken) {
     if (!m_mirror_zone[i] && !m_mirror_zone[j]) continue;
-    m_failure->revert();
     const Vec2 &a = m_model.particles.position[i], &b = m_model.particles.position[j];
-    char buf[256];
-    std::snprintf(buf, sizeof buf,
-                  "the bond (%.6g, %.6g)-(%.6g, %.6g) reached the failure criterion within the reflected "
-                  "depth of a mirror edge, where the mirror layers cannot follow broken bonds; move the "
-                  "mirror edge further from where the body breaks",
-                  a.x(), a.y(), b.x(), b.y());
-    throw ModelLimit(buf);
+    found = {a.x(), a.y(), b.x(), b.y()};
+    break;
   }
+  // On a part, each rank sees the pairs it holds: the first rank's bond that found one.
+  if (part()) {
+    const std::vector<double> all = m_options.gather_over_ranks(found);
+    found.assign(all.begin(),
+                 all.begin() + std::min<std::ptrdiff_t>(4, static_cast<std::ptrdiff_t>(all.size())));
+  }
+  if (found.empty()) return;
+  m_failure->revert();
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "the bond (%.6g, %.6g)-(%.6g, %.6g) reached the failure criterion within the reflected "
+                "depth of a mirror edge, where the mirror layers cannot follow broken bonds; move the "
+                "mirror edge further from where the body breaks",
+                found[0], found[1], found[2], found[3]);
+  throw ModelLimit(buf);
 }
 
 void QuasiStaticProblem::revert_irreversible_state() {

@@ -70,8 +70,18 @@ struct ProblemOptions {
   /// With partitioned bonds and failure: every rank's values in rank order, on every rank
   /// (the candidates of a round of breaking, the pieces of the bond graph), and a vector of
   /// one value per particle with each owner's entries copied to every rank (the damage).
+  /// On a part (owned_unknowns), also with failure: the exchange copies each owner's entry
+  /// into the ranks that read the particle.
   GatherOverRanks gather_over_ranks;
   std::function<void(VectorXd& per_particle)> share_particle_values;
+  /// On a part with failure: per particle of the part its whole model's index, the whole
+  /// model's particle count, and rows by global id to rank 0 (FailureRanks: the checkpoint's
+  /// reference bonds).
+  std::vector<std::int64_t> global_id;
+  std::int64_t n_particles_whole = 0;
+  std::function<std::vector<double>(const std::vector<std::int64_t>& ids, const std::vector<double>& values,
+                                    int width, std::int64_t n_rows)>
+      gather_on_root;
   /// On a rank's part of the model (ModelPart, docs/guide/distributed.md "The partitioned
   /// model"): the unknowns this rank owns, the first ones of every vector over the unknowns
   /// (-1: the model is whole here). With it, sum_over_ranks and max_over_ranks, and rows the

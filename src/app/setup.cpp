@@ -135,8 +135,6 @@ ModelChoice part_model_choice(const Scene& scene, int ranks) {
     cannot =
         "a part holds the families one horizon around its particles, which the matrix-free tangent reads "
         "and solver.belos.tangent=assembled does not (it reads two)";
-  else if (scene.failure.enabled)
-    cannot = "the scene has a failure criterion, and bonds breaking across the parts are not built yet";
   else if (scene.contact.enabled && scene.contact.velocity_sign)
     cannot = "the velocity-sign friction law, which the parts do not run";
   if (!cannot.empty()) {
@@ -178,6 +176,33 @@ ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, i
                                                          static_cast<std::size_t>(part.n_owned_unknowns));
   options.import_ghosts = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
   options.sum_in_rank_order = parallel::sum_in_rank_order;
+  if (scene.failure.enabled) {
+    // One value per particle from its owner into the ranks that read it (the damage, the
+    // labels of the pieces of the bond graph); particles without an owner are not exchanged.
+    std::vector<std::size_t> exchanged;
+    std::vector<std::int64_t> ids;
+    std::vector<int> owner;
+    for (std::size_t p = 0; p < part.owner.size(); ++p)
+      if (part.owner[p] >= 0) {
+        exchanged.push_back(p);
+        ids.push_back(part.global_id[p]);
+        owner.push_back(part.owner[p]);
+      }
+    auto exchange =
+        std::make_shared<parallel::PartExchange>(ids, owner, static_cast<std::size_t>(part.n_owned));
+    auto scratch = std::make_shared<std::vector<double>>(exchanged.size());
+    options.share_particle_values = [exchange, scratch, exchanged](VectorXd& values) {
+      for (std::size_t k = 0; k < exchanged.size(); ++k)
+        (*scratch)[k] = values[static_cast<Index>(exchanged[k])];
+      exchange->share(scratch->data());
+      for (std::size_t k = 0; k < exchanged.size(); ++k)
+        values[static_cast<Index>(exchanged[k])] = (*scratch)[k];
+    };
+    options.gather_over_ranks = parallel::gather_over_ranks;
+    options.global_id = part.global_id;
+    options.n_particles_whole = part.n_particles_whole;
+    options.gather_on_root = parallel::gather_rows_on_root;
+  }
   if (scene.contact.enabled) {
     ContactRanks& c = options.contact_ranks;
     c.global_id = part.global_id;

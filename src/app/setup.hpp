@@ -83,9 +83,9 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
 std::vector<int> unknown_owners(const Constraints& constraints, const std::vector<int>& particle_owner);
 
 /// Whether each rank holds only its part of the model (solver.belos.model), and why. A part
-/// runs Newton with belos's matrix-free tangent on a scene without a failure criterion and
-/// without the velocity-sign friction law (broken bonds across the parts are not built:
-/// docs/guide/distributed.md, "Running on the parts"). `auto` picks the part under
+/// runs Newton with belos's matrix-free tangent on a scene without the velocity-sign friction
+/// law, with or without contact and failure (docs/guide/distributed.md, "Running on the
+/// parts"). `auto` picks the part under
 /// mpirun for a scene without contact, the whole model elsewhere; `part` where a belos run (or
 /// ADR under mpirun) cannot use it throws InputError saying why; a one-process run with another
 /// linear solver ignores the key. Call after resolve_linear_solver().

@@ -143,12 +143,13 @@ void StepRecorder::add_step_warnings(const StepReport& s) {
     m_writer->add_warning(buf);
     m_fragment_particles = m_problem.fragment_particles();
   }
-  if (!m_fragment_contact_warned && m_problem.fragment_particles() > 0 && m_problem.fragment_contacts() > 0) {
+  if (!m_fragment_contact_warned && m_problem.fragment_particles() > 0 && m_fragment_contacts > 0) {
     char buf[320];
-    std::snprintf(buf, sizeof buf,
-                  "step %d: %ld contact pairs press on held fragments, which act as fixed obstacles: their net "
-                  "reaction of %.3g N is not balanced by the model (counts fragment_contacts, fragment_reaction)",
-                  s.step, static_cast<long>(m_problem.fragment_contacts()), m_problem.fragment_reaction());
+    std::snprintf(
+        buf, sizeof buf,
+        "step %d: %ld contact pairs press on held fragments, which act as fixed obstacles: their net "
+        "reaction of %.3g N is not balanced by the model (counts fragment_contacts, fragment_reaction)",
+        s.step, static_cast<long>(m_fragment_contacts), m_problem.fragment_reaction());
     std::fprintf(stderr, "WARNING: %s\n", buf);
     m_writer->add_warning(buf);
     m_fragment_contact_warned = true;
@@ -158,6 +159,8 @@ void StepRecorder::add_step_warnings(const StepReport& s) {
 void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   if (!m_writer && !m_view.gathers()) return;
   double step_contact_seconds = 0.0;  // since the previous step (recorded or not)
+  // Collective on the parts: every rank counts, rank 0 writes.
+  if (m_problem.failure() && m_problem.contact()) m_fragment_contacts = m_problem.fragment_contacts();
   if (m_writer) {
     step_contact_seconds = m_problem.contact_seconds() - m_contact_seconds_before;
     m_contact_seconds_before = m_problem.contact_seconds();
@@ -172,6 +175,13 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) m_reactions.push_back(m_problem.reaction(k));
   const ContactSystem* contact = m_problem.contact();
   if (contact) gather_contact_fields(*contact);  // the commit evaluated the pairs at this state
+  if (m_problem.failure()) {                     // the committed state's
+    m_damage = m_problem.damage();
+    if (m_view.gathers()) {
+      const VectorXd mine = m_damage;
+      m_view.particle_values(mine, 1, m_damage);
+    }
+  }
   if (!m_writer) return;
   StepRecord rec;
   rec.index = s.step;
@@ -203,7 +213,6 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   rec.counts["energy_quadrature"] = e.quadrature;
   rec.counts["energy_worst_relative"] = e.worst_relative;
   if (const BondFailure* failure = m_problem.failure()) {
-    m_damage = m_problem.damage();  // the committed state's, shared by every rank
     rec.damage = &m_damage;
     rec.counts["bonds_broken"] = s.bonds_broken;
     rec.counts["broken_bonds_total"] = failure->broken();
@@ -215,14 +224,12 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     rec.counts["fragments"] = m_problem.fragments();
     rec.counts["fragment_particles"] = m_problem.fragment_particles();
     if (m_problem.contact()) {
-      rec.counts["fragment_contacts"] = m_problem.fragment_contacts();
+      rec.counts["fragment_contacts"] = m_fragment_contacts;
       rec.counts["fragment_reaction"] = m_problem.fragment_reaction();
     }
     if (peak.i >= 0) {
-      const std::vector<Vec2>& X = m_problem.model().particles.position;
-      const Vec2 mid = X[peak.i] + 0.5 * Vec2(X[peak.j] - X[peak.i]);
-      rec.counts["criterion_peak_x"] = mid.x();
-      rec.counts["criterion_peak_y"] = mid.y();
+      rec.counts["criterion_peak_x"] = peak.at.x();
+      rec.counts["criterion_peak_y"] = peak.at.y();
     }
   }
   if (m_scene.solver.type == SolverKind::adr) {

@@ -61,6 +61,7 @@ class StepRecorder {
   Index m_fragment_particles = 0;         ///< fragment particles already warned about
   bool m_fragment_contact_warned = false;  ///< contact on held fragments already warned about
   VectorXd m_u, m_u_whole, m_contact_force, m_damage;
+  Index m_fragment_contacts = 0;  ///< of the step being recorded (collective on the parts)
   std::vector<Vec2> m_reactions;  ///< of each boundary condition at the recorded step
   std::vector<int> m_contact_state;
 };

@@ -373,7 +373,7 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o, Contac
       m_pairs.end());
   const Index np = size();
   m_result.assign(np, PairResult{});
-  if (m_law.friction > 0.0 && !m_law.velocity_sign) m_slip.assign(np, 0.0);
+  if (tracks_slip()) m_slip.assign(np, 0.0);
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
   if (m_law.exact) {
     m_multiplier.assign(np, 0.0);
@@ -438,6 +438,7 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
   for (const auto& [a, b] : bonds) {
     const Index i = gid(a) < gid(b) ? a : b, j = i == a ? b : a;
     if (p.fictitious[i] || p.fictitious[j]) continue;
+    if (!counted(i) && !counted(j)) continue;  // a part holds the pairs that touch its own particles
     const Vec2 X = p.position[j] - p.position[i];
     ContactPair c;
     c.i = i;
@@ -457,7 +458,7 @@ void ContactSystem::drop_last_round() {
   const auto n = static_cast<std::size_t>(m_round_start);
   m_pairs.resize(n);
   m_result.resize(n);
-  if (!m_slip.empty()) m_slip.resize(n);
+  if (tracks_slip()) m_slip.resize(n);
   if (m_law.velocity_sign) m_tangential_velocity.resize(n);
   if (m_law.exact) {
     m_multiplier.resize(n);
@@ -491,7 +492,7 @@ void ContactSystem::build_incidence() {
 void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
   const Particles& p = m_model.particles;
   const Index np = size();
-  const bool friction = !m_slip.empty();
+  const bool friction = tracks_slip();
 #pragma omp parallel for schedule(static)
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
@@ -826,7 +827,7 @@ void ContactSystem::commit(const VectorXd& u) {
 }
 
 void ContactSystem::update_slip(const VectorXd& u) {
-  if (m_slip.empty()) return;
+  if (!tracks_slip()) return;
   const Index np = size();
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
@@ -955,7 +956,8 @@ bool ContactSystem::add_candidate(Index i, Index j, const Vec2& normal, const Ve
 void ContactSystem::append_state(const ContactPair& c, const VectorXd& u) {
   // A new pair starts as an open pair does: no stored tangential force, no multiplier.
   m_result.push_back(PairResult{});
-  if (!m_slip.empty()) m_slip.push_back(c.tangent().dot(Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1])));
+  if (tracks_slip())
+    m_slip.push_back(c.tangent().dot(Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1])));
   if (m_law.velocity_sign) m_tangential_velocity.push_back(0.0);
   if (m_law.exact) {
     m_multiplier.push_back(0.0);
@@ -972,14 +974,14 @@ void ContactSystem::save(StateArchive& archive) const {
     // displacement of the last search from the particles' owners (collective).
     // Per pair: i, j, normal, gap0, stiffness, then slip (friction), then the committed
     // multiplier, boost and boost limit (exact enforcement).
-    const std::size_t width = 6 + (m_slip.empty() ? 0 : 1) + (m_law.exact ? 3 : 0);
+    const std::size_t width = 6 + (tracks_slip() ? 1 : 0) + (m_law.exact ? 3 : 0);
     std::vector<double> mine;
     for (std::size_t k = 0; k < m_pairs.size(); ++k) {
       const ContactPair& c = m_pairs[k];
       if (!counted(c.i)) continue;
       mine.insert(mine.end(), {static_cast<double>(gid(c.i)), static_cast<double>(gid(c.j)), c.normal.x(),
                                c.normal.y(), c.gap0, c.stiffness});
-      if (!m_slip.empty()) mine.push_back(m_slip[k]);
+      if (tracks_slip()) mine.push_back(m_slip[k]);
       if (m_law.exact) mine.insert(mine.end(), {m_multiplier_committed[k], m_boost[k], m_boost_limit[k]});
     }
     const std::vector<double> all = m_ranks.gather(mine);
@@ -993,7 +995,7 @@ void ContactSystem::save(StateArchive& archive) const {
       pairs.insert(pairs.end(), all.begin() + static_cast<std::ptrdiff_t>(r),
                    all.begin() + static_cast<std::ptrdiff_t>(r + 6));
       std::size_t at = r + 6;
-      if (!m_slip.empty()) slip.push_back(all[at++]);
+      if (tracks_slip()) slip.push_back(all[at++]);
       if (m_law.exact) {
         multiplier.push_back(all[at]);
         boost.push_back(all[at + 1]);
@@ -1001,7 +1003,7 @@ void ContactSystem::save(StateArchive& archive) const {
       }
     }
     archive.put("contact/pairs", std::move(pairs));
-    if (!m_slip.empty()) archive.put("contact/slip", std::move(slip));
+    if (tracks_slip()) archive.put("contact/slip", std::move(slip));
     if (m_law.exact) {
       archive.put("contact/multiplier", std::move(multiplier));
       archive.put("contact/boost", std::move(boost));
@@ -1027,7 +1029,7 @@ void ContactSystem::save(StateArchive& archive) const {
     pairs.insert(pairs.end(), {static_cast<double>(c.i), static_cast<double>(c.j), c.normal.x(), c.normal.y(), c.gap0,
                                c.stiffness});
   archive.put("contact/pairs", std::move(pairs));
-  if (!m_slip.empty()) archive.put("contact/slip", m_slip);
+  if (tracks_slip()) archive.put("contact/slip", m_slip);
   if (m_law.exact) {
     archive.put("contact/multiplier", m_multiplier_committed);
     archive.put("contact/boost", m_boost);
@@ -1044,7 +1046,7 @@ void ContactSystem::restore(const StateArchive& archive) {
   const std::vector<double>& flat = archive.get("contact/pairs");
   if (flat.size() % 6 != 0) throw InputError("the checkpoint's 'contact/pairs' is not a list of pairs");
   const Index n = m_model.particles.size(), rows = static_cast<Index>(flat.size() / 6);
-  const bool friction = m_law.friction > 0.0 && !m_law.velocity_sign;
+  const bool friction = tracks_slip();
   const std::vector<double> none;
   const std::vector<double>& slip = friction ? archive.get("contact/slip", rows) : none;
   const std::vector<double>& multiplier = m_law.exact ? archive.get("contact/multiplier", rows) : none;

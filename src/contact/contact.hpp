@@ -169,7 +169,8 @@ class ContactSystem {
   void commit(const VectorXd& u);
   /// Bonds broken during the run become candidates (paper section 4.4): pair (i, j) with
   /// normal along the bond, gap0 = |X_j - X_i|, no stored tangential force. Pairs with a
-  /// fictitious end are skipped. `u` is the current displacement (2N). The pairs are a trial
+  /// fictitious end are skipped, and on a part those that touch none of its own particles.
+  /// `u` is the current displacement (2N). The pairs are a trial
   /// round until commit(); drop_last_round() removes them.
   void add_broken_bonds(const std::vector<std::pair<Index, Index>>& bonds, const VectorXd& u);
   /// Removes the pairs of the last add_broken_bonds() (a round whose re-solve failed); does
@@ -209,6 +210,10 @@ class ContactSystem {
   /// Velocity-sign law only: the full pseudo-velocity (2N) that the next evaluations use.
   void set_velocity(const VectorXd& v);
   bool wants_velocity() const { return m_law.velocity_sign; }
+  /// Coulomb friction with a slip history (friction > 0, not the velocity-sign law): every
+  /// pair, those added later included, has an entry in the slip state, even when the run
+  /// starts with no candidate (a scene whose contact pairs are all broken bonds).
+  bool tracks_slip() const { return m_law.friction > 0.0 && !m_law.velocity_sign; }
 
   /// Pairs touching particle p: (pair index, +1 if p is j, -1 if p is i), from the CSR
   /// `pairs_of(p)`: entries m_incident[m_incident_start[p] .. m_incident_start[p+1]).

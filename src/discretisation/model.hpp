@@ -109,7 +109,9 @@ struct Model {
   std::int64_t n_bonds_whole = 0;
   /// With family_held (partitioned bonds): the whole model's family starts (N + 1), so that
   /// bond k of particle i's family has the whole model's index whole_start[i] + k on every
-  /// rank (a broken bond's identity in a checkpoint). Empty when every family is held.
+  /// rank (a broken bond's identity in a checkpoint). Empty when every family is held. On a
+  /// rank's part (ModelPart) entry i is particle i's in the part's order, so the entries do not
+  /// increase and whole_start[i + 1] is not where i's family ends.
   std::vector<std::int64_t> whole_start;
 
   bool holds_every_family() const { return family_held.empty(); }

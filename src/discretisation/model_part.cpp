@@ -156,6 +156,14 @@ ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int ra
     }
     b.start[static_cast<std::size_t>(l) + 1] = b.n_bonds();
   }
+  // The whole model's index of each held family's first bond: a broken bond's identity
+  // across the ranks and in a checkpoint (bond k of the family is whole_start[l] + k).
+  m.whole_start.assign(static_cast<std::size_t>(nl) + 1, m.n_bonds_whole);
+  for (Index l = 0; l < nl; ++l) {
+    const Index g = order[l];
+    m.whole_start[static_cast<std::size_t>(l)] =
+        whole.holds_every_family() ? wb.start[g] : whole.whole_start[static_cast<std::size_t>(g)];
+  }
   b.reverse.assign(b.neighbour.size(), -1);
   for (std::size_t wbnd = 0; wbnd < bond_of.size(); ++wbnd)
     if (const Index pb = bond_of[wbnd]; pb >= 0)

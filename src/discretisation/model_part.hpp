@@ -16,8 +16,9 @@ struct ModelPart {
   /// families it computes, each group in the whole model's order. Its unknowns follow the
   /// same order, so the owned unknowns come first. Bonds are held for the families `held`
   /// named (Model::family_held); a held family's bond to a family not held has no reverse.
-  /// The whole model's counts (n_bonds_whole, n_cut_bonds) are kept. `whole_start` is empty:
-  /// the identity of a broken bond across ranks is stage 4 (failure), not built.
+  /// The whole model's counts (n_bonds_whole, n_cut_bonds) are kept. `whole_start` gives, per
+  /// particle of the part, the whole model's index of its family's first bond (the last entry
+  /// n_bonds_whole): not increasing, as the part's order is not the whole's.
   Model model;
   Index n_owned = 0;                         ///< particles of `model` the rank owns (the first ones)
   Index n_owned_unknowns = 0;                ///< their unknowns (the first ones)

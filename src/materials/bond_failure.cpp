@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <tuple>
@@ -41,6 +42,20 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options, Fail
                         !m_ranks.share || model.whole_start.size() != static_cast<std::size_t>(n) + 1))
     throw std::logic_error(
         "BondFailure: a model holding some families only needs its rank's share (FailureRanks)");
+  if (part()) {
+    if (m_ranks.global_id.size() != static_cast<std::size_t>(n) || !m_ranks.gather_on_root ||
+        m_ranks.n_particles_whole <= 0)
+      throw std::logic_error("BondFailure: a rank's part needs the global ids and the gather to rank 0");
+    m_by_global.reserve(static_cast<std::size_t>(n));
+    for (Index i = 0; i < n; ++i) m_by_global.emplace_back(global(i), i);
+    std::sort(m_by_global.begin(), m_by_global.end());
+  }
+}
+
+Index BondFailure::local(std::int64_t g) const {
+  if (!part()) return static_cast<Index>(g);
+  const auto it = std::lower_bound(m_by_global.begin(), m_by_global.end(), std::pair(g, Index{-1}));
+  return it != m_by_global.end() && it->first == g ? it->second : -1;
 }
 
 const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(std::span<const Vec2> eta,
@@ -74,7 +89,10 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
     if (b > r || m_weight[b] == 0.0) continue;
     if (p.fictitious[bonds.neighbour[b]] && p.fictitious[bonds.neighbour[r]]) continue;
     const double ratio = std::max(m_ratio[b], m_ratio[r]);
-    if (ratio > m_peak.ratio) m_peak = Peak{ratio, bonds.neighbour[r], bonds.neighbour[b]};
+    if (ratio > m_peak.ratio) {
+      const Index i = bonds.neighbour[r], j = bonds.neighbour[b];
+      m_peak = Peak{ratio, i, j, p.position[i] + 0.5 * Vec2(p.position[j] - p.position[i])};
+    }
     if (ratio > 1.0) m_over.emplace_back(ratio, b);
   }
   if (m_over.empty()) return m_round;
@@ -92,30 +110,40 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index
   // Each rank proposes the pairs (i, j > i) of the families it is the proposer of, the same
   // pairs one process loops over (b < reverse[b]); every rank then sorts every rank's
   // candidates as one process sorts its bonds: by ratio, then by the whole model's bond index
-  // b = whole_start[i] + k, that is by (i, k), both descending.
+  // b = whole_start[i] + k, that is by (i, k), both descending. Particles go by their whole
+  // model's index (global(), the part's own index otherwise).
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
   const Index n = p.size();
-  std::vector<double> mine = {0.0, 0.0, -1.0, -1.0, -1.0};  // count, then the peak's ratio, i, k, j
+  constexpr std::size_t kHead = 7, kWidth = 6;
+  // count, then the peak's ratio, i, k, j and midpoint; then per candidate ratio, i, k, j, kr, whole
+  std::vector<double> mine = {0.0, 0.0, -1.0, -1.0, -1.0, 0.0, 0.0};
   Peak peak;
   Index peak_k = -1;
   for (Index i = 0; i < n; ++i) {
     if (!m_ranks.proposes[static_cast<std::size_t>(i)]) continue;
+    const std::int64_t gi = global(i);
     for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
       const Index j = bonds.neighbour[b];
-      if (j < i || m_weight[b] == 0.0) continue;
+      const std::int64_t gj = global(j);
+      if (gj < gi || m_weight[b] == 0.0) continue;
       if (p.fictitious[i] && p.fictitious[j]) continue;
       const Index r = bonds.reverse[b];
       if (r < 0)
         throw std::logic_error("BondFailure: the proposer of a pair does not hold its reverse family");
       const double ratio = std::max(m_ratio[b], m_ratio[r]);
-      if (ratio > peak.ratio) {
-        peak = Peak{ratio, i, j};
-        peak_k = b - bonds.start[i];
+      const Index k = b - bonds.start[i];
+      // One process keeps the first bond of the largest ratio: the smallest (i, k).
+      if (ratio > peak.ratio || (ratio == peak.ratio && peak.i >= 0 &&
+                                 std::pair(gi, k) < std::pair<std::int64_t, Index>(peak.i, peak_k))) {
+        peak = Peak{ratio, static_cast<Index>(gi), static_cast<Index>(gj),
+                    p.position[i] + 0.5 * Vec2(p.position[j] - p.position[i])};
+        peak_k = k;
       }
       if (ratio <= 1.0) continue;
-      mine.insert(mine.end(), {ratio, static_cast<double>(i), static_cast<double>(b - bonds.start[i]),
-                               static_cast<double>(j), static_cast<double>(r - bonds.start[j])});
+      mine.insert(mine.end(), {ratio, static_cast<double>(gi), static_cast<double>(k),
+                               static_cast<double>(gj), static_cast<double>(r - bonds.start[j]),
+                               static_cast<double>(m_model.whole_start[static_cast<std::size_t>(i)] + k)});
       mine[0] += 1.0;
     }
   }
@@ -124,6 +152,8 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index
     mine[2] = peak.i;
     mine[3] = peak_k;
     mine[4] = peak.j;
+    mine[5] = peak.at.x();
+    mine[6] = peak.at.y();
   }
   const std::vector<double> all = m_ranks.gather(mine);
   m_peak = Peak{};
@@ -133,34 +163,42 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index
     const auto count = static_cast<std::size_t>(all[at]);
     const double ratio = all[at + 1];
     const auto i = static_cast<Index>(all[at + 2]), k = static_cast<Index>(all[at + 3]);
-    // One process keeps the first bond of the largest ratio: the smallest (i, k).
     if (i >= 0 &&
         (ratio > m_peak.ratio || (ratio == m_peak.ratio && std::pair(i, k) < std::pair(m_peak.i, peak_k)))) {
-      m_peak = Peak{ratio, i, static_cast<Index>(all[at + 4])};
+      m_peak = Peak{ratio, i, static_cast<Index>(all[at + 4]), Vec2(all[at + 5], all[at + 6])};
       peak_k = k;
     }
-    at += 5;
-    for (std::size_t c = 0; c < count; ++c, at += 5)
-      m_candidates.push_back({all[at], static_cast<Index>(all[at + 1]), static_cast<Index>(all[at + 2]),
-                              static_cast<Index>(all[at + 3]), static_cast<Index>(all[at + 4])});
+    at += kHead;
+    for (std::size_t c = 0; c < count; ++c, at += kWidth)
+      m_candidates.push_back({all[at], static_cast<std::int64_t>(all[at + 1]),
+                              static_cast<Index>(all[at + 2]), static_cast<std::int64_t>(all[at + 3]),
+                              static_cast<Index>(all[at + 4]), static_cast<std::int64_t>(all[at + 5])});
   }
   if (m_candidates.empty()) return m_round;
   std::sort(m_candidates.begin(), m_candidates.end(), [](const Candidate& a, const Candidate& b) {
     return std::tuple(a.ratio, a.i, a.k) > std::tuple(b.ratio, b.i, b.k);
   });
   const std::size_t count = pairs_to_break(m_candidates.size(), at_most);
-  const std::vector<char>& held = m_model.family_held;
-  for (std::size_t c = 0; c < count; ++c) {
-    const Candidate& x = m_candidates[c];
-    const Index bi = held[static_cast<std::size_t>(x.i)] ? bonds.start[x.i] + x.k : -1;
-    const Index bj = held[static_cast<std::size_t>(x.j)] ? bonds.start[x.j] + x.kr : -1;
-    PERISTAT_ASSERT(bi < 0 || bonds.neighbour[bi] == x.j);
-    PERISTAT_ASSERT(bj < 0 || bonds.neighbour[bj] == x.i);
-    break_pair(x.i, bi, x.j, bj);
-    m_broken_whole.push_back(m_model.whole_start[static_cast<std::size_t>(x.i)] + x.k);
-  }
+  for (std::size_t c = 0; c < count; ++c) break_candidate(m_candidates[c]);
   reselect_references();
   return m_round;
+}
+
+void BondFailure::break_candidate(const Candidate& x) {
+  const Bonds& bonds = m_model.bonds;
+  const std::vector<char>& held = m_model.family_held;
+  const Index i = local(x.i), j = local(x.j);
+  const Index bi = i >= 0 && held[static_cast<std::size_t>(i)] ? bonds.start[i] + x.k : -1;
+  const Index bj = j >= 0 && held[static_cast<std::size_t>(j)] ? bonds.start[j] + x.kr : -1;
+  PERISTAT_ASSERT(bi < 0 || bonds.neighbour[bi] == j);
+  PERISTAT_ASSERT(bj < 0 || bonds.neighbour[bj] == i);
+  m_broken_whole.push_back(x.whole);
+  if (part() && bi < 0 && bj < 0) {  // far from this part: counted, nothing held
+    ++m_round_pairs;
+    ++m_broken;
+    return;
+  }
+  break_pair(i, bi, j, bj);
 }
 
 std::size_t BondFailure::pairs_to_break(std::size_t over, Index at_most) const {
@@ -176,6 +214,7 @@ void BondFailure::break_pair(Index i, Index bi, Index j, Index bj) {
     m_round_bonds.emplace_back(particle, b);
   }
   m_round.emplace_back(i, j);
+  ++m_round_pairs;
   ++m_broken;
 }
 
@@ -195,6 +234,7 @@ void BondFailure::reselect_references() {
 }
 
 void BondFailure::commit() {
+  m_round_pairs = 0;
   m_round.clear();
   m_round_bonds.clear();
   m_round_references.clear();
@@ -203,8 +243,8 @@ void BondFailure::commit() {
 void BondFailure::revert() {
   const Bonds& bonds = m_model.bonds;
   for (const auto& [particle, b] : m_round_bonds) m_weight[b] = bonds.weight[b];
-  m_broken -= static_cast<Index>(m_round.size());
-  if (partitioned()) m_broken_whole.resize(m_broken_whole.size() - m_round.size());
+  m_broken -= m_round_pairs;
+  if (partitioned()) m_broken_whole.resize(m_broken_whole.size() - static_cast<std::size_t>(m_round_pairs));
   for (auto it = m_round_references.rbegin(); it != m_round_references.rend(); ++it)
     m_reference_bond[it->first] = it->second;
   commit();
@@ -244,8 +284,22 @@ void BondFailure::save(StateArchive& archive) const {
     return;
   }
   // The whole model's index of each reference bond: a family's holders know it; its
-  // owner's value goes to every rank.
+  // owner's value goes to every rank (on a part: to rank 0, by global id).
   const Index n = m_model.particles.size();
+  if (part()) {
+    std::vector<std::int64_t> ids;
+    std::vector<double> values;
+    for (Index i = 0; i < n; ++i) {
+      if (!m_ranks.proposes[static_cast<std::size_t>(i)]) continue;
+      ids.push_back(global(i));
+      values.push_back(m_reference_bond[i] < 0
+                           ? -1.0
+                           : static_cast<double>(m_model.whole_start[static_cast<std::size_t>(i)] +
+                                                 m_reference_bond[i] - bonds.start[i]));
+    }
+    archive.put("failure/reference_bonds", m_ranks.gather_on_root(ids, values, 1, m_ranks.n_particles_whole));
+    return;
+  }
   VectorXd reference = VectorXd::Constant(n, -1.0);
   for (Index i = 0; i < n; ++i)
     if (m_reference_bond[i] >= 0)
@@ -275,48 +329,60 @@ std::vector<std::pair<Index, Index>> BondFailure::restore(const StateArchive& ar
     }
   } else {
     // Each pair is resolved by the rank that proposes its first particle's family (it holds
-    // both directions), then every rank breaks every pair in the checkpoint's order.
-    const std::vector<std::int64_t>& start = m_model.whole_start;
+    // both directions), then every rank breaks every pair in the checkpoint's order. The
+    // proposed families by the whole index of their first bond (on a part not in that order).
+    std::vector<std::pair<std::int64_t, Index>> first;
+    for (Index i = 0; i < m_model.particles.size(); ++i)
+      if (m_ranks.proposes[static_cast<std::size_t>(i)] && bonds.family_size(i) > 0)
+        first.emplace_back(m_model.whole_start[static_cast<std::size_t>(i)], i);
+    std::sort(first.begin(), first.end());
     std::vector<double> mine;
     for (std::size_t at = 0; at < broken.size(); ++at) {
       const std::int64_t w = whole_index(broken[at], 0, m_model.n_bonds_whole, "failure/broken_bonds");
-      const auto i = static_cast<Index>(std::upper_bound(start.begin(), start.end(), w) - start.begin() - 1);
-      if (!m_ranks.proposes[static_cast<std::size_t>(i)]) continue;
-      const Index b = bonds.start[i] + static_cast<Index>(w - start[static_cast<std::size_t>(i)]);
+      auto it = std::upper_bound(first.begin(), first.end(), std::pair(w, std::numeric_limits<Index>::max()));
+      if (it == first.begin()) continue;
+      --it;
+      const Index i = it->second;
+      if (w >= it->first + bonds.family_size(i)) continue;  // another rank's family
+      const Index b = bonds.start[i] + static_cast<Index>(w - it->first);
       const Index j = bonds.neighbour[b], r = bonds.reverse[b];
-      if (j < i || r < 0) throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
-      mine.insert(mine.end(),
-                  {static_cast<double>(at), static_cast<double>(i), static_cast<double>(b - bonds.start[i]),
-                   static_cast<double>(j), static_cast<double>(r - bonds.start[j])});
+      if (global(j) < global(i) || r < 0)
+        throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
+      mine.insert(mine.end(), {static_cast<double>(at), static_cast<double>(global(i)),
+                               static_cast<double>(b - bonds.start[i]), static_cast<double>(global(j)),
+                               static_cast<double>(r - bonds.start[j])});
     }
     const std::vector<double> all = m_ranks.gather(mine);
     if (all.size() != 5 * broken.size())
       throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
     std::vector<Candidate> pairs(broken.size());
-    for (std::size_t at = 0; at < all.size(); at += 5)
-      pairs[static_cast<std::size_t>(all[at])] = {
-          0.0, static_cast<Index>(all[at + 1]), static_cast<Index>(all[at + 2]),
-          static_cast<Index>(all[at + 3]), static_cast<Index>(all[at + 4])};
-    const std::vector<char>& held = m_model.family_held;
-    for (std::size_t at = 0; at < pairs.size(); ++at) {
-      const Candidate& x = pairs[at];
-      break_pair(x.i, held[static_cast<std::size_t>(x.i)] ? bonds.start[x.i] + x.k : -1, x.j,
-                 held[static_cast<std::size_t>(x.j)] ? bonds.start[x.j] + x.kr : -1);
-      m_broken_whole.push_back(static_cast<std::int64_t>(broken[at]));
+    for (std::size_t at = 0; at < all.size(); at += 5) {
+      const auto k = static_cast<std::size_t>(all[at]);
+      pairs[k] = {0.0,
+                  static_cast<std::int64_t>(all[at + 1]),
+                  static_cast<Index>(all[at + 2]),
+                  static_cast<std::int64_t>(all[at + 3]),
+                  static_cast<Index>(all[at + 4]),
+                  static_cast<std::int64_t>(broken[k])};
     }
+    for (const Candidate& x : pairs) break_candidate(x);
   }
   if (!m_reference_bond.empty()) {
-    const std::vector<double>& r = archive.get("failure/reference_bonds", static_cast<std::int64_t>(m_reference_bond.size()));
-    for (std::size_t i = 0; i < r.size(); ++i) {
-      if (r[i] < 0) {
+    const std::vector<double>& r =
+        archive.get("failure/reference_bonds",
+                    part() ? m_ranks.n_particles_whole : static_cast<std::int64_t>(m_reference_bond.size()));
+    for (std::size_t i = 0; i < m_reference_bond.size(); ++i) {
+      const double ri = r[static_cast<std::size_t>(global(static_cast<Index>(i)))];
+      if (ri < 0) {
         m_reference_bond[i] = -1;
       } else if (!partitioned()) {
-        m_reference_bond[i] = StateArchive::index(r[i], 0, nb, "failure/reference_bonds");
+        m_reference_bond[i] = StateArchive::index(ri, 0, nb, "failure/reference_bonds");
       } else if (m_model.family_held[i]) {  // the other families' references are never read here
+        const auto l = static_cast<Index>(i);
         const std::int64_t first = m_model.whole_start[i];
         const std::int64_t w =
-            whole_index(r[i], first, m_model.whole_start[i + 1], "failure/reference_bonds");
-        m_reference_bond[i] = bonds.start[static_cast<Index>(i)] + static_cast<Index>(w - first);
+            whole_index(ri, first, first + bonds.family_size(l), "failure/reference_bonds");
+        m_reference_bond[i] = bonds.start[l] + static_cast<Index>(w - first);
       }
     }
   }
@@ -330,7 +396,8 @@ std::size_t BondFailure::memory_bytes() const {
   return (m_critical.capacity() + m_weight.capacity() + m_ratio.capacity()) * sizeof(double) +
          m_reference_bond.capacity() * sizeof(Index) +
          m_round_references.capacity() * sizeof(std::pair<Index, Index>) +
-         m_broken_whole.capacity() * sizeof(std::int64_t);
+         m_broken_whole.capacity() * sizeof(std::int64_t) +
+         m_by_global.capacity() * sizeof(std::pair<std::int64_t, Index>);
 }
 
 }  // namespace peristat

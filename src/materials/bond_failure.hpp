@@ -33,7 +33,17 @@ struct FailureRanks {
   GatherOverRanks gather;
   /// Per particle values (N): copies the owners' entries into every rank's vector
   /// (collective); the entries of particles without a row stay as each rank computed them.
+  /// On a part: into the entries of the particles the rank reads (its ghosts).
   std::function<void(VectorXd&)> share;
+  /// On a rank's part of the model (discretisation/model_part.hpp): per particle of the part,
+  /// its index in the whole model. Empty: the model's particles are the whole model's.
+  std::vector<std::int64_t> global_id;
+  /// On a part: the whole model's particle count, and rows by global id to rank 0
+  /// (parallel::gather_rows_on_root: collective; empty on the other ranks).
+  std::int64_t n_particles_whole = 0;
+  std::function<std::vector<double>(const std::vector<std::int64_t>& ids, const std::vector<double>& values,
+                                    int width, std::int64_t n_rows)>
+      gather_on_root;
 };
 
 class BondFailure {
@@ -47,10 +57,15 @@ class BondFailure {
   /// eta_b = u_j - u_i) and breaks the intact pairs over it: a pair breaks when
   /// max(value / critical) over its two directions exceeds 1; the most critical
   /// `fraction` of those (at least one), at most `at_most` when at_most > 0. Pairs between
-  /// two fictitious particles never break. Returns the pairs broken (i, j), each once.
+  /// two fictitious particles never break. Returns the pairs broken (i, j), each once; on a
+  /// part (FailureRanks::global_id) those of which it holds a direction, by the part's indices
+  /// (broken() counts every rank's).
   const std::vector<std::pair<Index, Index>>& break_over_criterion(std::span<const Vec2> eta, Index at_most);
   /// The pairs of the last round (broken, or restored by revert()).
   const std::vector<std::pair<Index, Index>>& last_round() const { return m_round; }
+  /// How many pairs the last round broke, every rank's (on a part, last_round() holds those of
+  /// which this rank holds a direction).
+  Index round_pairs() const { return m_round_pairs; }
   /// The last round is kept for good.
   void commit();
   /// Restores the bonds of the last round (only the last round can be undone).
@@ -64,9 +79,12 @@ class BondFailure {
   /// ratio value / critical of the two directions (0 and particles -1 before the first
   /// evaluation or when no pair can break). After a round that broke nothing, this is how far
   /// the converged state is from the criterion.
+  /// The particles by their whole model's index (global id on a part), and the pair's
+  /// midpoint in the reference configuration.
   struct Peak {
     double ratio = 0.0;
     Index i = -1, j = -1;
+    Vec2 at = Vec2::Zero();
   };
   Peak peak() const { return m_peak; }
   /// skew: the reference bond of particle i (global bond index; -1 without an intact bond
@@ -76,6 +94,12 @@ class BondFailure {
   void damage(VectorXd& d) const;
   /// The model holds some families only (the decisions are taken with the other ranks).
   bool partitioned() const { return !m_model.holds_every_family(); }
+  /// The model is a rank's part (FailureRanks::global_id).
+  bool part() const { return !m_ranks.global_id.empty(); }
+  /// Particle i's index in the whole model, and the part's particle of a whole index (-1: not
+  /// in the part).
+  std::int64_t global(Index i) const { return part() ? m_ranks.global_id[static_cast<std::size_t>(i)] : i; }
+  Index local(std::int64_t g) const;
   const FailureRanks& ranks() const { return m_ranks; }
   std::size_t memory_bytes() const;
   /// The committed state (broken pairs, skew references) into / from a checkpoint
@@ -86,11 +110,18 @@ class BondFailure {
 
  private:
   /// A pair to break: (i, k) and (j, kr) its two directions, bond k of i's family and kr of
-  /// j's, i < j; ratio its criterion.
+  /// j's, i < j by their whole model's indices; ratio its criterion, whole the whole model's
+  /// index of bond (i, k).
   struct Candidate {
     double ratio;
-    Index i, k, j, kr;
+    std::int64_t i;
+    Index k;
+    std::int64_t j;
+    Index kr;
+    std::int64_t whole;
   };
+  /// Breaks the pair on every rank: the directions this rank holds; records it.
+  void break_candidate(const Candidate& x);
   /// How many of `over` pairs over the criterion a round breaks (fraction, at_most).
   std::size_t pairs_to_break(std::size_t over, Index at_most) const;
   /// Zeroes the directions this process holds and records the pair in the round.
@@ -112,6 +143,8 @@ class BondFailure {
   std::vector<std::pair<Index, Index>> m_round_bonds;  ///< their directions held here: (particle, bond)
   std::vector<Candidate> m_candidates;                 ///< partitioned, scratch: every rank's candidates
   std::vector<std::int64_t> m_broken_whole;            ///< partitioned: every broken pair's whole index
+  std::vector<std::pair<std::int64_t, Index>> m_by_global;  ///< part: (global id, particle), sorted
+  Index m_round_pairs = 0;                                  ///< pairs broken by the last round, every rank's
   Index m_broken = 0;
   Peak m_peak;
 };

@@ -2,6 +2,8 @@
 // connected components of the intact bonds, and which of them hold no prescribed component.
 #pragma once
 
+#include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -16,6 +18,13 @@ namespace peristat {
 struct GraphParts {
   std::span<const char> families;
   GatherOverRanks gather;
+  /// On a rank's part of the model (discretisation/model_part.hpp): per particle of the part,
+  /// its index in the whole model and its owner (-1: none, every rank holds it alike; rank 0
+  /// joins its family), and the exchange of one value per particle from each owner into the
+  /// ranks that read it. Empty global_id: the model's particles are the whole model's.
+  std::span<const std::int64_t> global_id;
+  std::span<const int> owner;
+  std::function<void(VectorXd&)> share;
 };
 
 /// Marks (1) every particle whose component of the bond graph, over the bonds with a nonzero
@@ -23,7 +32,9 @@ struct GraphParts {
 /// `component` (N) the component of each particle, as the index of one of its particles.
 /// With `parts` (collective): each rank joins its families' pairs, and the components are
 /// those of the union of every rank's pieces, the same on every rank (the component's
-/// representative may differ from one process's).
+/// representative may differ from one process's). On a part, `component` names each
+/// particle's component by the global id of one of its particles, the same on every rank, and
+/// what is gathered is the links between the ranks' pieces, not every particle's.
 void find_unsupported(const Model& model, std::span<const double> intact, std::vector<char>& unsupported,
                       std::vector<Index>& component, const GraphParts* parts = nullptr);
 

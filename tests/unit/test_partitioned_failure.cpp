@@ -6,6 +6,9 @@
 // the same peak, damage, fragments and checkpoint, and the checkpoint restored on the ranks
 // must give the same state again.
 #include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -15,6 +18,7 @@
 #include "app/setup.hpp"
 #include "assembly/pattern.hpp"
 #include "assembly/quasi_static.hpp"
+#include "discretisation/model_part.hpp"
 #include "materials/failure.hpp"
 #include "materials/osb.hpp"
 #include "support/emulated_ranks.hpp"
@@ -34,9 +38,13 @@ struct Record {
 };
 
 /// Breaks the bonds over the criterion at x in rounds of at most `at_most` pairs, committing
-/// each, until a round breaks none; then saves the state and restores it into a fresh problem.
-Record break_save_restore(const Model& model, const ProblemOptions& options, const VectorXd& x,
-                          Index at_most) {
+/// each, until a round breaks none; then saves the state and restores it into a fresh problem
+/// (from the archive `restore_from` gives: on parts, rank 0's, which alone holds the whole
+/// model's per-particle arrays, as a checkpoint file is read by every rank).
+Record break_save_restore(
+    const Model& model, const ProblemOptions& options, const VectorXd& x, Index at_most,
+    const std::function<const StateArchive&(const StateArchive&)>& restore_from =
+        [](const StateArchive& a) -> const StateArchive& { return a; }) {
   Record rec;
   QuasiStaticProblem problem(model, options);
   problem.set_load_factor(0.0);
@@ -54,7 +62,7 @@ Record break_save_restore(const Model& model, const ProblemOptions& options, con
   rec.saved.arrays.clear();
   problem.save_state(rec.saved);
   QuasiStaticProblem fresh(model, options);
-  fresh.restore_state(rec.saved, x);
+  fresh.restore_state(restore_from(rec.saved), x);
   rec.restored_broken = fresh.failure()->broken();
   rec.restored_damage = fresh.damage();
   rec.restored_fragment_particles = fresh.fragment_particles();
@@ -102,6 +110,154 @@ Index nearest_particle(const Model& model, const Vec2& at) {
                                                            (model.particles.position[best] - at).norm()))
       best = p;
   return best;
+}
+
+/// Entries [0, n_owned) of x are this rank's; every other entry whose id another rank owns
+/// gets that rank's value (by id, as parallel::PartExchange does); the rest stay.
+void import_by_id(test::EmulatedRanks& net, int rank, const std::vector<std::int64_t>& ids,
+                  std::size_t n_owned, double* x) {
+  std::vector<double> mine;
+  for (std::size_t k = 0; k < n_owned; ++k) mine.insert(mine.end(), {static_cast<double>(ids[k]), x[k]});
+  const std::vector<double> all = net.gather(rank, mine);
+  std::map<std::int64_t, double> value;
+  for (std::size_t at = 0; at < all.size(); at += 2) value[static_cast<std::int64_t>(all[at])] = all[at + 1];
+  for (std::size_t k = n_owned; k < ids.size(); ++k)
+    if (const auto it = value.find(ids[k]); it != value.end()) x[k] = it->second;
+}
+
+/// The options of one emulated rank on its part of the model (ModelPart): its rows, every
+/// collective through `net`, the exchanges by global id (app/setup.cpp's part_problem_options
+/// with MPI).
+ProblemOptions part_options(ProblemOptions options, test::EmulatedRanks& net, int rank,
+                            const ModelPart& part) {
+  options.rows = OwnedRows{rank, part.owner};
+  options.max_over_ranks = [&net, rank](double v) { return net.max(rank, v); };
+  options.sum_over_ranks = [&net, rank](double v) { return net.sum(rank, v); };
+  options.share_forces = [](VectorXd&) {};
+  options.owned_unknowns = part.n_owned_unknowns;
+  options.import_ghosts = [&net, rank, &part](VectorXd& x) {
+    import_by_id(net, rank, part.global_unknown, static_cast<std::size_t>(part.n_owned_unknowns), x.data());
+  };
+  options.sum_in_rank_order = [&net, rank](double* v, int n) {
+    for (int k = 0; k < n; ++k) v[k] = net.sum(rank, v[k]);
+  };
+  options.gather_over_ranks = [&net, rank](const std::vector<double>& mine) {
+    return net.gather(rank, mine);
+  };
+  options.share_particle_values = [&net, rank, &part](VectorXd& v) {
+    import_by_id(net, rank, part.global_id, static_cast<std::size_t>(part.n_owned), v.data());
+  };
+  const auto gather_on_root = [&net, rank](const std::vector<std::int64_t>& ids,
+                                           const std::vector<double>& values, int width,
+                                           std::int64_t n_rows) {
+    std::vector<double> mine;
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+      mine.push_back(static_cast<double>(ids[k]));
+      mine.insert(mine.end(), values.begin() + static_cast<std::ptrdiff_t>(k * width),
+                  values.begin() + static_cast<std::ptrdiff_t>((k + 1) * width));
+    }
+    const std::vector<double> all = net.gather(rank, mine);
+    if (rank != 0) return std::vector<double>{};
+    std::vector<double> table(static_cast<std::size_t>(n_rows * width),
+                              std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t at = 0; at < all.size(); at += static_cast<std::size_t>(width) + 1)
+      std::copy_n(all.begin() + static_cast<std::ptrdiff_t>(at + 1), width,
+                  table.begin() + static_cast<std::ptrdiff_t>(static_cast<std::int64_t>(all[at]) * width));
+    return table;
+  };
+  options.global_id = part.global_id;
+  options.n_particles_whole = part.n_particles_whole;
+  options.gather_on_root = gather_on_root;
+  if (options.contact.enabled) {
+    ContactRanks& c = options.contact_ranks;
+    c.global_id = part.global_id;
+    for (const int o : part.owner) c.counted.push_back(counted_by(o, rank));
+    c.n_particles_whole = part.n_particles_whole;
+    c.gather = options.gather_over_ranks;
+    c.gather_on_root = gather_on_root;
+  }
+  return options;
+}
+
+/// On the ranks' parts of the model (ModelPart: each rank its particles, the ring it reads, a
+/// part's own indices): the same decisions as one process, by the whole model's indices. A
+/// part's rounds are the whole rounds' pairs of which it holds a direction, in the same order;
+/// the peaks, the counts and the checkpoint are the whole ones; the damage of every particle
+/// whose family the part holds is the whole one's to the bit.
+void expect_parts_break_as_one_process(const Scene& scene, const Model& model, const VectorXd& x,
+                                       Index at_most, const Record& whole, const std::vector<int>& owner,
+                                       int ranks) {
+  test::EmulatedRanks net(ranks);
+  std::vector<Record> records(static_cast<std::size_t>(ranks));
+  std::vector<ModelPart> parts(static_cast<std::size_t>(ranks));
+  StateArchive root_saved;
+  ASSERT_NO_THROW(net.run([&](int rank) {
+    const OwnedRows rows{rank, owner};
+    const Model bonded = discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, 1); });
+    ModelPart& part = parts[static_cast<std::size_t>(rank)];
+    part = extract_part(bonded, owner, rank, bonded.family_held);
+    ProblemOptions options = part_options(problem_options(scene), net, rank, part);
+    options.matrix_free = true;
+    VectorXd xl(part.model.constraints.n_free);
+    for (Index f = 0; f < xl.size(); ++f) xl[f] = x[part.global_unknown[static_cast<std::size_t>(f)]];
+    records[static_cast<std::size_t>(rank)] = break_save_restore(
+        part.model, options, xl, at_most, [&](const StateArchive& mine) -> const StateArchive& {
+          if (rank == 0) root_saved = mine;
+          net.gather(rank, {});  // rank 0's archive is complete before any rank reads it
+          return root_saved;
+        });
+  }));
+  for (int rank = 0; rank < ranks; ++rank) {
+    SCOPED_TRACE("part of rank " + std::to_string(rank));
+    const Record& r = records[static_cast<std::size_t>(rank)];
+    const ModelPart& part = parts[static_cast<std::size_t>(rank)];
+    EXPECT_LT(part.model.particles.size(), model.particles.size()) << "a part, not the whole model";
+    std::map<std::int64_t, Index> local;
+    for (std::size_t l = 0; l < part.global_id.size(); ++l) local[part.global_id[l]] = static_cast<Index>(l);
+    const auto held = [&](Index g) {
+      const auto it = local.find(g);
+      return it != local.end() && part.model.family_held[static_cast<std::size_t>(it->second)];
+    };
+    ASSERT_EQ(r.rounds.size(), whole.rounds.size());
+    std::size_t pairs_held = 0;
+    for (std::size_t k = 0; k < r.rounds.size(); ++k) {
+      std::vector<std::pair<Index, Index>> expected, got;
+      for (const auto& [i, j] : whole.rounds[k])
+        if (held(i) || held(j)) expected.emplace_back(i, j);
+      for (const auto& [i, j] : r.rounds[k])
+        got.emplace_back(static_cast<Index>(part.global_id[static_cast<std::size_t>(i)]),
+                         static_cast<Index>(part.global_id[static_cast<std::size_t>(j)]));
+      EXPECT_EQ(got, expected) << "round " << k << ": the pairs the part holds, in the whole round's order";
+      pairs_held += got.size();
+      EXPECT_EQ(r.peaks[k].ratio, whole.peaks[k].ratio) << "round " << k;
+      EXPECT_EQ(r.peaks[k].i, whole.peaks[k].i) << "round " << k;
+      EXPECT_EQ(r.peaks[k].j, whole.peaks[k].j) << "round " << k;
+      EXPECT_EQ(r.peaks[k].at, whole.peaks[k].at) << "round " << k;
+    }
+    EXPECT_GT(pairs_held, 0u);
+    EXPECT_EQ(r.broken, whole.broken);
+    EXPECT_EQ(r.fragment_particles, whole.fragment_particles);
+    EXPECT_EQ(r.fragments, whole.fragments);
+    Index compared = 0;
+    for (std::size_t l = 0; l < part.global_id.size(); ++l) {
+      // A particle whose family the part does not hold has its owner's damage (the exchange).
+      const auto g = static_cast<Index>(part.global_id[l]);
+      if (!part.model.family_held[l] && part.owner[l] < 0) continue;  // neither held nor exchanged
+      ASSERT_EQ(r.damage[static_cast<Index>(l)], whole.damage[g]) << "damage of particle " << g;
+      ASSERT_EQ(r.restored_damage[static_cast<Index>(l)], whole.damage[g])
+          << "restored damage of particle " << g;
+      ++compared;
+    }
+    EXPECT_GE(compared, part.n_owned);
+    EXPECT_EQ(r.saved.get("failure/broken_bonds"), whole.saved.get("failure/broken_bonds"));
+    if (whole.saved.arrays.count("failure/reference_bonds")) {
+      if (rank == 0) {
+        EXPECT_EQ(r.saved.get("failure/reference_bonds"), whole.saved.get("failure/reference_bonds"));
+      }
+    }
+    EXPECT_EQ(r.restored_broken, whole.broken);
+    EXPECT_EQ(r.restored_fragment_particles, whole.fragment_particles);
+  }
 }
 
 void expect_ranks_break_as_one_process(const Scene& scene, double stretch, double shear, Index at_most) {
@@ -162,6 +318,13 @@ void expect_ranks_break_as_one_process(const Scene& scene, double stretch, doubl
         EXPECT_EQ(r.restored_fragment_particles, whole.fragment_particles);
       }
     }
+  for (const auto& [cuts, ranks] : {std::pair{false, 2}, std::pair{true, 2}, std::pair{true, 3}}) {
+    SCOPED_TRACE(std::string("parts, ") + (cuts ? "cuts across x" : "strips") + " on " +
+                 std::to_string(ranks) + " ranks");
+    expect_parts_break_as_one_process(
+        scene, model, x, at_most, whole,
+        cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks), ranks);
+  }
 }
 
 TEST(PartitionedFailure, StretchWithContactBreaksAsOneProcess) {

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "contact/contact.hpp"
+#include "discretisation/model.hpp"
 #include "materials/failure.hpp"
 #include "support/scenes.hpp"
 #include "support/solve.hpp"
@@ -99,6 +101,50 @@ TEST(Failure, BrokenBondsBecomeContactCandidates) {
   EXPECT_EQ(c.candidates, initial + with->problem->failure()->broken());
   EXPECT_EQ(with->problem->failure()->broken(), plain->problem->failure()->broken());
   EXPECT_EQ(c.active(), 0);
+}
+
+// A scene whose contact pairs are all broken bonds (no pre-crack, no interface) starts with no
+// candidate. Its broken-bond pairs must still carry Coulomb friction and a slip history: until
+// 2026-11-28 the slip state was sized from the initial pairs, so such a scene evaluated every
+// later pair without friction, silently. One pair of neighbours 3 dx from the edges, closed to
+// half a spacing and sheared by a fifth: with friction 0.3 it carries a tangential force, and
+// the checkpoint holds its slip; with friction 0 the tangential force is exactly zero.
+TEST(Failure, BrokenBondPairsWithoutAnInitialCandidateHaveFriction) {
+  double tangential[2] = {0.0, 0.0};
+  for (const double friction : {0.0, 0.3}) {
+    std::string yaml =
+        notch(1e-6, true, "{linear: umfpack}", "contact: {friction: " + std::to_string(friction) + "}\n");
+    const std::size_t at = yaml.find("cracks:");
+    ASSERT_NE(at, std::string::npos);
+    yaml.erase(at, yaml.find("boundary:") - at);  // no pre-crack: no initial candidate
+    const Scene scene = test::scene_from_yaml(yaml);
+    const Model model = discretise(scene);
+    ContactSystem contact(model, scene.contact);
+    ASSERT_EQ(contact.size(), 0);
+    const double dx = model.spacing;
+    Index i = -1, j = -1;
+    for (Index p = 0; p < model.particles.size() && j < 0; ++p)
+      if ((model.particles.position[p] - Vec2(0.0205, 0.0105)).norm() < 0.25 * dx) i = p;  // a cell centre
+    ASSERT_GE(i, 0);
+    for (Index p = 0; p < model.particles.size(); ++p)
+      if ((model.particles.position[p] - model.particles.position[i] - Vec2(dx, 0.0)).norm() < 0.25 * dx)
+        j = p;
+    ASSERT_GE(j, 0);
+    VectorXd u = VectorXd::Zero(2 * model.particles.size());
+    contact.add_broken_bonds({{i, j}}, u);
+    contact.commit(u);
+    ASSERT_EQ(contact.size(), 1);
+    u[2 * j] = -0.5 * dx;     // closed to half a spacing along the bond
+    u[2 * j + 1] = 0.2 * dx;  // and sheared
+    contact.evaluate(u, false);
+    ASSERT_GT(contact.result(0).normal_force, 0.0) << "the pair is closed";
+    tangential[friction > 0.0] = contact.result(0).tangential;
+    StateArchive archive;
+    contact.save(archive);
+    EXPECT_EQ(archive.arrays.count("contact/slip"), friction > 0.0 ? 1u : 0u);
+  }
+  EXPECT_EQ(tangential[0], 0.0);
+  EXPECT_GT(std::abs(tangential[1]), 0.0);
 }
 
 // Undoing a breaking round (what load stepping does when its re-solve fails) restores the
