@@ -5,6 +5,7 @@
 // process's decisions bit for bit: the same pairs broken in the same order round by round,
 // the same peak, damage, fragments and checkpoint, and the checkpoint restored on the ranks
 // must give the same state again.
+#include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -20,6 +21,7 @@
 #include "assembly/quasi_static.hpp"
 #include "discretisation/model_part.hpp"
 #include "materials/failure.hpp"
+#include "materials/fragments.hpp"
 #include "materials/osb.hpp"
 #include "support/emulated_ranks.hpp"
 #include "support/scenes.hpp"
@@ -324,6 +326,111 @@ void expect_ranks_break_as_one_process(const Scene& scene, double stretch, doubl
     expect_parts_break_as_one_process(
         scene, model, x, at_most, whole,
         cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks), ranks);
+  }
+}
+
+// The pieces of the bond graph on the ranks' parts (fragments.cpp, find_unsupported_on_part):
+// the notched plate with every bond cut that crosses the edge of three islands. A (x 12-28 mm,
+// y 5-11 mm) straddles every cut of 2 and 3 ranks and holds the notch's tip, which cuts it
+// partly inside; B (3-7 mm, 13-17 mm) lies on rank 0 alone; D is the top edge's fictitious
+// layers over x 15-25 mm, prescribed in both directions (so no rank owns them: every rank holds
+// them alike), and two blocks below them, x 15-19 and 21-25 mm from y 15 mm, joined to each
+// other only through the layers, on either side of the 2-rank cut. One process finds A and B
+// without support and D with it. Each rank joins its own families'
+// bonds, links its pieces to the owners' across the parts, and must find every particle it
+// holds (its own and those it reads) as one process does, with one label per component over
+// every rank.
+TEST(PartitionedFailure, PiecesAcrossThePartsAreThoseOfOneProcess) {
+  std::string yaml = test::notch_yaml(0.0, true, "{linear: umfpack}");
+  const std::size_t top = yaml.find("edge: top, uy:");
+  ASSERT_NE(top, std::string::npos);
+  yaml.replace(top, 14, "edge: top, ux: 0.0, uy:");
+  const Scene scene = test::scene_from_yaml(yaml);
+  const Model model = discretise(scene);
+  // Island k of each rectangle (x0, x1, y0, y1): A, B, then D's layers and its two blocks.
+  const std::array<std::array<double, 4>, 5> islands = {{{0.012, 0.028, 0.005, 0.011},
+                                                         {0.003, 0.007, 0.013, 0.017},
+                                                         {0.015, 0.025, 0.02, 0.03},
+                                                         {0.015, 0.019, 0.015, 0.02},
+                                                         {0.021, 0.025, 0.015, 0.02}}};
+  const auto island = [&](const Vec2& X) {
+    for (std::size_t k = 0; k < islands.size(); ++k) {
+      const auto& r = islands[k];
+      if (X.x() > r[0] && X.x() < r[1] && X.y() > r[2] && X.y() < r[3])
+        return std::min(static_cast<int>(k), 2);
+    }
+    return -1;
+  };
+  Index unowned_in_d = 0;
+  for (Index p = 0; p < model.particles.size(); ++p)
+    unowned_in_d += island(model.particles.position[p]) == 2 && model.constraints.free_index[2 * p] < 0 &&
+                    model.constraints.free_index[2 * p + 1] < 0;
+  ASSERT_GT(unowned_in_d, 10) << "D's layers must have no unknown";
+  const auto cut = [&](const Model& m) {  // the intact weights: the bonds across an island's edge cut
+    std::vector<double> intact = m.bonds.weight;
+    for (Index i = 0; i < m.particles.size(); ++i)
+      for (Index b = m.bonds.start[i]; b < m.bonds.start[i + 1]; ++b)
+        if (island(m.particles.position[i]) != island(m.particles.position[m.bonds.neighbour[b]]))
+          intact[b] = 0.0;
+    return intact;
+  };
+  std::vector<char> unsupported;
+  std::vector<Index> component;
+  find_unsupported(model, cut(model), unsupported, component);
+  std::vector<int> in_island(3, 0), unsupported_in(3, 0);
+  for (Index p = 0; p < model.particles.size(); ++p) {
+    const int k = island(model.particles.position[p]);
+    if (k >= 0) {
+      ++in_island[static_cast<std::size_t>(k)];
+      unsupported_in[static_cast<std::size_t>(k)] += unsupported[p];
+    } else {
+      ASSERT_FALSE(unsupported[p]) << "the plate outside the islands is held";
+    }
+  }
+  // What makes the comparison mean something: two islands loose, one held through its edge.
+  ASSERT_GT(in_island[0], 50);
+  EXPECT_EQ(unsupported_in[0], in_island[0]);
+  EXPECT_EQ(unsupported_in[1], in_island[1]);
+  EXPECT_EQ(unsupported_in[2], 0);
+  for (const auto& [cuts, ranks] : {std::pair{true, 2}, std::pair{true, 3}, std::pair{false, 2}}) {
+    SCOPED_TRACE(std::string(cuts ? "cuts across x" : "strips") + " on " + std::to_string(ranks) + " ranks");
+    const std::vector<int> owner =
+        cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
+    test::EmulatedRanks net(ranks);
+    std::vector<ModelPart> parts(static_cast<std::size_t>(ranks));
+    std::vector<std::vector<char>> part_unsupported(static_cast<std::size_t>(ranks));
+    std::vector<std::vector<Index>> part_component(static_cast<std::size_t>(ranks));
+    ASSERT_NO_THROW(net.run([&](int rank) {
+      const OwnedRows rows{rank, owner};
+      const Model bonded = discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, 1); });
+      ModelPart& part = parts[static_cast<std::size_t>(rank)];
+      part = extract_part(bonded, owner, rank, bonded.family_held);
+      std::vector<char> counted;
+      for (const int o : part.owner) counted.push_back(counted_by(o, rank));
+      const GraphParts graph{
+          counted, [&net, rank](const std::vector<double>& mine) { return net.gather(rank, mine); },
+          part.global_id, part.owner,
+          [&net, rank, &part](VectorXd& v) {
+            import_by_id(net, rank, part.global_id, static_cast<std::size_t>(part.n_owned), v.data());
+          }};
+      find_unsupported(part.model, cut(part.model), part_unsupported[static_cast<std::size_t>(rank)],
+                       part_component[static_cast<std::size_t>(rank)], &graph);
+    }));
+    std::map<Index, std::int64_t> label_of;  // a whole component -> the parts' label
+    std::map<std::int64_t, Index> component_of;
+    for (int rank = 0; rank < ranks; ++rank) {
+      SCOPED_TRACE("rank " + std::to_string(rank));
+      const ModelPart& part = parts[static_cast<std::size_t>(rank)];
+      for (std::size_t l = 0; l < part.global_id.size(); ++l) {
+        const auto g = static_cast<Index>(part.global_id[l]);
+        ASSERT_EQ(part_unsupported[static_cast<std::size_t>(rank)][l], unsupported[g]) << "particle " << g;
+        const std::int64_t label = part_component[static_cast<std::size_t>(rank)][l];
+        const auto [it, fresh] = label_of.emplace(component[g], label);
+        ASSERT_EQ(it->second, label) << "one label per component, particle " << g;
+        const auto [jt, new_label] = component_of.emplace(label, component[g]);
+        ASSERT_EQ(jt->second, component[g]) << "one component per label, particle " << g;
+      }
+    }
   }
 }
 
