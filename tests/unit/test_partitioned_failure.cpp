@@ -37,6 +37,9 @@ struct Record {
   StateArchive saved;
   Index restored_broken = 0, restored_fragment_particles = 0;
   VectorXd restored_damage;
+  // A further round at 1.5 x, undone (what load stepping does when the re-solve fails).
+  Index undone_round = 0, broken_after_undo = 0, contact_pairs_before = 0, contact_pairs_after = 0;
+  bool residual_restored = false;
 };
 
 /// Breaks the bonds over the criterion at x in rounds of at most `at_most` pairs, committing
@@ -68,6 +71,17 @@ Record break_save_restore(
   rec.restored_broken = fresh.failure()->broken();
   rec.restored_damage = fresh.damage();
   rec.restored_fragment_particles = fresh.fragment_particles();
+  // The restored state, a round at a larger displacement, and the round undone: the problem
+  // must be the restored one again, bit for bit (on a part: every rank alike, collectively).
+  VectorXd before, after;
+  fresh.evaluate(x, before, nullptr);
+  if (fresh.contact()) rec.contact_pairs_before = fresh.contact()->size();
+  rec.undone_round = fresh.advance_irreversible_state(1.5 * x, 0);
+  fresh.revert_irreversible_state();
+  fresh.evaluate(x, after, nullptr);
+  rec.residual_restored = (before.array() == after.array()).all();
+  rec.broken_after_undo = fresh.failure()->broken();
+  if (fresh.contact()) rec.contact_pairs_after = fresh.contact()->size();
   return rec;
 }
 
@@ -259,6 +273,10 @@ void expect_parts_break_as_one_process(const Scene& scene, const Model& model, c
     }
     EXPECT_EQ(r.restored_broken, whole.broken);
     EXPECT_EQ(r.restored_fragment_particles, whole.fragment_particles);
+    EXPECT_EQ(r.undone_round, whole.undone_round) << "the round to undo, every rank's count";
+    EXPECT_TRUE(r.residual_restored) << "the part's residual after the round was undone";
+    EXPECT_EQ(r.broken_after_undo, whole.broken);
+    EXPECT_EQ(r.contact_pairs_after, r.contact_pairs_before) << "the round's contact pairs dropped";
   }
 }
 
@@ -273,6 +291,10 @@ void expect_ranks_break_as_one_process(const Scene& scene, double stretch, doubl
   ASSERT_EQ(whole.fragment_particles, 1) << "the moved particle is cut loose";
   EXPECT_EQ(whole.restored_broken, whole.broken);
   EXPECT_TRUE((whole.restored_damage.array() == whole.damage.array()).all());
+  ASSERT_GT(whole.undone_round, 0) << "the round to undo must break bonds";
+  EXPECT_TRUE(whole.residual_restored);
+  EXPECT_EQ(whole.broken_after_undo, whole.broken);
+  EXPECT_EQ(whole.contact_pairs_after, whole.contact_pairs_before);
   for (const int rings : {1, 2})
     for (const auto& [cuts, ranks] :
          {std::pair{false, 2}, std::pair{false, 3}, std::pair{true, 2}, std::pair{true, 3}}) {
