@@ -131,10 +131,6 @@ ModelChoice part_model_choice(const Scene& scene, int ranks) {
     cannot =
         "ADR under mpirun runs on the whole model (each rank relaxes its own unknowns); a part runs Newton "
         "with belos";
-  else if (scene.solver.linear.belos.tangent != BelosTangent::matrix_free)
-    cannot =
-        "a part holds the families one horizon around its particles, which the matrix-free tangent reads "
-        "and solver.belos.tangent=assembled does not (it reads two)";
   else if (scene.contact.enabled && scene.contact.velocity_sign)
     cannot = "the velocity-sign friction law, which the parts do not run";
   if (!cannot.empty()) {
@@ -159,7 +155,10 @@ ModelPart part_model(const Scene& scene, int rank, int ranks) {
     rows = owned_rows(scene, unbonded, rank, ranks);
     if (rows.owner.empty())
       rows = OwnedRows{0, std::vector<int>(static_cast<std::size_t>(unbonded.particles.size()), 0)};
-    return families_to_hold(unbonded, rows, 1);
+    // The matrix-free tangent reads the families one stencil around the rows; the assembled
+    // tangent's columns reach two.
+    return families_to_hold(unbonded, rows,
+                            scene.solver.linear.belos.tangent == BelosTangent::matrix_free ? 1 : 2);
   });
   return extract_part(whole, rows.owner, rank, whole.family_held);
 }

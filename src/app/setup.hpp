@@ -83,9 +83,9 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
 std::vector<int> unknown_owners(const Constraints& constraints, const std::vector<int>& particle_owner);
 
 /// Whether each rank holds only its part of the model (solver.belos.model), and why. A part
-/// runs Newton with belos's matrix-free tangent on a scene without the velocity-sign friction
-/// law, with or without contact and failure (docs/guide/distributed.md, "Running on the
-/// parts"). `auto` picks the part under
+/// runs Newton with belos (either tangent) on a scene without the velocity-sign friction law,
+/// with or without contact and failure (docs/guide/distributed.md, "Running on the parts").
+/// `auto` picks the part under
 /// mpirun for a scene without contact, the whole model elsewhere; `part` where a belos run (or
 /// ADR under mpirun) cannot use it throws InputError saying why; a one-process run with another
 /// linear solver ignores the key. Call after resolve_linear_solver().
@@ -97,8 +97,8 @@ ModelChoice part_model_choice(const Scene& scene, int ranks);
 
 /// This rank's part of the model (docs/guide/distributed.md, "The partitioned model"): the
 /// owners by solver.belos.partition (owned_rows(), every particle owned), the whole model
-/// discretised with only the families the part holds (one ring: Newton's matrix-free tangent),
-/// the part extracted from it and the whole model freed.
+/// discretised with only the families the part holds (one ring for the matrix-free tangent, two for the
+/// assembled one), the part extracted from it and the whole model freed.
 ModelPart part_model(const Scene& scene, int rank, int ranks);
 /// The problem's options on that part, under mpirun: its rows, the sums and maxima over the
 /// ranks, the owned unknowns and the import of the ghost tail (collective: it builds a

@@ -417,6 +417,22 @@ TEST(Distributed, AssembledTangentOnTwoRanksBreaksTheSameBonds) {
                                     std::string(" --set discretization.spacing=0.05") + kAssembled));
 }
 
+// The assembled tangent on the ranks' parts: a part then holds the families two stencils
+// around its particles (the tangent's columns reach two horizons from its rows), and the
+// rows it assembles are the whole model's. Case 4.1 (sliding with friction) and case 4.4 (the
+// same bonds broken), each against the serial run.
+TEST(Distributed, AssembledTangentOnThePartsEqualsSerial) {
+  const std::string part = std::string(kAssembled) + " --set solver.belos.model=part";
+  const Pair sliding = run_both("paper_4_1_sliding_plates", "paper_4_1_sliding_plates",
+                                " --set discretization.spacing=1e-3" + part);
+  expect_same_answer(sliding);
+  const Pair growth = run_both("paper_4_4_crack_growth", "paper_4_4_crack_growth",
+                               " --set discretization.spacing=0.05" + part);
+  expect_same_bonds_broken(growth);
+  for (const Pair* p : {&sliding, &growth})
+    EXPECT_EQ(test::read_json(p->dir / "mpi" / "summary.json")["run"]["model"], "part");
+}
+
 // Partitioned bonds (docs/guide/distributed.md): a rank's model holds the families its rows
 // read and its problem shares the forces after each whole evaluation. Every force, action
 // entry, tangent and bond-matrix entry is the whole model's to the bit (unit.Assembly.Partitioned*),
@@ -567,8 +583,8 @@ TEST(Distributed, OtherSolversAreRefusedUnderMpirun) {
 }
 
 TEST(Distributed, APartIsRefusedWhereItCannotRun) {
-  // solver.belos.model: part with ADR under mpirun or with the assembled tangent: exit 2, the
-  // key and the reason, nothing written. `auto` runs those scenes on the whole model.
+  // solver.belos.model: part with ADR under mpirun: exit 2, the key and the reason, nothing
+  // written. `auto` runs ADR on the whole model.
   const fs::path dir = test::fresh_directory("distributed_part_refused");
   const std::string c43 = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_3_precracked_plate/scene.yaml";
   const test::CliResult adr = test::run_mpi(2, "run " + c43 + " --quiet --out " + (dir / "adr").string() +
@@ -578,14 +594,6 @@ TEST(Distributed, APartIsRefusedWhereItCannotRun) {
   EXPECT_NE(adr.err.find("solver.belos.model"), std::string::npos) << adr.err;
   EXPECT_NE(adr.err.find("ADR"), std::string::npos) << adr.err;
   EXPECT_FALSE(fs::exists(dir / "adr")) << "nothing is written";
-  const std::string plate = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
-  const test::CliResult assembled =
-      test::run_mpi(2, "run " + plate + " --quiet --out " + (dir / "assembled").string() +
-                           " --set discretization.spacing=5e-3 --set solver.belos.model=part"
-                           " --set solver.belos.tangent=assembled");
-  EXPECT_EQ(assembled.exit_code, 2);
-  EXPECT_NE(assembled.err.find("solver.belos.tangent=assembled"), std::string::npos) << assembled.err;
-  EXPECT_FALSE(fs::exists(dir / "assembled"));
 }
 
 TEST(Distributed, AMueLuListThatIsNotXmlIsRefused) {
