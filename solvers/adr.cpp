@@ -77,7 +77,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   // its rows read), and every unknown on every rank once the solve ends, however it ends.
   const auto share = [&] {
     if (!distributed) return;
-    m_share.share_reads(x);
+    if (!m_share.problem_imports_state) m_share.share_reads(x);
     if (m_velocity) m_share.share_reads(m_v);
   };
   const ScopeExit whole_after([&] {

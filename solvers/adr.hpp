@@ -17,7 +17,8 @@ class AdrSolver final : public StepSolver {
   /// paper's velocity-sign friction); null otherwise.
   /// `share`: under mpirun, the unknowns this rank updates (docs/guide/distributed.md); each
   /// pseudo-time step then evaluates the rank's rows only (Problem::set_own_rows_only), updates
-  /// its own unknowns, and shares them with every rank.
+  /// its own unknowns, and shares them with every rank (on a rank's part: with the ranks that
+  /// read them).
   AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocityInput* velocity = nullptr,
             UnknownShare share = {});
 

@@ -23,6 +23,10 @@ struct UnknownShare {
   /// two horizons, contact pairs, mirror sources) from their owners; the others go stale until
   /// the next share(). Between pseudo-time steps.
   std::function<void(VectorXd& x)> share_reads;
+  /// On a rank's part of the model (ModelPart): the owned unknowns come first and the problem
+  /// imports the ghost tail of every state it evaluates, so the solver imports only the other
+  /// vectors its residual reads (the pseudo-velocity), with share_reads.
+  bool problem_imports_state = false;
 
   bool distributed() const { return !owned.empty(); }
 };

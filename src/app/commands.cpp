@@ -121,7 +121,12 @@ ProcessModel process_model(const Scene& scene) {
   m.choice = part_model_choice(scene, ranks);
   if (m.choice.part) {
     m.part.emplace(part_model(scene, parallel::rank(), ranks));
-    m.bonds = {true, 1, "a rank's part holds the families of its particles and their neighbours"};
+    m.bonds = {
+        true, part_rings(scene),
+        part_rings(scene) == 1
+            ? "a rank's part holds the families of its particles and their neighbours"
+            : "a rank's part holds the families of its particles and of two rings around them (an assembled "
+              "tangent)"};
     return m;
   }
   m.bonds = partitioned_bonds(scene, ranks);

@@ -118,26 +118,12 @@ std::vector<int> unknown_owners(const Constraints& constraints, const std::vecto
 ModelChoice part_model_choice(const Scene& scene, int ranks) {
   const BelosModel asked = scene.solver.linear.belos.model;
   if (asked == BelosModel::whole) return {false, "solver.belos.model: whole"};
-  // Like every solver.belos key, it applies to Newton with belos; in one process a run with
-  // another linear solver ignores it. ADR under mpirun, which distributes its own way, cannot
-  // honour an explicit `part`.
+  // It applies to Newton with belos, and to ADR under mpirun; in one process a run with
+  // another linear solver, or ADR, ignores it.
   const bool belos =
       scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::belos;
   if (!belos && (ranks <= 1 || scene.solver.type == SolverKind::newton))
     return {false, "solver.linear is not belos"};
-  // What a part cannot run yet, first: an explicit `part` is refused with it.
-  std::string cannot;
-  if (!belos)
-    cannot =
-        "ADR under mpirun runs on the whole model (each rank relaxes its own unknowns); a part runs Newton "
-        "with belos";
-  else if (scene.contact.enabled && scene.contact.velocity_sign)
-    cannot = "the velocity-sign friction law, which the parts do not run";
-  if (!cannot.empty()) {
-    if (asked == BelosModel::part)
-      throw InputError("solver.belos.model: part: " + cannot + "; use solver.belos.model=whole (or auto)");
-    return {false, cannot};
-  }
   if (asked == BelosModel::automatic && ranks <= 1) return {false, "one process"};
   if (asked == BelosModel::automatic && scene.contact.enabled)
     return {false,
@@ -149,16 +135,21 @@ ModelChoice part_model_choice(const Scene& scene, int ranks) {
                       "over their unknowns only"};
 }
 
+int part_rings(const Scene& scene) {
+  // The matrix-free tangent reads the families one stencil around the rows; the assembled
+  // tangent's columns (Newton's, or ADR's for its density) reach two.
+  const bool assembled =
+      scene.solver.type == SolverKind::adr || scene.solver.linear.belos.tangent != BelosTangent::matrix_free;
+  return assembled ? 2 : 1;
+}
+
 ModelPart part_model(const Scene& scene, int rank, int ranks) {
   OwnedRows rows;
   const Model whole = discretise(scene, [&](const Model& unbonded) {
     rows = owned_rows(scene, unbonded, rank, ranks);
     if (rows.owner.empty())
       rows = OwnedRows{0, std::vector<int>(static_cast<std::size_t>(unbonded.particles.size()), 0)};
-    // The matrix-free tangent reads the families one stencil around the rows; the assembled
-    // tangent's columns reach two.
-    return families_to_hold(unbonded, rows,
-                            scene.solver.linear.belos.tangent == BelosTangent::matrix_free ? 1 : 2);
+    return families_to_hold(unbonded, rows, part_rings(scene));
   });
   return extract_part(whole, rows.owner, rank, whole.family_held);
 }
@@ -314,6 +305,22 @@ std::string resolve_linear_solver(Scene& scene, int ranks) {
   return scene.solver.linear.auto_choice;
 }
 
+UnknownShare part_unknown_share(const ModelPart& part) {
+  UnknownShare share;
+  share.owned.assign(static_cast<std::size_t>(part.model.constraints.n_free), 0);
+  std::fill_n(share.owned.begin(), part.n_owned_unknowns, char{1});
+  share.sum = parallel::sum_in_rank_order;
+  share.max = parallel::max_over_ranks;
+  // The ghost tail from the owners, for x at the end of a solve and the pseudo-velocity at
+  // each step (the problem imports x's own tail at every evaluation).
+  auto ghosts = std::make_shared<parallel::PartExchange>(part.global_unknown,
+                                                         unknown_owners(part.model.constraints, part.owner),
+                                                         static_cast<std::size_t>(part.n_owned_unknowns));
+  share.share = share.share_reads = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
+  share.problem_imports_state = true;
+  return share;
+}
+
 UnknownShare unknown_share(const QuasiStaticProblem& problem) {
   const OwnedRows& rows = problem.owned_rows();
   UnknownShare share;
@@ -346,12 +353,11 @@ UnknownShare unknown_share(const QuasiStaticProblem& problem) {
 
 std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProblem& problem,
                                              std::unique_ptr<LinearSolver>& linear, const ModelPart* part) {
-  if (part &&
-      (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::belos))
-    throw std::logic_error("make_step_solver: a rank's part of the model runs Newton with belos only");
+  if (part && scene.solver.type == SolverKind::newton && scene.solver.linear.type != LinearSolverKind::belos)
+    throw std::logic_error("make_step_solver: a rank's part of the model runs Newton with belos or ADR");
   if (scene.solver.type == SolverKind::adr)
     return std::make_unique<AdrSolver>(problem, scene.solver.adr, problem.pseudo_velocity_input(),
-                                       unknown_share(problem));
+                                       part ? part_unknown_share(*part) : unknown_share(problem));
   LinearOptions options = scene.solver.linear;
   if (options.type == LinearSolverKind::automatic) {  // callers that did not resolve it (tests)
     options.type = choose_linear_solver(scene, static_cast<double>(problem.n_unknowns()), 1).kind;

@@ -100,6 +100,12 @@ ModelChoice part_model_choice(const Scene& scene, int ranks);
 /// discretised with only the families the part holds (one ring for the matrix-free tangent, two for the
 /// assembled one), the part extracted from it and the whole model freed.
 ModelPart part_model(const Scene& scene, int rank, int ranks);
+/// The rings of families around its particles a part holds: one for Newton's matrix-free
+/// tangent, two for an assembled tangent (belos's `assembled`, or ADR's for its density).
+int part_rings(const Scene& scene);
+/// ADR's share of the unknowns on a rank's part: the owned ones first, the ghost tail imported
+/// from the owners (collective to build).
+UnknownShare part_unknown_share(const ModelPart& part);
 /// The problem's options on that part, under mpirun: its rows, the sums and maxima over the
 /// ranks, the owned unknowns and the import of the ghost tail (collective: it builds a
 /// parallel::PartExchange over the unknowns).

@@ -240,7 +240,6 @@ ContactSystem::ContactSystem(const Model& model, const ContactOptions& o, Contac
         m_ranks.counted.size() != m_ranks.global_id.size() || !m_ranks.gather || !m_ranks.gather_on_root)
       throw std::logic_error(
           "ContactSystem: a part needs a global id and a counted flag per particle, and the gathers");
-    if (o.velocity_sign) throw std::logic_error("ContactSystem: a part runs without the velocity-sign law");
     m_by_global.reserve(m_ranks.global_id.size());
     for (std::size_t q = 0; q < m_ranks.global_id.size(); ++q)
       m_by_global.emplace_back(m_ranks.global_id[q], static_cast<Index>(q));
