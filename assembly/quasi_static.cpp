@@ -1063,7 +1063,8 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
 void QuasiStaticProblem::check_mirror_zone(const std::vector<std::pair<Index, Index>>& broken) {
   if (m_mirror_zone.empty() && !part()) return;  // a part without mirror images still takes part
   std::vector<double> found;                     // the bond's ends
-  for (const auto& [i, j] : m_mirror_zone.empty() ? std::vector<std::pair<Index, Index>>{} : broken) {
+  for (const auto& [i, j] : broken) {
+    if (m_mirror_zone.empty()) break;
     if (!m_mirror_zone[i] && !m_mirror_zone[j]) continue;
     const Vec2 &a = m_model.particles.position[i], &b = m_model.particles.position[j];
     found = {a.x(), a.y(), b.x(), b.y()};

@@ -212,6 +212,9 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   const Model& model() const { return m_model; }
   /// The rows this process assembles (ProblemOptions::rows).
   const OwnedRows& owned_rows() const { return m_options.rows; }
+  /// On a part: fills the ghost tail of a vector over the unknowns from the owners
+  /// (ProblemOptions::import_ghosts; collective).
+  void import_ghosts(VectorXd& v) const { m_options.import_ghosts(v); }
   /// The committed state into / from a checkpoint (peristat run --resume): load factor,
   /// energy ledger, broken bonds, contact candidates and their history. restore_state()
   /// expects a fresh problem of the same model and the committed unknowns x.

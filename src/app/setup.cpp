@@ -154,6 +154,33 @@ ModelPart part_model(const Scene& scene, int rank, int ranks) {
   return extract_part(whole, rows.owner, rank, whole.family_held);
 }
 
+namespace {
+/// One value per particle of a part from its owner into the ranks that read it (collective to
+/// build and to call). Particles without an owner (no row, kept by every rank alike) keep their
+/// values.
+std::function<void(VectorXd&)> part_particle_exchange(const ModelPart& part) {
+  std::vector<std::size_t> exchanged;
+  std::vector<std::int64_t> ids;
+  std::vector<int> owner;
+  for (std::size_t p = 0; p < part.owner.size(); ++p)
+    if (part.owner[p] >= 0) {
+      exchanged.push_back(p);
+      ids.push_back(part.global_id[p]);
+      owner.push_back(part.owner[p]);
+    }
+  auto exchange =
+      std::make_shared<parallel::PartExchange>(ids, owner, static_cast<std::size_t>(part.n_owned));
+  auto scratch = std::make_shared<std::vector<double>>(exchanged.size());
+  return [exchange, scratch, exchanged](VectorXd& values) {
+    for (std::size_t k = 0; k < exchanged.size(); ++k)
+      (*scratch)[k] = values[static_cast<Index>(exchanged[k])];
+    exchange->share(scratch->data());
+    for (std::size_t k = 0; k < exchanged.size(); ++k)
+      values[static_cast<Index>(exchanged[k])] = (*scratch)[k];
+  };
+}
+}  // namespace
+
 ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, int rank) {
   ProblemOptions options = problem_options(scene);
   options.rows = OwnedRows{rank, part.owner};
@@ -167,27 +194,7 @@ ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, i
   options.import_ghosts = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
   options.sum_in_rank_order = parallel::sum_in_rank_order;
   if (scene.failure.enabled) {
-    // One value per particle from its owner into the ranks that read it (the damage, the
-    // labels of the pieces of the bond graph); particles without an owner are not exchanged.
-    std::vector<std::size_t> exchanged;
-    std::vector<std::int64_t> ids;
-    std::vector<int> owner;
-    for (std::size_t p = 0; p < part.owner.size(); ++p)
-      if (part.owner[p] >= 0) {
-        exchanged.push_back(p);
-        ids.push_back(part.global_id[p]);
-        owner.push_back(part.owner[p]);
-      }
-    auto exchange =
-        std::make_shared<parallel::PartExchange>(ids, owner, static_cast<std::size_t>(part.n_owned));
-    auto scratch = std::make_shared<std::vector<double>>(exchanged.size());
-    options.share_particle_values = [exchange, scratch, exchanged](VectorXd& values) {
-      for (std::size_t k = 0; k < exchanged.size(); ++k)
-        (*scratch)[k] = values[static_cast<Index>(exchanged[k])];
-      exchange->share(scratch->data());
-      for (std::size_t k = 0; k < exchanged.size(); ++k)
-        values[static_cast<Index>(exchanged[k])] = (*scratch)[k];
-    };
+    options.share_particle_values = part_particle_exchange(part);  // the damage, the pieces' labels
     options.gather_over_ranks = parallel::gather_over_ranks;
     options.global_id = part.global_id;
     options.n_particles_whole = part.n_particles_whole;
@@ -215,30 +222,16 @@ UnknownLayout part_unknown_layout(const ModelPart& part, int rank) {
   std::int64_t owned_nodes = 0;
   for (Index p = 0; p < part.n_owned; ++p) owned_nodes += is_node(p);
   layout.first_node = parallel::sum_over_lower_ranks(owned_nodes, &layout.global_nodes);
-  // Every entry a double for the exchange: node numbers below 2^53 are exact.
-  std::vector<double> node(static_cast<std::size_t>(n), -1.0);
+  // Every entry a double for the exchange: node numbers below 2^53 are exact. Particles without
+  // an owner (no row, kept by every rank alike) are not exchanged: they hold no node.
+  VectorXd node = VectorXd::Constant(n, -1.0);
   std::int64_t next = layout.first_node;
   for (Index p = 0; p < part.n_owned; ++p)
-    if (is_node(p)) node[static_cast<std::size_t>(p)] = static_cast<double>(next++);
-  std::vector<std::int64_t> ids = part.global_id;
-  std::vector<int> owner = part.owner;
-  // Particles without an owner (no row, kept by every rank alike) are not exchanged: they hold no node.
-  std::vector<std::size_t> exchanged;
-  for (std::size_t p = 0; p < ids.size(); ++p)
-    if (owner[p] >= 0 || p < static_cast<std::size_t>(part.n_owned)) exchanged.push_back(p);
-  std::vector<std::int64_t> xids;
-  std::vector<int> xowner;
-  std::vector<double> values;
-  for (const std::size_t p : exchanged) {
-    xids.push_back(ids[p]);
-    xowner.push_back(owner[p]);
-    values.push_back(node[p]);
-  }
-  parallel::PartExchange exchange(xids, xowner, static_cast<std::size_t>(part.n_owned));
-  exchange.share(values.data());
+    if (is_node(p)) node[p] = static_cast<double>(next++);
+  part_particle_exchange(part)(node);
   layout.global_node.assign(static_cast<std::size_t>(n), -1);
-  for (std::size_t k = 0; k < exchanged.size(); ++k)
-    layout.global_node[exchanged[k]] = static_cast<std::int64_t>(values[k]);
+  for (Index p = 0; p < n; ++p)
+    layout.global_node[static_cast<std::size_t>(p)] = static_cast<std::int64_t>(node[p]);
   // The whole model's centre: each particle counted by its owner (rank 0 those without one).
   double sums[3] = {0.0, 0.0, 0.0};
   for (Index p = 0; p < n; ++p) {
@@ -305,18 +298,15 @@ std::string resolve_linear_solver(Scene& scene, int ranks) {
   return scene.solver.linear.auto_choice;
 }
 
-UnknownShare part_unknown_share(const ModelPart& part) {
+UnknownShare part_unknown_share(const QuasiStaticProblem& problem, const ModelPart& part) {
   UnknownShare share;
   share.owned.assign(static_cast<std::size_t>(part.model.constraints.n_free), 0);
   std::fill_n(share.owned.begin(), part.n_owned_unknowns, char{1});
   share.sum = parallel::sum_in_rank_order;
   share.max = parallel::max_over_ranks;
   // The ghost tail from the owners, for x at the end of a solve and the pseudo-velocity at
-  // each step (the problem imports x's own tail at every evaluation).
-  auto ghosts = std::make_shared<parallel::PartExchange>(part.global_unknown,
-                                                         unknown_owners(part.model.constraints, part.owner),
-                                                         static_cast<std::size_t>(part.n_owned_unknowns));
-  share.share = share.share_reads = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
+  // each step, by the problem's own exchange (it imports x's tail at every evaluation).
+  share.share = share.share_reads = [&problem](VectorXd& x) { problem.import_ghosts(x); };
   share.problem_imports_state = true;
   return share;
 }
@@ -357,7 +347,7 @@ std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProb
     throw std::logic_error("make_step_solver: a rank's part of the model runs Newton with belos or ADR");
   if (scene.solver.type == SolverKind::adr)
     return std::make_unique<AdrSolver>(problem, scene.solver.adr, problem.pseudo_velocity_input(),
-                                       part ? part_unknown_share(*part) : unknown_share(problem));
+                                       part ? part_unknown_share(problem, *part) : unknown_share(problem));
   LinearOptions options = scene.solver.linear;
   if (options.type == LinearSolverKind::automatic) {  // callers that did not resolve it (tests)
     options.type = choose_linear_solver(scene, static_cast<double>(problem.n_unknowns()), 1).kind;

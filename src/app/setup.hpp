@@ -104,8 +104,8 @@ ModelPart part_model(const Scene& scene, int rank, int ranks);
 /// tangent, two for an assembled tangent (belos's `assembled`, or ADR's for its density).
 int part_rings(const Scene& scene);
 /// ADR's share of the unknowns on a rank's part: the owned ones first, the ghost tail imported
-/// from the owners (collective to build).
-UnknownShare part_unknown_share(const ModelPart& part);
+/// from the owners by the problem's exchange.
+UnknownShare part_unknown_share(const QuasiStaticProblem& problem, const ModelPart& part);
 /// The problem's options on that part, under mpirun: its rows, the sums and maxima over the
 /// ranks, the owned unknowns and the import of the ghost tail (collective: it builds a
 /// parallel::PartExchange over the unknowns).

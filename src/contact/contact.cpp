@@ -203,6 +203,19 @@ std::pair<std::int64_t, std::int64_t> grid_cell(const Vec2& x, double R) {
 std::uint64_t cell_key(std::int64_t cx, std::int64_t cy) {
   return (static_cast<std::uint64_t>(cx) << 32) ^ (static_cast<std::uint64_t>(cy) & 0xffffffffull);
 }
+/// Calls visit(entry) for every entry of a hash grid (cells R wide, by cell_key) in the 3 x 3
+/// cells around x's: among them every entry within R of x.
+template <class Entry, class Visit>
+void visit_near(const std::unordered_map<std::uint64_t, std::vector<Entry>>& grid, const Vec2& x, double R,
+                Visit&& visit) {
+  const auto [cx, cy] = grid_cell(x, R);
+  for (std::int64_t dx = -1; dx <= 1; ++dx)
+    for (std::int64_t dy = -1; dy <= 1; ++dy) {
+      const auto it = grid.find(cell_key(cx + dx, cy + dy));
+      if (it == grid.end()) continue;
+      for (const Entry& e : it->second) visit(e);
+    }
+}
 
 /// The boundary segments shared by polygons A and B (collinear, overlapping edges).
 std::vector<Segment> shared_segments(const Polygon& A, const Polygon& B, double tol) {
@@ -785,16 +798,11 @@ std::int64_t ContactSystem::partners_outside(const VectorXd& u) const {
       for (const Index q : side == 0 ? m_surfaces[s].side_a : m_surfaces[s].side_b) {
         if (!counted(q)) continue;
         const Vec2 x = current(q);
-        const auto [cx, cy] = grid_cell(x, R);
-        for (std::int64_t dx = -1; dx <= 1; ++dx)
-          for (std::int64_t dy = -1; dy <= 1; ++dy) {
-            const auto it = grid.find(cell_key(cx + dx, cy + dy));
-            if (it == grid.end()) continue;
-            for (const std::size_t at : it->second)
-              if ((Vec2(all[at + 3], all[at + 4]) - x).norm() < R &&
-                  local_of(static_cast<std::int64_t>(all[at + 2])) < 0)
-                ++outside;
-          }
+        visit_near(grid, x, R, [&](std::size_t at) {
+          if ((Vec2(all[at + 3], all[at + 4]) - x).norm() < R &&
+              local_of(static_cast<std::int64_t>(all[at + 2])) < 0)
+            ++outside;
+        });
       }
     }
   std::int64_t total = 0;
@@ -871,34 +879,28 @@ bool ContactSystem::search(const VectorXd& u) {
     }
     for (Index i : surface.side_a) {
       const Vec2 xi = current(i);
-      const auto [cx, cy] = grid_cell(xi, R);
-      for (std::int64_t dx = -1; dx <= 1; ++dx)
-        for (std::int64_t dy = -1; dy <= 1; ++dy) {
-          const auto it = grid.find(cell_key(cx + dx, cy + dy));
-          if (it == grid.end()) continue;
-          for (Index j : it->second) {
-            if ((current(j) - xi).norm() >= R) continue;
-            const Index lo = gid(i) < gid(j) ? i : j, hi = lo == i ? j : i;
-            if (!counted(lo) && !counted(hi)) continue;  // a part's pairs touch its own particles
-            if (known.count(key(lo, hi))) continue;
-            const Vec2 &Xi = p.position[lo], &Xj = p.position[hi];
-            if (surface.crack) {
-              // Faces of one body: a pair within a horizon is bonded unless the crack cuts it.
-              if (p.body[lo] != p.body[hi]) continue;
-              if ((Xj - Xi).norm() <= m_model.horizon * (1.0 + kLatticeRoundOff) &&
-                  !bond_crosses_crack(Xi, Xj, surface.segments[0].a, surface.segments[0].b))
-                continue;
-            }
-            double best = std::numeric_limits<double>::max();
-            Vec2 normal = surface.segments[0].normal;
-            for (const Segment& seg : surface.segments)
-              if (const double d = geometry::distance_to_segment(0.5 * (Xi + Xj), seg.a, seg.b); d < best) {
-                best = d;
-                normal = seg.normal;
-              }
-            if (add_candidate(lo, hi, normal, u)) known.insert(key(lo, hi));
-          }
+      visit_near(grid, xi, R, [&](Index j) {
+        if ((current(j) - xi).norm() >= R) return;
+        const Index lo = gid(i) < gid(j) ? i : j, hi = lo == i ? j : i;
+        if (!counted(lo) && !counted(hi)) return;  // a part's pairs touch its own particles
+        if (known.count(key(lo, hi))) return;
+        const Vec2 &Xi = p.position[lo], &Xj = p.position[hi];
+        if (surface.crack) {
+          // Faces of one body: a pair within a horizon is bonded unless the crack cuts it.
+          if (p.body[lo] != p.body[hi]) return;
+          if ((Xj - Xi).norm() <= m_model.horizon * (1.0 + kLatticeRoundOff) &&
+              !bond_crosses_crack(Xi, Xj, surface.segments[0].a, surface.segments[0].b))
+            return;
         }
+        double best = std::numeric_limits<double>::max();
+        Vec2 normal = surface.segments[0].normal;
+        for (const Segment& seg : surface.segments)
+          if (const double d = geometry::distance_to_segment(0.5 * (Xi + Xj), seg.a, seg.b); d < best) {
+            best = d;
+            normal = seg.normal;
+          }
+        if (add_candidate(lo, hi, normal, u)) known.insert(key(lo, hi));
+      });
     }
   }
   m_u_search = u;
