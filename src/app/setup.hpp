@@ -83,12 +83,10 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
 std::vector<int> unknown_owners(const Constraints& constraints, const std::vector<int>& particle_owner);
 
 /// Whether each rank holds only its part of the model (solver.belos.model), and why. A part
-/// runs Newton with belos (either tangent) on a scene without the velocity-sign friction law,
-/// with or without contact and failure (docs/guide/distributed.md, "Running on the parts").
-/// `auto` picks the part under
-/// mpirun for a scene without contact, the whole model elsewhere; `part` where a belos run (or
-/// ADR under mpirun) cannot use it throws InputError saying why; a one-process run with another
-/// linear solver ignores the key. Call after resolve_linear_solver().
+/// runs Newton with belos (either tangent) and ADR under mpirun, with or without contact and
+/// failure (docs/guide/distributed.md, "Running on the parts"). `auto` picks the part under
+/// mpirun for a scene without contact, the whole model elsewhere; a one-process run with
+/// another linear solver, or ADR, ignores the key. Call after resolve_linear_solver().
 struct ModelChoice {
   bool part = false;
   std::string reason;
