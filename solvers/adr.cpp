@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <span>
 #include <limits>
 #include <stdexcept>
 #include <utility>
@@ -32,7 +33,8 @@ int clamp_to_int(long iteration) {
 AdrSolver::AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocityInput* velocity,
                      UnknownShare share)
     : m_problem(problem), m_velocity(velocity), m_options(options), m_share(std::move(share)) {
-  if (m_share.distributed() && static_cast<Index>(m_share.owned.size()) != problem.n_unknowns())
+  if (m_share.distributed() &&
+      (static_cast<Index>(m_share.owned.size()) != problem.n_unknowns() || !m_share.exchange))
     throw std::logic_error("AdrSolver: the shared unknowns are not the problem's");
 }
 
@@ -51,7 +53,7 @@ void AdrSolver::prepare(const VectorXd& x) {
     for (SparseMatrix::InnerIterator it(m_K, col); it; ++it) rows[it.row()] += std::abs(it.value());
   m_problem.add_stiffness_bound(rows);
   // Distributed, a rank's rows hold only its own unknowns' sums: the largest over the ranks.
-  const double largest = m_share.distributed() ? m_share.max(rows.maxCoeff()) : rows.maxCoeff();
+  const double largest = m_share.distributed() ? m_share.ranks->max(rows.maxCoeff()) : rows.maxCoeff();
   m_density = 0.25 * m_options.density_factor * rows.cwiseMax(kRowSumFloor * largest);
   m_have_density = true;
 }
@@ -77,16 +79,16 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   // its rows read), and every unknown on every rank once the solve ends, however it ends.
   const auto share = [&] {
     if (!distributed) return;
-    if (!m_share.problem_imports_state) m_share.share_reads(x);
-    if (m_velocity) m_share.share_reads(m_v);
+    if (!m_share.problem_imports_state) m_share.exchange->share_reads(x);
+    if (m_velocity) m_share.exchange->share_reads(m_v);
   };
   const ScopeExit whole_after([&] {
     if (!distributed) return;
     m_problem.set_own_rows_only(false);
     // (Unwinding: no collective call, which the other ranks may not be making.)
     if (std::uncaught_exceptions() > 0) return;
-    m_share.share(x);
-    if (m_velocity) m_share.share(m_v);
+    m_share.exchange->share_all(x);
+    if (m_velocity) m_share.exchange->share_all(m_v);
   });
   // ||r|| and the Rayleigh quotient's sums (below) at x, over the ranks' own rows in one sum.
   double num = 0.0, den = 0.0;
@@ -111,7 +113,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
       sums[2] += xi2;
       if (m_v[i] != 0.0) sums[1] += xi2 * (m_r[i] - m_r_old[i]) / (m_density[i] * m_v[i]);
     }
-    m_share.sum(sums, damping ? 3 : 1);
+    m_share.ranks->sum_in_rank_order(std::span<double>(sums, damping ? 3 : 1));
     num = sums[1];
     den = sums[2];
     return std::sqrt(sums[0]);

@@ -11,64 +11,42 @@
 #include <Tpetra_Core.hpp>
 #include <mpi.h>
 
+#include "parallel/mpi/session.hpp"
+
 namespace peristat::parallel {
 
 namespace {
 
-int g_argc = 0;  // MPI_Init and Kokkos see no arguments (Session)
+int g_argc = 0;  // Kokkos sees no arguments (ensure_started)
 char** g_argv = nullptr;
 
-void finalize_at_exit() {
+void finalize_tpetra() {
   if (Tpetra::isInitialized()) Tpetra::finalize();
-}
-
-/// A process that mpirun did not start is alone: MPI serves MueLu and Belos inside it only.
-/// Open MPI's defaults would still start a singleton orted and probe UCX, 0.27 s of every
-/// such run (case 4.3: model built in 0.31 s, 0.05 s with these); the process needs none of
-/// it. The user's own settings win (no overwrite).
-void quiet_singleton() {
-  setenv("OMPI_MCA_ess_singleton_isolated", "1", 0);
-  setenv("OMPI_MCA_pml", "ob1", 0);
-  setenv("OMPI_MCA_osc", "^ucx", 0);
-  setenv("OMPI_MCA_btl", "self", 0);
-}
-
-void start(int* argc, char*** argv) {
-  if (Tpetra::isInitialized()) return;
-  if (!launched_by_mpirun()) quiet_singleton();
-  Tpetra::initialize(argc, argv);
-  // After main() returns (every solver is gone by then), also when MPI started lazily.
-  std::atexit(finalize_at_exit);
 }
 
 }  // namespace
 
-bool launched_by_mpirun() {
-  return std::getenv("OMPI_COMM_WORLD_SIZE") != nullptr || std::getenv("PMI_SIZE") != nullptr ||
-         std::getenv("PMIX_RANK") != nullptr;
+void ensure_started() {
+  if (Tpetra::isInitialized()) return;
+  // MPI first (src/parallel/mpi), then Tpetra on it; Tpetra ends before MPI does. Kokkos sees
+  // no arguments: Kokkos::initialize parses the command line and aborts on peristat's own
+  // `--threads 1` (it wants its `--threads=N`), or prints its help for `--help`.
+  start_mpi();
+  Tpetra::initialize(&g_argc, &g_argv);
+  before_mpi_ends(finalize_tpetra);
 }
 
-Session::Session() {
-  // MPI and Kokkos see no arguments: Kokkos::initialize parses the command line and aborts on
-  // peristat's own `--threads 1` (it wants its `--threads=N`), or prints its help for `--help`.
-  if (launched_by_mpirun()) start(&g_argc, &g_argv);
+int rank() {
+  if (!started()) return 0;
+  int r = 0;
+  MPI_Comm_rank(MPI_COMM_WORLD, &r);
+  return r;
 }
 
-Session::~Session() { finalize_at_exit(); }
-
-void ensure_started() { start(&g_argc, &g_argv); }
-
-int rank() { return Tpetra::isInitialized() ? Tpetra::getDefaultComm()->getRank() : 0; }
-
-int size() { return Tpetra::isInitialized() ? Tpetra::getDefaultComm()->getSize() : 1; }
-
-int ranks_on_this_machine() {
-  if (!Tpetra::isInitialized()) return 1;
-  MPI_Comm shared;
-  MPI_Comm_split_type(MPI_COMM_WORLD, MPI_COMM_TYPE_SHARED, 0, MPI_INFO_NULL, &shared);
+int size() {
+  if (!started()) return 1;
   int n = 1;
-  MPI_Comm_size(shared, &n);
-  MPI_Comm_free(&shared);
+  MPI_Comm_size(MPI_COMM_WORLD, &n);
   return n;
 }
 
@@ -342,10 +320,6 @@ std::vector<double> rows_of(const std::vector<double>& table, int width,
                 out.begin() + static_cast<std::ptrdiff_t>(k * w));
   }
   return out;
-}
-
-void abort_if_distributed(int code) {
-  if (size() > 1) MPI_Abort(MPI_COMM_WORLD, code);
 }
 
 }  // namespace peristat::parallel

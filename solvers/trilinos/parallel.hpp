@@ -1,35 +1,22 @@
-// MPI for the distributed linear algebra, started and ended through Tpetra. peristat runs
-// in one process unless it is launched by mpirun; then main() starts MPI at once, and every
-// rank runs the same model while the linear solves are distributed (solver.linear: belos).
-// In a plain process MPI starts only when a belos solver is made (an MPI singleton).
+// Tpetra's start, and the MPI reductions, exchanges and gathers that the program still calls
+// as free functions (they move behind `Ranks`, src/parallel). MPI itself starts and ends in
+// src/parallel/mpi/session.hpp.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
+#include "parallel/mpi/session.hpp"
+
 namespace peristat::parallel {
 
-/// True when this process was launched by mpirun (Open MPI's or another's environment).
-bool launched_by_mpirun();
-
-/// Starts MPI now if launched by mpirun; ends it (if started) when destroyed. One per
-/// program, in main(), outliving every distributed object.
-class Session {
- public:
-  Session();
-  ~Session();
-  Session(const Session&) = delete;
-  Session& operator=(const Session&) = delete;
-};
-
-/// Starts MPI when it is not running yet (a plain process: a singleton of one rank).
+/// Starts MPI (src/parallel/mpi: a quiet singleton in a plain process) and Tpetra on it, when
+/// they are not running yet; Tpetra ends before MPI does.
 void ensure_started();
 /// This process's rank and the number of ranks (0 and 1 before MPI starts).
 int rank();
 int size();
-/// The ranks that share this machine's memory (1 before MPI starts).
-int ranks_on_this_machine();
 /// The largest value and the sum over every rank (collective: every rank calls them at the
 /// same point); the value itself in one process.
 double max_over_ranks(double value);
@@ -117,9 +104,5 @@ std::vector<double> gather_rows_on_root(const std::vector<std::int64_t>& ids,
 /// the rows `ids` of `table` (n_rows x width, row-major), row by row. No communication.
 std::vector<double> rows_of(const std::vector<double>& table, int width,
                             const std::vector<std::int64_t>& ids);
-
-/// Ends every rank with `code` when more than one runs (an error that one rank meets alone
-/// would leave the others waiting in a collective operation); returns otherwise.
-void abort_if_distributed(int code);
 
 }  // namespace peristat::parallel

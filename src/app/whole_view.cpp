@@ -3,12 +3,12 @@
 #include <stdexcept>
 
 #include "assembly/pattern.hpp"
-#include "solvers/trilinos/parallel.hpp"
 
 namespace peristat {
 
-WholeView::WholeView(const Model& model, const ModelPart* part, int rank)
-    : m_model(model), m_part(part), m_root(rank == 0) {
+WholeView::WholeView(const Model& model, const ModelPart* part, const Ranks& ranks)
+    : m_model(model), m_part(part), m_ranks(ranks), m_root(ranks.root()) {
+  const int rank = ranks.rank();
   if (!part) return;
   if (&part->model != &model) throw std::logic_error("WholeView: the part's own model");
   // Each particle's row comes from its owner; those without one (held alike by every rank)
@@ -37,15 +37,16 @@ ParticleTable WholeView::particle_table(const Scene& scene) const {
     t.body = p.body;
     t.fictitious.assign(p.fictitious.begin(), p.fictitious.end());
   } else {
-    // x, y, volume, body, fictitious per particle: small integers are exact in a double.
-    constexpr int width = 5;
-    std::vector<double> rows;
-    rows.reserve(width * m_given.size());
+    struct Row {
+      double x, y, volume;
+      int body, fictitious;
+    };
+    std::vector<Row> rows;
+    rows.reserve(m_given.size());
     for (const Index i : m_given)
-      rows.insert(rows.end(), {p.position[i].x(), p.position[i].y(), p.volume[i],
-                               static_cast<double>(p.body[i]), static_cast<double>(p.fictitious[i])});
-    const std::vector<double> table =
-        parallel::gather_rows_on_root(m_given_ids, rows, width, m_part->n_particles_whole);
+      rows.push_back({p.position[i].x(), p.position[i].y(), p.volume[i], p.body[i], p.fictitious[i] ? 1 : 0});
+    const std::vector<Row> table = m_ranks.gather_rows_on_root(
+        std::span<const std::int64_t>(m_given_ids), std::span<const Row>(rows), 1, m_part->n_particles_whole);
     if (!m_root) return t;
     const std::size_t n = particles();
     t.position.resize(n);
@@ -53,11 +54,10 @@ ParticleTable WholeView::particle_table(const Scene& scene) const {
     t.body.resize(n);
     t.fictitious.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-      const double* r = &table[width * i];
-      t.position[i] = Vec2(r[0], r[1]);
-      t.volume[i] = r[2];
-      t.body[i] = static_cast<int>(r[3]);
-      t.fictitious[i] = static_cast<int>(r[4]);
+      t.position[i] = Vec2(table[i].x, table[i].y);
+      t.volume[i] = table[i].volume;
+      t.body[i] = table[i].body;
+      t.fictitious[i] = table[i].fictitious;
     }
   }
   for (const Body& b : scene.bodies) t.body_names.push_back(b.name);
@@ -75,21 +75,22 @@ void WholeView::particle_values(const VectorXd& mine, int width, VectorXd& whole
   for (std::size_t k = 0; k < m_given.size(); ++k)
     for (std::size_t c = 0; c < w; ++c)
       m_buffer[w * k + c] = mine[static_cast<Index>(w) * m_given[k] + static_cast<Index>(c)];
-  const std::vector<double> table =
-      parallel::gather_rows_on_root(m_given_ids, m_buffer, width, m_part->n_particles_whole);
+  const std::vector<double> table = m_ranks.gather_rows_on_root(
+      std::span<const std::int64_t>(m_given_ids), std::span<const double>(m_buffer), width, m_part->n_particles_whole);
   whole = Eigen::Map<const VectorXd>(table.data(), static_cast<Index>(table.size()));
 }
 
 std::vector<double> WholeView::unknowns(const VectorXd& x) const {
   if (!m_part) return {x.data(), x.data() + x.size()};
-  return parallel::gather_rows_on_root(m_owned_unknowns,
-                                       std::vector<double>(x.data(), x.data() + m_part->n_owned_unknowns), 1,
-                                       m_part->n_unknowns_whole);
+  return m_ranks.gather_rows_on_root(std::span<const std::int64_t>(m_owned_unknowns),
+                                     std::span<const double>(x.data(), static_cast<std::size_t>(m_part->n_owned_unknowns)),
+                                     1, m_part->n_unknowns_whole);
 }
 
 VectorXd WholeView::unknowns_from(const std::vector<double>& whole) const {
   if (!m_part) return Eigen::Map<const VectorXd>(whole.data(), static_cast<Index>(whole.size()));
-  const std::vector<double> mine = parallel::rows_of(whole, 1, m_part->global_unknown);
+  const std::vector<double> mine =
+      rows_of(std::span<const double>(whole), 1, std::span<const std::int64_t>(m_part->global_unknown));
   return Eigen::Map<const VectorXd>(mine.data(), static_cast<Index>(mine.size()));
 }
 

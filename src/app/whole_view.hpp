@@ -10,14 +10,15 @@
 #include "core/types.hpp"
 #include "discretisation/model_part.hpp"
 #include "io/results.hpp"
+#include "parallel/ranks.hpp"
 #include "scene/scene.hpp"
 
 namespace peristat {
 
 class WholeView {
  public:
-  /// The whole model (`part` null: every vector is already whole), or rank `rank`'s part.
-  WholeView(const Model& model, const ModelPart* part, int rank);
+  /// The whole model (`part` null: every vector is already whole), or this rank's part of it.
+  WholeView(const Model& model, const ModelPart* part, const Ranks& ranks);
 
   /// Whether the methods below communicate (a part): every rank must then call them alike.
   bool gathers() const { return m_part != nullptr; }
@@ -39,6 +40,7 @@ class WholeView {
  private:
   const Model& m_model;
   const ModelPart* m_part = nullptr;
+  const Ranks& m_ranks;
   bool m_root = true;
   std::vector<Index> m_given;                  ///< the part's particles whose rows this rank gives
   std::vector<std::int64_t> m_given_ids;       ///< their global ids

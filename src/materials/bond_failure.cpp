@@ -14,10 +14,11 @@
 
 namespace peristat {
 
-BondFailure::BondFailure(const Model& model, const FailureOptions& options, FailureRanks ranks)
+BondFailure::BondFailure(const Model& model, const FailureOptions& options, const Ranks& ranks, FailureRanks share)
     : m_model(model),
       m_options(options),
-      m_ranks(model.holds_every_family() ? FailureRanks{} : std::move(ranks)),
+      m_ranks(ranks),
+      m_share(model.holds_every_family() ? FailureRanks{} : std::move(share)),
       m_min_sin(std::sin(options.skew_min_angle * std::numbers::pi / 180.0)),
       m_weight(model.bonds.weight) {
   const Bonds& bonds = model.bonds;
@@ -38,14 +39,13 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options, Fail
     }
   }
   m_ratio.assign(bonds.neighbour.size(), 0.0);
-  if (partitioned() && (m_ranks.proposes.size() != static_cast<std::size_t>(n) || !m_ranks.gather ||
-                        !m_ranks.share || model.whole_start.size() != static_cast<std::size_t>(n) + 1))
+  if (partitioned() && (m_share.proposes.size() != static_cast<std::size_t>(n) || !m_share.share ||
+                        model.whole_start.size() != static_cast<std::size_t>(n) + 1))
     throw std::logic_error(
         "BondFailure: a model holding some families only needs its rank's share (FailureRanks)");
   if (part()) {
-    if (m_ranks.global_id.size() != static_cast<std::size_t>(n) || !m_ranks.gather_on_root ||
-        m_ranks.n_particles_whole <= 0)
-      throw std::logic_error("BondFailure: a rank's part needs the global ids and the gather to rank 0");
+    if (m_share.global_id.size() != static_cast<std::size_t>(n) || m_share.n_particles_whole <= 0)
+      throw std::logic_error("BondFailure: a rank's part needs the global ids and the whole particle count");
     m_by_global.reserve(static_cast<std::size_t>(n));
     for (Index i = 0; i < n; ++i) m_by_global.emplace_back(global(i), i);
     std::sort(m_by_global.begin(), m_by_global.end());
@@ -107,21 +107,30 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
 }
 
 const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index at_most) {
+  gather_candidates();
+  if (m_candidates.empty()) return m_round;
+  // Every rank sorts every rank's candidates as one process sorts its bonds: by ratio, then
+  // by the whole model's bond index b = whole_start[i] + k, that is by (i, k), both descending.
+  std::sort(m_candidates.begin(), m_candidates.end(), [](const Candidate& a, const Candidate& b) {
+    return std::tuple(a.ratio, a.i, a.k) > std::tuple(b.ratio, b.i, b.k);
+  });
+  const std::size_t count = pairs_to_break(m_candidates.size(), at_most);
+  for (std::size_t c = 0; c < count; ++c) break_candidate(m_candidates[c]);
+  reselect_references();
+  return m_round;
+}
+
+void BondFailure::gather_candidates() {
   // Each rank proposes the pairs (i, j > i) of the families it is the proposer of, the same
-  // pairs one process loops over (b < reverse[b]); every rank then sorts every rank's
-  // candidates as one process sorts its bonds: by ratio, then by the whole model's bond index
-  // b = whole_start[i] + k, that is by (i, k), both descending. Particles go by their whole
-  // model's index (global(), the part's own index otherwise).
+  // pairs one process loops over (b < reverse[b]). Particles go by their whole model's index
+  // (global(), the part's own index otherwise).
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
   const Index n = p.size();
-  constexpr std::size_t kHead = 7, kWidth = 6;
-  // count, then the peak's ratio, i, k, j and midpoint; then per candidate ratio, i, k, j, kr, whole
-  std::vector<double> mine = {0.0, 0.0, -1.0, -1.0, -1.0, 0.0, 0.0};
-  Peak peak;
-  Index peak_k = -1;
+  std::vector<Candidate> mine;
+  RankPeak peak{0.0, -1, -1, -1, 0.0, 0.0};
   for (Index i = 0; i < n; ++i) {
-    if (!m_ranks.proposes[static_cast<std::size_t>(i)]) continue;
+    if (!m_share.proposes[static_cast<std::size_t>(i)]) continue;
     const std::int64_t gi = global(i);
     for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
       const Index j = bonds.neighbour[b];
@@ -134,54 +143,28 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index
       const double ratio = std::max(m_ratio[b], m_ratio[r]);
       const Index k = b - bonds.start[i];
       // One process keeps the first bond of the largest ratio: the smallest (i, k).
-      if (ratio > peak.ratio || (ratio == peak.ratio && peak.i >= 0 &&
-                                 std::pair(gi, k) < std::pair<std::int64_t, Index>(peak.i, peak_k))) {
-        peak = Peak{ratio, static_cast<Index>(gi), static_cast<Index>(gj),
-                    p.position[i] + 0.5 * Vec2(p.position[j] - p.position[i])};
-        peak_k = k;
+      if (ratio > peak.ratio || (ratio == peak.ratio && peak.i >= 0 && std::pair<std::int64_t, std::int64_t>(gi, k) <
+                                                                             std::pair(peak.i, peak.k))) {
+        const Vec2 at = p.position[i] + 0.5 * Vec2(p.position[j] - p.position[i]);
+        peak = RankPeak{ratio, gi, k, gj, at.x(), at.y()};
       }
       if (ratio <= 1.0) continue;
-      mine.insert(mine.end(), {ratio, static_cast<double>(gi), static_cast<double>(k),
-                               static_cast<double>(gj), static_cast<double>(r - bonds.start[j]),
-                               static_cast<double>(m_model.whole_start[static_cast<std::size_t>(i)] + k)});
-      mine[0] += 1.0;
+      mine.push_back({ratio, gi, k, gj, r - bonds.start[j], m_model.whole_start[static_cast<std::size_t>(i)] + k});
     }
   }
-  if (peak.i >= 0) {
-    mine[1] = peak.ratio;
-    mine[2] = peak.i;
-    mine[3] = peak_k;
-    mine[4] = peak.j;
-    mine[5] = peak.at.x();
-    mine[6] = peak.at.y();
-  }
-  const std::vector<double> all = m_ranks.gather(mine);
+  m_candidates = m_ranks.all_gather(mine);
+  // The peak over the ranks, in rank order, with the same tie-break.
+  const std::vector<RankPeak> peaks = m_ranks.all_gather(std::span<const RankPeak>(&peak, 1));
   m_peak = Peak{};
-  peak_k = -1;
-  m_candidates.clear();
-  for (std::size_t at = 0; at < all.size();) {
-    const auto count = static_cast<std::size_t>(all[at]);
-    const double ratio = all[at + 1];
-    const auto i = static_cast<Index>(all[at + 2]), k = static_cast<Index>(all[at + 3]);
-    if (i >= 0 &&
-        (ratio > m_peak.ratio || (ratio == m_peak.ratio && std::pair(i, k) < std::pair(m_peak.i, peak_k)))) {
-      m_peak = Peak{ratio, i, static_cast<Index>(all[at + 4]), Vec2(all[at + 5], all[at + 6])};
-      peak_k = k;
+  std::int64_t peak_k = -1;
+  for (const RankPeak& q : peaks) {
+    if (q.i >= 0 && (q.ratio > m_peak.ratio ||
+                     (q.ratio == m_peak.ratio && std::pair(q.i, q.k) < std::pair<std::int64_t, std::int64_t>(
+                                                                             m_peak.i, peak_k)))) {
+      m_peak = Peak{q.ratio, static_cast<Index>(q.i), static_cast<Index>(q.j), Vec2(q.x, q.y)};
+      peak_k = q.k;
     }
-    at += kHead;
-    for (std::size_t c = 0; c < count; ++c, at += kWidth)
-      m_candidates.push_back({all[at], static_cast<std::int64_t>(all[at + 1]),
-                              static_cast<Index>(all[at + 2]), static_cast<std::int64_t>(all[at + 3]),
-                              static_cast<Index>(all[at + 4]), static_cast<std::int64_t>(all[at + 5])});
   }
-  if (m_candidates.empty()) return m_round;
-  std::sort(m_candidates.begin(), m_candidates.end(), [](const Candidate& a, const Candidate& b) {
-    return std::tuple(a.ratio, a.i, a.k) > std::tuple(b.ratio, b.i, b.k);
-  });
-  const std::size_t count = pairs_to_break(m_candidates.size(), at_most);
-  for (std::size_t c = 0; c < count; ++c) break_candidate(m_candidates[c]);
-  reselect_references();
-  return m_round;
 }
 
 void BondFailure::break_candidate(const Candidate& x) {
@@ -263,7 +246,7 @@ void BondFailure::damage(VectorXd& d) const {
     d[i] = all > 0.0 ? 1.0 - intact / all : 0.0;
   }
   // A family this rank does not hold has damage 0 here: its owner's value replaces it.
-  if (partitioned()) m_ranks.share(d);
+  if (partitioned()) m_share.share->share(d.data());
 }
 
 void BondFailure::save(StateArchive& archive) const {
@@ -287,17 +270,17 @@ void BondFailure::save(StateArchive& archive) const {
   // owner's value goes to every rank (on a part: to rank 0, by global id).
   const Index n = m_model.particles.size();
   if (part()) {
-    std::vector<std::int64_t> ids;
-    std::vector<double> values;
+    std::vector<std::int64_t> ids, values;
     for (Index i = 0; i < n; ++i) {
-      if (!m_ranks.proposes[static_cast<std::size_t>(i)]) continue;
+      if (!m_share.proposes[static_cast<std::size_t>(i)]) continue;
       ids.push_back(global(i));
-      values.push_back(m_reference_bond[i] < 0
-                           ? -1.0
-                           : static_cast<double>(m_model.whole_start[static_cast<std::size_t>(i)] +
-                                                 m_reference_bond[i] - bonds.start[i]));
+      values.push_back(m_reference_bond[i] < 0 ? -1
+                                               : m_model.whole_start[static_cast<std::size_t>(i)] +
+                                                     m_reference_bond[i] - bonds.start[i]);
     }
-    archive.put("failure/reference_bonds", m_ranks.gather_on_root(ids, values, 1, m_ranks.n_particles_whole));
+    const std::vector<std::int64_t> table = m_ranks.gather_rows_on_root(
+        std::span<const std::int64_t>(ids), std::span<const std::int64_t>(values), 1, m_share.n_particles_whole);
+    archive.put("failure/reference_bonds", {table.begin(), table.end()});  // the file holds doubles
     return;
   }
   VectorXd reference = VectorXd::Constant(n, -1.0);
@@ -305,7 +288,7 @@ void BondFailure::save(StateArchive& archive) const {
     if (m_reference_bond[i] >= 0)
       reference[i] = static_cast<double>(m_model.whole_start[static_cast<std::size_t>(i)] +
                                          m_reference_bond[i] - bonds.start[i]);
-  m_ranks.share(reference);
+  m_share.share->share(reference.data());
   archive.put("failure/reference_bonds", {reference.data(), reference.data() + n});
 }
 
@@ -318,6 +301,42 @@ std::int64_t whole_index(double value, std::int64_t lo, std::int64_t hi, const s
 }
 }  // namespace
 
+std::vector<BondFailure::Candidate> BondFailure::restored_pairs(const std::vector<double>& broken) const {
+  // Each pair is resolved by the rank that proposes its first particle's family (it holds
+  // both directions). The proposed families by the whole index of their first bond (on a part
+  // not in that order).
+  const Bonds& bonds = m_model.bonds;
+  std::vector<std::pair<std::int64_t, Index>> first;
+  for (Index i = 0; i < m_model.particles.size(); ++i)
+    if (m_share.proposes[static_cast<std::size_t>(i)] && bonds.family_size(i) > 0)
+      first.emplace_back(m_model.whole_start[static_cast<std::size_t>(i)], i);
+  std::sort(first.begin(), first.end());
+  std::vector<Candidate> mine;  // ratio: the pair's position in the checkpoint
+  for (std::size_t at = 0; at < broken.size(); ++at) {
+    const std::int64_t w = whole_index(broken[at], 0, m_model.n_bonds_whole, "failure/broken_bonds");
+    auto it = std::upper_bound(first.begin(), first.end(), std::pair(w, std::numeric_limits<Index>::max()));
+    if (it == first.begin()) continue;
+    --it;
+    const Index i = it->second;
+    if (w >= it->first + bonds.family_size(i)) continue;  // another rank's family
+    const Index b = bonds.start[i] + static_cast<Index>(w - it->first);
+    const Index j = bonds.neighbour[b], r = bonds.reverse[b];
+    if (global(j) < global(i) || r < 0) throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
+    mine.push_back({static_cast<double>(at), global(i), b - bonds.start[i], global(j), r - bonds.start[j], w});
+  }
+  const std::vector<Candidate> all = m_ranks.all_gather(mine);
+  if (all.size() != broken.size()) throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
+  std::vector<Candidate> pairs(broken.size());
+  std::vector<char> seen(broken.size(), 0);
+  for (const Candidate& x : all) {
+    const auto k = static_cast<std::size_t>(x.ratio);
+    if (seen[k]++) throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
+    pairs[k] = x;
+    pairs[k].ratio = 0.0;
+  }
+  return pairs;
+}
+
 std::vector<std::pair<Index, Index>> BondFailure::restore(const StateArchive& archive) {
   const Bonds& bonds = m_model.bonds;
   const Index nb = bonds.n_bonds();
@@ -328,49 +347,12 @@ std::vector<std::pair<Index, Index>> BondFailure::restore(const StateArchive& ar
       break_pair(bonds.neighbour[bonds.reverse[b]], b, bonds.neighbour[b], bonds.reverse[b]);
     }
   } else {
-    // Each pair is resolved by the rank that proposes its first particle's family (it holds
-    // both directions), then every rank breaks every pair in the checkpoint's order. The
-    // proposed families by the whole index of their first bond (on a part not in that order).
-    std::vector<std::pair<std::int64_t, Index>> first;
-    for (Index i = 0; i < m_model.particles.size(); ++i)
-      if (m_ranks.proposes[static_cast<std::size_t>(i)] && bonds.family_size(i) > 0)
-        first.emplace_back(m_model.whole_start[static_cast<std::size_t>(i)], i);
-    std::sort(first.begin(), first.end());
-    std::vector<double> mine;
-    for (std::size_t at = 0; at < broken.size(); ++at) {
-      const std::int64_t w = whole_index(broken[at], 0, m_model.n_bonds_whole, "failure/broken_bonds");
-      auto it = std::upper_bound(first.begin(), first.end(), std::pair(w, std::numeric_limits<Index>::max()));
-      if (it == first.begin()) continue;
-      --it;
-      const Index i = it->second;
-      if (w >= it->first + bonds.family_size(i)) continue;  // another rank's family
-      const Index b = bonds.start[i] + static_cast<Index>(w - it->first);
-      const Index j = bonds.neighbour[b], r = bonds.reverse[b];
-      if (global(j) < global(i) || r < 0)
-        throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
-      mine.insert(mine.end(), {static_cast<double>(at), static_cast<double>(global(i)),
-                               static_cast<double>(b - bonds.start[i]), static_cast<double>(global(j)),
-                               static_cast<double>(r - bonds.start[j])});
-    }
-    const std::vector<double> all = m_ranks.gather(mine);
-    if (all.size() != 5 * broken.size())
-      throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
-    std::vector<Candidate> pairs(broken.size());
-    for (std::size_t at = 0; at < all.size(); at += 5) {
-      const auto k = static_cast<std::size_t>(all[at]);
-      pairs[k] = {0.0,
-                  static_cast<std::int64_t>(all[at + 1]),
-                  static_cast<Index>(all[at + 2]),
-                  static_cast<std::int64_t>(all[at + 3]),
-                  static_cast<Index>(all[at + 4]),
-                  static_cast<std::int64_t>(broken[k])};
-    }
-    for (const Candidate& x : pairs) break_candidate(x);
+    for (const Candidate& x : restored_pairs(broken)) break_candidate(x);
   }
   if (!m_reference_bond.empty()) {
     const std::vector<double>& r =
         archive.get("failure/reference_bonds",
-                    part() ? m_ranks.n_particles_whole : static_cast<std::int64_t>(m_reference_bond.size()));
+                    part() ? m_share.n_particles_whole : static_cast<std::int64_t>(m_reference_bond.size()));
     for (std::size_t i = 0; i < m_reference_bond.size(); ++i) {
       const double ri = r[static_cast<std::size_t>(global(static_cast<Index>(i)))];
       if (ri < 0) {

@@ -11,15 +11,15 @@
 #pragma once
 
 #include <cstdint>
-#include <functional>
 #include <span>
 #include <utility>
 #include <vector>
 
 #include "core/options.hpp"
-#include "core/partition.hpp"
 #include "core/state_archive.hpp"
 #include "discretisation/model.hpp"
+#include "parallel/exchange.hpp"
+#include "parallel/ranks.hpp"
 
 namespace peristat {
 
@@ -29,29 +29,23 @@ struct FailureRanks {
   /// holds with the families of i's neighbours. Every pair is proposed by exactly one rank
   /// (a rank's own particles; rank 0's also those without a row).
   std::vector<char> proposes;
-  /// Every rank's values in rank order, on every rank (collective).
-  GatherOverRanks gather;
-  /// Per particle values (N): copies the owners' entries into every rank's vector
-  /// (collective); the entries of particles without a row stay as each rank computed them.
-  /// On a part: into the entries of the particles the rank reads (its ghosts).
-  std::function<void(VectorXd&)> share;
+  /// Per particle values (N): copies the owners' entries into the ranks that hold them; the
+  /// entries of particles without a row stay as each rank computed them. Owned by the caller.
+  ValueExchange* share = nullptr;
   /// On a rank's part of the model (discretisation/model_part.hpp): per particle of the part,
-  /// its index in the whole model. Empty: the model's particles are the whole model's.
+  /// its index in the whole model, and the whole model's particle count. Empty: the model's
+  /// particles are the whole model's.
   std::vector<std::int64_t> global_id;
-  /// On a part: the whole model's particle count, and rows by global id to rank 0
-  /// (parallel::gather_rows_on_root: collective; empty on the other ranks).
   std::int64_t n_particles_whole = 0;
-  std::function<std::vector<double>(const std::vector<std::int64_t>& ids, const std::vector<double>& values,
-                                    int width, std::int64_t n_rows)>
-      gather_on_root;
 };
 
 class BondFailure {
  public:
-  /// options.enabled must be true. `ranks` is required when the model holds some families
+  /// options.enabled must be true. `share` is required when the model holds some families
   /// only, and ignored otherwise; then break_over_criterion(), damage(), save() and
-  /// restore() are collective (every rank calls them at the same point).
-  BondFailure(const Model& model, const FailureOptions& options, FailureRanks ranks = {});
+  /// restore() are collective over `ranks` (every rank calls them at the same point).
+  BondFailure(const Model& model, const FailureOptions& options, const Ranks& ranks = serial_ranks(),
+              FailureRanks share = {});
 
   /// Evaluates the criterion of every bond from the relative displacements eta (per bond,
   /// eta_b = u_j - u_i) and breaks the intact pairs over it: a pair breaks when
@@ -95,12 +89,12 @@ class BondFailure {
   /// The model holds some families only (the decisions are taken with the other ranks).
   bool partitioned() const { return !m_model.holds_every_family(); }
   /// The model is a rank's part (FailureRanks::global_id).
-  bool part() const { return !m_ranks.global_id.empty(); }
+  bool part() const { return !m_share.global_id.empty(); }
   /// Particle i's index in the whole model, and the part's particle of a whole index (-1: not
   /// in the part).
-  std::int64_t global(Index i) const { return part() ? m_ranks.global_id[static_cast<std::size_t>(i)] : i; }
+  std::int64_t global(Index i) const { return part() ? m_share.global_id[static_cast<std::size_t>(i)] : i; }
   Index local(std::int64_t g) const;
-  const FailureRanks& ranks() const { return m_ranks; }
+  const FailureRanks& share() const { return m_share; }
   std::size_t memory_bytes() const;
   /// The committed state (broken pairs, skew references) into / from a checkpoint
   /// (peristat run --resume), with the whole model's bond indices whatever the ranks hold.
@@ -120,6 +114,12 @@ class BondFailure {
     Index kr;
     std::int64_t whole;
   };
+  /// A rank's peak as the ranks gather it: by global ids, k the bond of i's family.
+  struct RankPeak {
+    double ratio;
+    std::int64_t i, k, j;
+    double x, y;
+  };
   /// Breaks the pair on every rank: the directions this rank holds; records it.
   void break_candidate(const Candidate& x);
   /// How many of `over` pairs over the criterion a round breaks (fraction, at_most).
@@ -128,10 +128,17 @@ class BondFailure {
   void break_pair(Index i, Index bi, Index j, Index bj);
   void reselect_references();
   const std::vector<std::pair<Index, Index>>& break_partitioned(Index at_most);
+  /// The largest ratio of the pairs this rank proposes, then every rank's candidates into
+  /// m_candidates (in rank order) and the peak over the ranks into m_peak.
+  void gather_candidates();
+  /// Partitioned restore: each pair of the checkpoint resolved by the rank proposing its first
+  /// particle's family, then every pair in the checkpoint's order.
+  std::vector<Candidate> restored_pairs(const std::vector<double>& broken) const;
 
   const Model& m_model;
   FailureOptions m_options;
-  FailureRanks m_ranks;
+  const Ranks& m_ranks;
+  FailureRanks m_share;
   std::vector<double> m_critical;                ///< per body: s_c or gamma_c
   double m_min_sin;                              ///< skew: sin(skew_min_angle), the floor of |xi . e2| / |xi|
   std::vector<Index> m_reference_bond;           ///< skew: per particle, the reference bond (global index), intact

@@ -22,44 +22,43 @@ void find_unsupported_on_part(const Model& model, std::vector<Index>& parent, Ro
   const auto gid = [&](Index i) { return parts.global_id[static_cast<std::size_t>(i)]; };
   std::vector<Index> size(static_cast<std::size_t>(n), 0);
   for (Index i = 0; i < n; ++i) ++size[root(i)];
-  VectorXd label(n), theirs(n);
-  for (Index i = 0; i < n; ++i) label[i] = static_cast<double>(gid(root(i)));
+  std::vector<std::int64_t> label(static_cast<std::size_t>(n)), theirs;
+  for (Index i = 0; i < n; ++i) label[static_cast<std::size_t>(i)] = gid(root(i));
   theirs = label;
-  parts.share(theirs);  // the particles another rank owns: the label of their owner's piece
-  std::vector<std::pair<double, double>> links;
-  std::vector<double> supported;
+  parts.share->share(theirs.data());  // the particles another rank owns: the label of their owner's piece
+  struct Link {
+    std::int64_t a, b;
+    bool operator<(const Link& o) const { return std::pair(a, b) < std::pair(o.a, o.b); }
+    bool operator==(const Link& o) const { return a == o.a && b == o.b; }
+  };
+  std::vector<Link> links;
+  std::vector<std::int64_t> supported;
   const std::vector<Index>& free = model.constraints.free_index;
   for (Index i = 0; i < n; ++i) {
     const bool alone = size[root(i)] == 1;
+    const std::int64_t li = label[static_cast<std::size_t>(i)];
     if (parts.families[static_cast<std::size_t>(i)]) {  // counted here
-      if (free[2 * i] < 0 || free[2 * i + 1] < 0) supported.push_back(label[i]);
-      if (parts.owner[static_cast<std::size_t>(i)] < 0 && !alone)
-        links.emplace_back(label[i], static_cast<double>(gid(i)));
+      if (free[2 * i] < 0 || free[2 * i + 1] < 0) supported.push_back(li);
+      if (parts.owner[static_cast<std::size_t>(i)] < 0 && !alone) links.push_back({li, gid(i)});
     } else if (!alone) {
-      const double other =
-          parts.owner[static_cast<std::size_t>(i)] >= 0 ? theirs[i] : static_cast<double>(gid(i));
-      if (other != label[i]) links.emplace_back(label[i], other);
+      const std::int64_t other =
+          parts.owner[static_cast<std::size_t>(i)] >= 0 ? theirs[static_cast<std::size_t>(i)] : gid(i);
+      if (other != li) links.push_back({li, other});
     }
   }
   std::sort(links.begin(), links.end());
   links.erase(std::unique(links.begin(), links.end()), links.end());
   std::sort(supported.begin(), supported.end());
   supported.erase(std::unique(supported.begin(), supported.end()), supported.end());
-  std::vector<double> mine = {static_cast<double>(links.size())};
-  for (const auto& [a, b] : links) mine.insert(mine.end(), {a, b});
-  mine.insert(mine.end(), supported.begin(), supported.end());
-  // Every rank's links and supported labels, as (count, links, labels) one rank after another:
-  // the sizes tell where a rank's labels end.
-  const std::vector<double> sizes = parts.gather({static_cast<double>(mine.size())});
-  const std::vector<double> all = parts.gather(mine);
-  // A union-find over the labels met, the same on every rank.
-  std::vector<double> nodes;
-  for (std::size_t r = 0, at = 0; r < sizes.size(); at += static_cast<std::size_t>(sizes[r]), ++r)
-    nodes.insert(nodes.end(), all.begin() + static_cast<std::ptrdiff_t>(at + 1),
-                 all.begin() + static_cast<std::ptrdiff_t>(at + static_cast<std::size_t>(sizes[r])));
+  // Every rank's links and supported labels. A union-find over the labels met, the same on
+  // every rank: a component's root is its smallest label whatever the order of the joins.
+  const std::vector<Link> all_links = parts.ranks.all_gather(links);
+  const std::vector<std::int64_t> all_supported = parts.ranks.all_gather(supported);
+  std::vector<std::int64_t> nodes = all_supported;
+  for (const Link& l : all_links) nodes.insert(nodes.end(), {l.a, l.b});
   std::sort(nodes.begin(), nodes.end());
   nodes.erase(std::unique(nodes.begin(), nodes.end()), nodes.end());
-  const auto node = [&](double l) {
+  const auto node = [&](std::int64_t l) {
     const auto it = std::lower_bound(nodes.begin(), nodes.end(), l);
     return it != nodes.end() && *it == l ? static_cast<Index>(it - nodes.begin()) : Index{-1};
   };
@@ -69,16 +68,12 @@ void find_unsupported_on_part(const Model& model, std::vector<Index>& parent, Ro
     while (up[k] != k) k = up[k] = up[up[k]];
     return k;
   };
-  std::vector<char> held_up(nodes.size(), 0);
-  for (std::size_t r = 0, at = 0; r < sizes.size(); at += static_cast<std::size_t>(sizes[r]), ++r) {
-    const auto n_links = static_cast<std::size_t>(all[at]);
-    for (std::size_t k = 0; k < n_links; ++k) {
-      const Index a = top(node(all[at + 1 + 2 * k])), b = top(node(all[at + 2 + 2 * k]));
-      if (a != b) up[std::max(a, b)] = std::min(a, b);  // the smaller label's node stays the root
-    }
-    for (std::size_t k = at + 1 + 2 * n_links; k < at + static_cast<std::size_t>(sizes[r]); ++k)
-      held_up[static_cast<std::size_t>(node(all[k]))] = 1;
+  for (const Link& l : all_links) {
+    const Index a = top(node(l.a)), b = top(node(l.b));
+    if (a != b) up[std::max(a, b)] = std::min(a, b);  // the smaller label's node stays the root
   }
+  std::vector<char> held_up(nodes.size(), 0);
+  for (const std::int64_t l : all_supported) held_up[static_cast<std::size_t>(node(l))] = 1;
   std::vector<char> supported_root(nodes.size(), 0);
   for (std::size_t k = 0; k < nodes.size(); ++k)
     if (held_up[k]) supported_root[static_cast<std::size_t>(top(static_cast<Index>(k)))] = 1;
@@ -88,7 +83,7 @@ void find_unsupported_on_part(const Model& model, std::vector<Index>& parent, Ro
   for (Index i = 0; i < n; ++i) {
     const bool counted =
         parts.families[static_cast<std::size_t>(i)] || parts.owner[static_cast<std::size_t>(i)] < 0;
-    const double l = counted ? label[i] : theirs[i];
+    const std::int64_t l = counted ? label[static_cast<std::size_t>(i)] : theirs[static_cast<std::size_t>(i)];
     const Index k = node(l);
     if (k < 0) {  // a piece linked to no other and holding no support
       unsupported[i] = 1;
@@ -136,14 +131,12 @@ void find_unsupported(const Model& model, std::span<const double> intact, std::v
     // This rank's components as (particle, its representative) links; every rank joins
     // every rank's links in the same order, so the components (the union of the pieces, each
     // intact pair being in one rank's piece) are the same on every rank.
-    std::vector<double> links;
+    std::vector<Index> links;  // (particle, its representative), one pair after another
     for (Index i = 0; i < n; ++i)
-      if (const Index r = root(i); r != i)
-        links.insert(links.end(), {static_cast<double>(i), static_cast<double>(r)});
-    const std::vector<double> all = parts->gather(links);
+      if (const Index r = root(i); r != i) links.insert(links.end(), {i, r});
+    const std::vector<Index> all = parts->ranks.all_gather(links);
     std::iota(parent.begin(), parent.end(), Index{0});
-    for (std::size_t k = 0; k < all.size(); k += 2)
-      join(static_cast<Index>(all[k]), static_cast<Index>(all[k + 1]));
+    for (std::size_t k = 0; k < all.size(); k += 2) join(all[k], all[k + 1]);
   }
   std::vector<char> supported(static_cast<std::size_t>(n), 0);
   const std::vector<Index>& free = model.constraints.free_index;

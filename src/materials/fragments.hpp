@@ -3,28 +3,28 @@
 #pragma once
 
 #include <cstdint>
-#include <functional>
 #include <span>
 #include <vector>
 
-#include "core/partition.hpp"
 #include "discretisation/model.hpp"
+#include "parallel/exchange.hpp"
+#include "parallel/ranks.hpp"
 
 namespace peristat {
 
 /// A rank's part of the bond graph when its model holds some families only (partitioned
 /// bonds): the families whose pairs (i, j > i) it joins, each pair on exactly one rank, and
-/// the gather that combines the ranks' pieces.
+/// the ranks that combine their pieces.
 struct GraphParts {
+  const Ranks& ranks;
   std::span<const char> families;
-  GatherOverRanks gather;
   /// On a rank's part of the model (discretisation/model_part.hpp): per particle of the part,
   /// its index in the whole model and its owner (-1: none, every rank holds it alike; rank 0
   /// joins its family), and the exchange of one value per particle from each owner into the
   /// ranks that read it. Empty global_id: the model's particles are the whole model's.
   std::span<const std::int64_t> global_id;
   std::span<const int> owner;
-  std::function<void(VectorXd&)> share;
+  ValueExchange* share = nullptr;
 };
 
 /// Marks (1) every particle whose component of the bond graph, over the bonds with a nonzero
