@@ -2,27 +2,27 @@
 
 #include <cstdio>
 
-#include "solvers/trilinos/parallel.hpp"
 
 namespace peristat {
 
 ModelSize measure(const Model& model, const QuasiStaticProblem& problem, const ModelPart* part) {
   ModelSize s;
+  const Ranks& ranks = problem.ranks();
+  s.ranks = ranks.size();
   const Particles& p = model.particles;
   s.particles = p.size();
   for (char f : p.fictitious) s.fictitious += f;
   if (part) {  // the whole model's counts: each rank's own particles (rank 0's also those without an owner)
-    long long own = 0, own_fictitious = 0;
+    std::int64_t own = 0, own_fictitious = 0;
     for (std::size_t i = 0; i < part->owner.size(); ++i)
-      if (counted_by(part->owner[i], parallel::rank())) {
+      if (counted_by(part->owner[i], ranks.rank())) {
         ++own;
         own_fictitious += p.fictitious[i];
       }
-    s.particles = static_cast<Index>(parallel::sum_over_ranks(own));
-    s.fictitious = static_cast<Index>(parallel::sum_over_ranks(own_fictitious));
+    s.particles = static_cast<Index>(ranks.sum(std::int64_t{own}));
+    s.fictitious = static_cast<Index>(ranks.sum(std::int64_t{own_fictitious}));
     s.part = true;
-    s.largest_rank_particles =
-        static_cast<long long>(parallel::max_over_ranks(static_cast<double>(p.size())));
+    s.largest_rank_particles = ranks.max(std::int64_t{p.size()});
   }
   s.bonds = static_cast<long long>(model.n_bonds_whole /
                                    2);  // a rank with partitioned bonds holds some families only
@@ -30,22 +30,21 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem, const M
   s.unknowns = part ? static_cast<Index>(part->n_unknowns_whole) : model.constraints.n_free;
   s.prescribed = 2 * s.particles - s.unknowns;
   // A rank of a distributed run stores its own rows (every rank's pattern is partial then).
-  s.nonzeros = problem.pattern().partial ? parallel::sum_over_ranks(problem.pattern().nonzeros)
+  s.nonzeros = problem.pattern().partial ? ranks.sum(std::int64_t{problem.pattern().nonzeros})
                                          : problem.pattern().nonzeros;
   s.correction = problem.surface_correction().method();
   s.correction_stats = problem.surface_correction().stats();
   if (!model.holds_every_family()) {  // each rank counted its own families
     s.bonds_partitioned = true;
-    s.largest_rank_bonds =
-        static_cast<long long>(parallel::max_over_ranks(static_cast<double>(model.bonds.n_bonds())));
+    s.largest_rank_bonds = ranks.max(std::int64_t{model.bonds.n_bonds()});
     SurfaceCorrectionStats& c = s.correction_stats;
-    c.families = parallel::sum_over_ranks(static_cast<long long>(c.families));
-    c.corrected = parallel::sum_over_ranks(static_cast<long long>(c.corrected));
-    c.clipped = parallel::sum_over_ranks(static_cast<long long>(c.clipped));
-    c.unmatched = parallel::sum_over_ranks(static_cast<long long>(c.unmatched));
-    c.min_influence = -parallel::max_over_ranks(-c.min_influence);
-    c.max_influence = parallel::max_over_ranks(c.max_influence);
-    c.seconds = parallel::max_over_ranks(c.seconds);
+    c.families = static_cast<decltype(c.families)>(ranks.sum(static_cast<std::int64_t>(c.families)));
+    c.corrected = static_cast<decltype(c.corrected)>(ranks.sum(static_cast<std::int64_t>(c.corrected)));
+    c.clipped = static_cast<decltype(c.clipped)>(ranks.sum(static_cast<std::int64_t>(c.clipped)));
+    c.unmatched = static_cast<decltype(c.unmatched)>(ranks.sum(static_cast<std::int64_t>(c.unmatched)));
+    c.min_influence = -ranks.max(-c.min_influence);
+    c.max_influence = ranks.max(c.max_influence);
+    c.seconds = ranks.max(c.seconds);
   }
   s.memory_bytes =
       static_cast<double>(model.memory_bytes() + problem.memory_bytes() + problem.pattern().matrix_bytes());
@@ -80,11 +79,11 @@ void print_size(const ModelSize& s) {
     std::printf("  surface        no correction (discretization.surface_correction: none)\n");
   }
   const char* held = s.nonzeros > 0
-                         ? (parallel::size() > 1 ? "model, problem state and its own rows of the tangent"
+                         ? (s.ranks > 1 ? "model, problem state and its own rows of the tangent"
                                                  : "model, problem state and tangent")
                          : "model and problem state";
   std::printf("  memory         %.1f MB %s %s (factorisation not included)\n", s.memory_bytes / 1e6,
-              parallel::size() > 1 ? "on rank 0:" : "for", held);
+              s.ranks > 1 ? "on rank 0:" : "for", held);
 }
 
 }  // namespace peristat

@@ -19,6 +19,7 @@ struct ModelSize {
   long long largest_rank_bonds = 0;
   /// Under mpirun on the parts (solver.belos.model): the most particles one rank's part holds.
   bool part = false;
+  int ranks = 1;  ///< the ranks of the run
   long long largest_rank_particles = 0;
 };
 

@@ -5,7 +5,6 @@
 #include <nlohmann/json.hpp>
 
 #include "app/interrupt.hpp"
-#include "solvers/trilinos/parallel.hpp"
 
 namespace peristat {
 
@@ -38,14 +37,14 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                        {"unknowns", s.unknowns},
                                        {"tangent_nonzeros", s.nonzeros},
                                        {"threads", threads},
-                                       {"ranks", parallel::size()},
+                                       {"ranks", s.ranks},
                                        {"spacing", scene.discretization.spacing},
                                        {"horizon_factor", scene.discretization.horizon_factor},
                                        {"load_steps", scene.loading.steps},
                                        {"solver", solver},
                                        {"checks", checks}};
   // Under mpirun: how the rows were split (solver.belos.partition).
-  if (parallel::size() > 1 || s.part) {
+  if (s.ranks > 1 || s.part) {
     info["model"] = s.part ? "part" : "whole";  // solver.belos.model
     info["partition"] = to_string(scene.solver.linear.belos.partition);
     info["bonds_held"] = s.bonds_partitioned ? "partitioned" : "whole";
