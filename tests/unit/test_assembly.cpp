@@ -1,6 +1,7 @@
 // The parallel assembly is deterministic: one thread and two threads give bit-identical
 // residuals and tangents (each entry is summed by one thread in a fixed order).
 #include <algorithm>
+#include <atomic>
 #include <functional>
 #include <limits>
 #include <random>
@@ -11,6 +12,7 @@
 
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
+#include "parallel/thread_ranks.hpp"
 #include "support/emulated_ranks.hpp"
 #include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
@@ -130,7 +132,7 @@ struct RankedMatrices {
   SparseMatrix K, P;
   VectorXd r;
   double scale = 0.0;  ///< force_scale() of the whole evaluation
-  /// With ProblemOptions::sum_over_ranks (distributed ADR, set_own_rows_only()): the residual
+  /// With the rows split (distributed ADR, set_own_rows_only()): the residual
   /// of the own rows only, its force scale, and the whole residual evaluated after it again;
   /// the own rows again from x with NaN outside residual_reads(), and how many entries those are.
   VectorXd own_r, r_after, own_r_from_reads;
@@ -141,9 +143,9 @@ struct RankedMatrices {
 // Puts the problem in the test's state: x, and (with failure) the bonds that break at x.
 using Prepare = std::function<void(QuasiStaticProblem&)>;
 
-RankedMatrices assemble(const Model& model, ProblemOptions options, const Prepare& prepare,
-                        const VectorXd& x) {
-  QuasiStaticProblem problem(model, options);
+RankedMatrices assemble(const Model& model, ProblemOptions options, const Prepare& prepare, const VectorXd& x,
+                        const Ranks& ranks = serial_ranks()) {
+  QuasiStaticProblem problem(model, options, ranks);
   prepare(problem);
   RankedMatrices m;
   m.K = problem.make_tangent();
@@ -208,9 +210,7 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
   const VectorXd direction = test::random_vector(model.constraints.n_free, 1.0, 31u);
   const auto action = [&](ProblemOptions options) {
     options.matrix_free = true;
-    options.max_over_ranks = nullptr;
-    if (!options.rows.all()) options.sum_over_ranks = [](double s) { return s; };  // a rank's (unused here)
-    QuasiStaticProblem problem(model, options);
+    QuasiStaticProblem problem(model, options);  // one rank's rows, alone: its collectives are its own values
     prepare(problem);
     SparseMatrix none;
     VectorXd r, y;
@@ -242,41 +242,20 @@ void expect_ranks_hold_the_whole(const Scene& scene, const Model& model, const P
     if (cuts && cuts_differ) {
       EXPECT_NE(owner, strip_owners(model.constraints, ranks)) << "the cuts are not the strips here";
     }
-    // MPI_Allreduce(MAX) and the sum in rank order emulated: every rank's local values, call
-    // by call, then their max or sum.
-    std::vector<std::vector<double>> local(static_cast<std::size_t>(ranks)), local_sums(local);
-    for (int rank = 0; rank < ranks; ++rank) {
+    // The ranks emulated by threads: each assembles its rows with the others' collectives.
+    std::vector<RankedMatrices> parts(static_cast<std::size_t>(ranks));
+    ThreadNet net(ranks);
+    net.run([&](const ThreadRanks& on) {
       ProblemOptions options = problem_options(scene);
-      options.rows = owners(rank);
-      options.max_over_ranks = [&, rank](double v) {
-        local[static_cast<std::size_t>(rank)].push_back(v);
-        return v;
-      };
-      options.sum_over_ranks = [&, rank](double v) {
-        local_sums[static_cast<std::size_t>(rank)].push_back(v);
-        return v;
-      };
-      assemble(model, options, prepare, x);
-    }
+      options.rows = owners(on.rank());
+      parts[static_cast<std::size_t>(on.rank())] = assemble(model, options, prepare, x, on);
+    });
     long long k_entries = 0, p_entries = 0;
     Index all_rows = 0;
     for (int rank = 0; rank < ranks; ++rank) {
       ProblemOptions options = problem_options(scene);
       options.rows = owners(rank);
-      std::size_t call = 0, sum_call = 0;
-      options.max_over_ranks = [&](double) {
-        double m = 0.0;
-        for (const auto& values : local) m = std::max(m, values.at(call));
-        ++call;
-        return m;
-      };
-      options.sum_over_ranks = [&](double) {
-        double sum = 0.0;
-        for (const auto& values : local_sums) sum += values.at(sum_call);
-        ++sum_call;
-        return sum;
-      };
-      const RankedMatrices part = assemble(model, options, prepare, x);
+      const RankedMatrices& part = parts[static_cast<std::size_t>(rank)];
       std::vector<char> mine(static_cast<std::size_t>(whole.K.rows()), 0);
       Index rows = 0;
       for (Index c = 0; c < static_cast<Index>(free.size()); ++c)
@@ -351,91 +330,58 @@ void expect_partitioned_ranks_equal_the_whole(const Scene& scene, const Model& m
       std::vector<int> owner =
           cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
       if (complete) complete_owners(model, owner);
-      // The collective operations emulated as in expect_ranks_hold_the_whole: every rank's
-      // values, call by call, recorded in a first pass; the second pass combines them. The
-      // force exchange takes each particle's components from its owner's record.
-      std::vector<std::vector<double>> maxima(static_cast<std::size_t>(ranks)), sums(maxima);
-      std::vector<std::vector<VectorXd>> forces(static_cast<std::size_t>(ranks));
-      int fewer = 0;  // ranks holding fewer bonds than the model, over both passes
-      for (int pass = 0; pass < 2; ++pass) {
-        for (int rank = 0; rank < ranks; ++rank) {
-          const OwnedRows rows{rank, owner};
-          const Model part =
-              discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, rings); });
-          ASSERT_FALSE(part.holds_every_family());
-          // (A middle rank of a narrow plate may hold every family within two rings.)
-          EXPECT_LE(part.bonds.n_bonds(), model.bonds.n_bonds());
-          fewer += part.bonds.n_bonds() < model.bonds.n_bonds();
-          EXPECT_EQ(part.n_bonds_whole, model.bonds.n_bonds()) << "the whole model's count";
-          EXPECT_EQ(part.n_cut_bonds, model.n_cut_bonds);
-          ProblemOptions options = whole_options;
-          options.rows = rows;
-          std::size_t max_call = 0, sum_call = 0, share_call = 0;
-          const auto r_ = static_cast<std::size_t>(rank);
-          options.max_over_ranks = [&](double v) {
-            if (pass == 0) return maxima[r_].push_back(v), v;
-            double m = -std::numeric_limits<double>::infinity();
-            for (const auto& values : maxima) m = std::max(m, values.at(max_call));
-            ++max_call;
-            return m;
-          };
-          options.sum_over_ranks = [&](double v) {
-            if (pass == 0) return sums[r_].push_back(v), v;
-            double total = 0.0;
-            for (const auto& values : sums) total += values.at(sum_call);
-            ++sum_call;
-            return total;
-          };
-          options.share_forces = [&](VectorXd& f) {
-            if (pass == 0) return forces[r_].push_back(f);
-            for (std::size_t p = 0; p < owner.size(); ++p)
-              if (owner[p] >= 0)
-                for (int c = 0; c < 2; ++c)
-                  f[2 * static_cast<Index>(p) + c] =
-                      forces[static_cast<std::size_t>(owner[p])].at(share_call)[2 * p + c];
-            ++share_call;
-          };
-          QuasiStaticProblem problem(part, options);
-          prepare(problem);
-          SparseMatrix K = problem.make_tangent();
-          VectorXd r, y, own_r;
-          // First at another state, so that a family not evaluated here would hold stale values.
-          problem.evaluate(1.7 * x, r, &K);
-          problem.evaluate(x, r, &K);
-          const double scale = problem.force_scale(), energy = problem.energy();
-          SparseMatrix P = problem.make_preconditioner();
-          problem.assemble_preconditioner(P);
-          if (rings == 2) {  // distributed ADR's steps: its rows only, no exchange
-            ASSERT_TRUE(problem.set_own_rows_only(true));
-            problem.evaluate(x, own_r, nullptr);
-            problem.set_own_rows_only(false);
-          }
-          if (pass == 0) continue;
-          EXPECT_TRUE((r.array() == whole_r.array()).all()) << "rank " << rank << ": the whole residual";
-          EXPECT_EQ(scale, whole.force_scale());
-          EXPECT_NEAR(energy, whole.energy(), 1e-13 * std::abs(whole.energy()));
-          std::vector<char> mine(static_cast<std::size_t>(whole_r.size()), 0);
-          const std::vector<Index>& free = model.constraints.free_index;
-          for (Index c = 0; c < static_cast<Index>(free.size()); ++c)
-            if (free[c] >= 0 && rows.contains(c / 2)) mine[free[c]] = 1;
-          const long long entries = expect_rows_of(whole_P, P, mine, "bond preconditioner");
-          EXPECT_EQ(P.nonZeros(), entries) << "the rank stores its rows only";
-          if (rings == 1) {
-            VectorXd v = VectorXd::Constant(direction.size(), std::numeric_limits<double>::quiet_NaN());
-            for (const Index f : problem.action_reads()) v[f] = direction[f];
-            problem.apply_tangent(v, y);
-            for (Index f = 0; f < whole_r.size(); ++f)
-              EXPECT_EQ(y[f], mine[f] ? whole_y[f] : 0.0)
-                  << "action, unknown " << f << (mine[f] ? " (own)" : "");
-          } else {
-            const long long k = expect_rows_of(whole_K, K, mine, "tangent");
-            EXPECT_EQ(K.nonZeros(), k) << "the rank stores its rows only";
-            for (Index f = 0; f < whole_r.size(); ++f)
-              EXPECT_EQ(own_r[f], mine[f] ? whole_r[f] : 0.0) << "own rows, unknown " << f;
-          }
+      std::atomic<int> fewer = 0;  // ranks holding fewer bonds than the model
+      ThreadNet net(ranks);
+      net.run([&](const ThreadRanks& on) {
+        const int rank = on.rank();
+        const OwnedRows rows{rank, owner};
+        const Model part = discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, rings); });
+        ASSERT_FALSE(part.holds_every_family());
+        // (A middle rank of a narrow plate may hold every family within two rings.)
+        EXPECT_LE(part.bonds.n_bonds(), model.bonds.n_bonds());
+        fewer += part.bonds.n_bonds() < model.bonds.n_bonds();
+        EXPECT_EQ(part.n_bonds_whole, model.bonds.n_bonds()) << "the whole model's count";
+        EXPECT_EQ(part.n_cut_bonds, model.n_cut_bonds);
+        ProblemOptions options = whole_options;
+        options.rows = rows;
+        QuasiStaticProblem problem(part, options, on);
+        prepare(problem);
+        SparseMatrix K = problem.make_tangent();
+        VectorXd r, y, own_r;
+        // First at another state, so that a family not evaluated here would hold stale values.
+        problem.evaluate(1.7 * x, r, &K);
+        problem.evaluate(x, r, &K);
+        const double scale = problem.force_scale(), energy = problem.energy();
+        SparseMatrix P = problem.make_preconditioner();
+        problem.assemble_preconditioner(P);
+        if (rings == 2) {  // distributed ADR's steps: its rows only, no exchange
+          ASSERT_TRUE(problem.set_own_rows_only(true));
+          problem.evaluate(x, own_r, nullptr);
+          problem.set_own_rows_only(false);
         }
-      }
-      EXPECT_GE(fewer, 2 * (ranks - 1)) << "the outer ranks hold some families only";
+        EXPECT_TRUE((r.array() == whole_r.array()).all()) << "rank " << rank << ": the whole residual";
+        EXPECT_EQ(scale, whole.force_scale());
+        EXPECT_NEAR(energy, whole.energy(), 1e-13 * std::abs(whole.energy()));
+        std::vector<char> mine(static_cast<std::size_t>(whole_r.size()), 0);
+        const std::vector<Index>& free = model.constraints.free_index;
+        for (Index c = 0; c < static_cast<Index>(free.size()); ++c)
+          if (free[c] >= 0 && rows.contains(c / 2)) mine[free[c]] = 1;
+        const long long entries = expect_rows_of(whole_P, P, mine, "bond preconditioner");
+        EXPECT_EQ(P.nonZeros(), entries) << "the rank stores its rows only";
+        if (rings == 1) {
+          VectorXd v = VectorXd::Constant(direction.size(), std::numeric_limits<double>::quiet_NaN());
+          for (const Index f : problem.action_reads()) v[f] = direction[f];
+          problem.apply_tangent(v, y);
+          for (Index f = 0; f < whole_r.size(); ++f)
+            EXPECT_EQ(y[f], mine[f] ? whole_y[f] : 0.0) << "action, unknown " << f << (mine[f] ? " (own)" : "");
+        } else {
+          const long long k = expect_rows_of(whole_K, K, mine, "tangent");
+          EXPECT_EQ(K.nonZeros(), k) << "the rank stores its rows only";
+          for (Index f = 0; f < whole_r.size(); ++f)
+            EXPECT_EQ(own_r[f], mine[f] ? whole_r[f] : 0.0) << "own rows, unknown " << f;
+        }
+      });
+      EXPECT_GE(fewer, ranks - 1) << "the outer ranks hold some families only";
     }
   }
 }

@@ -1,7 +1,7 @@
 // Bond failure with partitioned bonds (issue 16; docs/guide/distributed.md, "Partitioned
 // bonds"): each rank holds some families only and proposes the pairs of its own families;
 // the candidates over the criterion, the damage and the pieces of the bond graph are
-// gathered over the ranks. Ranks emulated by threads (test::EmulatedRanks) must take one
+// gathered over the ranks. Ranks emulated by threads (ThreadRanks) must take one
 // process's decisions bit for bit: the same pairs broken in the same order round by round,
 // the same peak, damage, fragments and checkpoint, and the checkpoint restored on the ranks
 // must give the same state again.
@@ -23,6 +23,8 @@
 #include "materials/failure.hpp"
 #include "materials/fragments.hpp"
 #include "materials/osb.hpp"
+#include "parallel/exchange.hpp"
+#include "parallel/thread_ranks.hpp"
 #include "support/emulated_ranks.hpp"
 #include "support/scenes.hpp"
 
@@ -48,10 +50,11 @@ struct Record {
 /// model's per-particle arrays, as a checkpoint file is read by every rank).
 Record break_save_restore(
     const Model& model, const ProblemOptions& options, const VectorXd& x, Index at_most,
+    const Ranks& ranks = serial_ranks(),
     const std::function<const StateArchive&(const StateArchive&)>& restore_from =
         [](const StateArchive& a) -> const StateArchive& { return a; }) {
   Record rec;
-  QuasiStaticProblem problem(model, options);
+  QuasiStaticProblem problem(model, options, ranks);
   problem.set_load_factor(0.0);
   for (int round = 0; round < 200; ++round) {
     const Index broke = problem.advance_irreversible_state(x, at_most);
@@ -66,7 +69,7 @@ Record break_save_restore(
   rec.fragments = problem.fragments();
   rec.saved.arrays.clear();
   problem.save_state(rec.saved);
-  QuasiStaticProblem fresh(model, options);
+  QuasiStaticProblem fresh(model, options, ranks);
   fresh.restore_state(restore_from(rec.saved), x);
   rec.restored_broken = fresh.failure()->broken();
   rec.restored_damage = fresh.damage();
@@ -83,27 +86,6 @@ Record break_save_restore(
   rec.broken_after_undo = fresh.failure()->broken();
   if (fresh.contact()) rec.contact_pairs_after = fresh.contact()->size();
   return rec;
-}
-
-/// The options of one emulated rank: its rows, and every collective through `net`.
-ProblemOptions rank_options(ProblemOptions options, test::EmulatedRanks& net, int rank,
-                            const std::vector<int>& owner) {
-  options.rows = OwnedRows{rank, owner};
-  std::vector<int> component_owner(2 * owner.size());
-  for (std::size_t p = 0; p < owner.size(); ++p)
-    component_owner[2 * p] = component_owner[2 * p + 1] = owner[p];
-  options.max_over_ranks = [&net, rank](double v) { return net.max(rank, v); };
-  options.sum_over_ranks = [&net, rank](double v) { return net.sum(rank, v); };
-  options.share_forces = [&net, rank, component_owner](VectorXd& f) {
-    net.share(rank, component_owner, f.data(), static_cast<std::size_t>(f.size()));
-  };
-  options.gather_over_ranks = [&net, rank](const std::vector<double>& mine) {
-    return net.gather(rank, mine);
-  };
-  options.share_particle_values = [&net, rank, owner](VectorXd& v) {
-    net.share(rank, owner, v.data(), static_cast<std::size_t>(v.size()));
-  };
-  return options;
 }
 
 /// x: the affine field u = (shear y, stretch y) on every unknown, and particle `moved`
@@ -128,73 +110,6 @@ Index nearest_particle(const Model& model, const Vec2& at) {
   return best;
 }
 
-/// Entries [0, n_owned) of x are this rank's; every other entry whose id another rank owns
-/// gets that rank's value (by id, as parallel::PartExchange does); the rest stay.
-void import_by_id(test::EmulatedRanks& net, int rank, const std::vector<std::int64_t>& ids,
-                  std::size_t n_owned, double* x) {
-  std::vector<double> mine;
-  for (std::size_t k = 0; k < n_owned; ++k) mine.insert(mine.end(), {static_cast<double>(ids[k]), x[k]});
-  const std::vector<double> all = net.gather(rank, mine);
-  std::map<std::int64_t, double> value;
-  for (std::size_t at = 0; at < all.size(); at += 2) value[static_cast<std::int64_t>(all[at])] = all[at + 1];
-  for (std::size_t k = n_owned; k < ids.size(); ++k)
-    if (const auto it = value.find(ids[k]); it != value.end()) x[k] = it->second;
-}
-
-/// The options of one emulated rank on its part of the model (ModelPart): its rows, every
-/// collective through `net`, the exchanges by global id (app/setup.cpp's part_problem_options
-/// with MPI).
-ProblemOptions part_options(ProblemOptions options, test::EmulatedRanks& net, int rank,
-                            const ModelPart& part) {
-  options.rows = OwnedRows{rank, part.owner};
-  options.max_over_ranks = [&net, rank](double v) { return net.max(rank, v); };
-  options.sum_over_ranks = [&net, rank](double v) { return net.sum(rank, v); };
-  options.share_forces = [](VectorXd&) {};
-  options.owned_unknowns = part.n_owned_unknowns;
-  options.import_ghosts = [&net, rank, &part](VectorXd& x) {
-    import_by_id(net, rank, part.global_unknown, static_cast<std::size_t>(part.n_owned_unknowns), x.data());
-  };
-  options.sum_in_rank_order = [&net, rank](double* v, int n) {
-    for (int k = 0; k < n; ++k) v[k] = net.sum(rank, v[k]);
-  };
-  options.gather_over_ranks = [&net, rank](const std::vector<double>& mine) {
-    return net.gather(rank, mine);
-  };
-  options.share_particle_values = [&net, rank, &part](VectorXd& v) {
-    import_by_id(net, rank, part.global_id, static_cast<std::size_t>(part.n_owned), v.data());
-  };
-  const auto gather_on_root = [&net, rank](const std::vector<std::int64_t>& ids,
-                                           const std::vector<double>& values, int width,
-                                           std::int64_t n_rows) {
-    std::vector<double> mine;
-    for (std::size_t k = 0; k < ids.size(); ++k) {
-      mine.push_back(static_cast<double>(ids[k]));
-      mine.insert(mine.end(), values.begin() + static_cast<std::ptrdiff_t>(k * width),
-                  values.begin() + static_cast<std::ptrdiff_t>((k + 1) * width));
-    }
-    const std::vector<double> all = net.gather(rank, mine);
-    if (rank != 0) return std::vector<double>{};
-    std::vector<double> table(static_cast<std::size_t>(n_rows * width),
-                              std::numeric_limits<double>::quiet_NaN());
-    for (std::size_t at = 0; at < all.size(); at += static_cast<std::size_t>(width) + 1)
-      std::copy_n(all.begin() + static_cast<std::ptrdiff_t>(at + 1), width,
-                  table.begin() + static_cast<std::ptrdiff_t>(static_cast<std::int64_t>(all[at]) * width));
-    return table;
-  };
-  options.global_id = part.global_id;
-  options.n_particles_whole = part.n_particles_whole;
-  options.gather_on_root = gather_on_root;
-  if (options.contact.enabled) {
-    ContactRanks& c = options.contact_ranks;
-    c.global_id = part.global_id;
-    for (const int o : part.owner) c.counted.push_back(counted_by(o, rank));
-    c.n_particles_whole = part.n_particles_whole;
-    c.gather = options.gather_over_ranks;
-    c.gather_on_root = gather_on_root;
-  }
-  return options;
-}
-
 /// On the ranks' parts of the model (ModelPart: each rank its particles, the ring it reads, a
 /// part's own indices): the same decisions as one process, by the whole model's indices. A
 /// part's rounds are the whole rounds' pairs of which it holds a direction, in the same order;
@@ -203,23 +118,25 @@ ProblemOptions part_options(ProblemOptions options, test::EmulatedRanks& net, in
 void expect_parts_break_as_one_process(const Scene& scene, const Model& model, const VectorXd& x,
                                        Index at_most, const Record& whole, const std::vector<int>& owner,
                                        int ranks) {
-  test::EmulatedRanks net(ranks);
+  ThreadNet net(ranks);
   std::vector<Record> records(static_cast<std::size_t>(ranks));
   std::vector<ModelPart> parts(static_cast<std::size_t>(ranks));
   StateArchive root_saved;
-  ASSERT_NO_THROW(net.run([&](int rank) {
+  ASSERT_NO_THROW(net.run([&](const ThreadRanks& on) {
+    const int rank = on.rank();
     const OwnedRows rows{rank, owner};
     const Model bonded = discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, 1); });
     ModelPart& part = parts[static_cast<std::size_t>(rank)];
     part = extract_part(bonded, owner, rank, bonded.family_held);
-    ProblemOptions options = part_options(problem_options(scene), net, rank, part);
+    ProblemOptions options = problem_options(scene);
+    set_part(options, part, rank);
     options.matrix_free = true;
     VectorXd xl(part.model.constraints.n_free);
     for (Index f = 0; f < xl.size(); ++f) xl[f] = x[part.global_unknown[static_cast<std::size_t>(f)]];
     records[static_cast<std::size_t>(rank)] = break_save_restore(
-        part.model, options, xl, at_most, [&](const StateArchive& mine) -> const StateArchive& {
+        part.model, options, xl, at_most, on, [&](const StateArchive& mine) -> const StateArchive& {
           if (rank == 0) root_saved = mine;
-          net.gather(rank, {});  // rank 0's archive is complete before any rank reads it
+          (void)on.sum(0.0);  // rank 0's archive is complete before any rank reads it
           return root_saved;
         });
   }));
@@ -302,17 +219,19 @@ void expect_ranks_break_as_one_process(const Scene& scene, double stretch, doubl
                    " ranks, " + std::to_string(rings) + " ring(s)");
       const std::vector<int> owner =
           cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
-      test::EmulatedRanks net(ranks);
+      ThreadNet net(ranks);
       std::vector<Record> records(static_cast<std::size_t>(ranks));
       std::vector<Index> held_bonds(static_cast<std::size_t>(ranks));
-      ASSERT_NO_THROW(net.run([&](int rank) {
+      ASSERT_NO_THROW(net.run([&](const ThreadRanks& on) {
+        const int rank = on.rank();
         const OwnedRows rows{rank, owner};
         const Model part =
             discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, rings); });
         held_bonds[static_cast<std::size_t>(rank)] = part.bonds.n_bonds();
-        ProblemOptions options = rank_options(problem_options(scene), net, rank, owner);
+        ProblemOptions options = problem_options(scene);
+        options.rows = rows;  // the problem shares its forces and its particles' values by these owners
         options.matrix_free = rings == 1;
-        records[static_cast<std::size_t>(rank)] = break_save_restore(part, options, x, at_most);
+        records[static_cast<std::size_t>(rank)] = break_save_restore(part, options, x, at_most, on);
       }));
       for (int rank = 0; rank < ranks; ++rank) {
         SCOPED_TRACE("rank " + std::to_string(rank));
@@ -418,23 +337,20 @@ TEST(PartitionedFailure, PiecesAcrossThePartsAreThoseOfOneProcess) {
     SCOPED_TRACE(std::string(cuts ? "cuts across x" : "strips") + " on " + std::to_string(ranks) + " ranks");
     const std::vector<int> owner =
         cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
-    test::EmulatedRanks net(ranks);
+    ThreadNet net(ranks);
     std::vector<ModelPart> parts(static_cast<std::size_t>(ranks));
     std::vector<std::vector<char>> part_unsupported(static_cast<std::size_t>(ranks));
     std::vector<std::vector<Index>> part_component(static_cast<std::size_t>(ranks));
-    ASSERT_NO_THROW(net.run([&](int rank) {
+    ASSERT_NO_THROW(net.run([&](const ThreadRanks& on) {
+      const int rank = on.rank();
       const OwnedRows rows{rank, owner};
       const Model bonded = discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, 1); });
       ModelPart& part = parts[static_cast<std::size_t>(rank)];
       part = extract_part(bonded, owner, rank, bonded.family_held);
       std::vector<char> counted;
       for (const int o : part.owner) counted.push_back(counted_by(o, rank));
-      const GraphParts graph{
-          counted, [&net, rank](const std::vector<double>& mine) { return net.gather(rank, mine); },
-          part.global_id, part.owner,
-          [&net, rank, &part](VectorXd& v) {
-            import_by_id(net, rank, part.global_id, static_cast<std::size_t>(part.n_owned), v.data());
-          }};
+      OwnedEntriesExchange exchange(on, part.global_id, part.owner, static_cast<std::size_t>(part.n_owned));
+      const GraphParts graph{on, counted, part.global_id, part.owner, &exchange};
       find_unsupported(part.model, cut(part.model), part_unsupported[static_cast<std::size_t>(rank)],
                        part_component[static_cast<std::size_t>(rank)], &graph);
     }));
