@@ -22,6 +22,7 @@
 //       stages 1-2, below the command line): per rank, the particles and unknowns it holds,
 //       the resident memory once the part is built and at the end, the peak, and the times.
 #include <algorithm>
+#include <memory>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -39,7 +40,7 @@
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
 #include "solvers/newton.hpp"
-#include "solvers/trilinos/parallel.hpp"
+#include "parallel/mpi/mpi_ranks.hpp"
 
 using namespace peristat;
 
@@ -246,10 +247,7 @@ int parts(const std::string& path, int ranks, const std::vector<Override>& overr
       const ModelPart part = extract_part(whole, owner, rank, families_to_hold(whole, rows, 1));
       extract_seconds = std::max(extract_seconds, wall_seconds() - t0);
       ProblemOptions part_options = options;
-      part_options.rows = OwnedRows{rank, part.owner};
-      part_options.sum_over_ranks = [](double v) { return v; };
-      part_options.max_over_ranks = [](double v) { return v; };
-      part_options.share_forces = [](VectorXd&) {};
+      part_options.rows = OwnedRows{rank, part.owner};  // one rank's part, measured alone
       const QuasiStaticProblem problem(part.model, part_options);
       const double bytes = measure(part.model, problem).memory_bytes +
                            static_cast<double>(part.memory_bytes() - part.model.memory_bytes());
@@ -281,14 +279,15 @@ double resident_mb() {
 
 int part_newton(const std::string& path, const std::vector<Override>& overrides) {
   const parallel::Session mpi;
-  const int rank = parallel::rank(), ranks = parallel::size();
+  const std::unique_ptr<Ranks> on = parallel::process_ranks();
+  const int rank = on->rank(), ranks = on->size();
   Scene scene = parse_scene(path, overrides);
   scene.solver.type = SolverKind::newton;
   scene.solver.linear.type = LinearSolverKind::belos;
   const double t0 = wall_seconds();
   const ModelPart part = part_model(scene, rank, ranks);
   const double t_part = wall_seconds() - t0, rss_part = resident_mb();
-  QuasiStaticProblem problem(part.model, part_problem_options(scene, part, rank));
+  QuasiStaticProblem problem(part.model, part_problem_options(scene, part, rank), *on);
   std::unique_ptr<LinearSolver> linear;
   const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, &part);
   const double t_problem = wall_seconds() - t0 - t_part;
@@ -314,7 +313,7 @@ int part_newton(const std::string& path, const std::vector<Override>& overrides)
                                     t_part,
                                     t_problem,
                                     t_run};
-  const std::vector<double> all = parallel::gather_over_ranks(mine);
+  const std::vector<double> all = on->all_gather(mine);
   if (rank == 0) {
     std::printf(
         "scene=%s ranks=%d particles_whole=%lld completed=%d newton=%d krylov=%d final_residual=%.3e %s\n",

@@ -16,12 +16,20 @@
 #include "discretisation/model_part.hpp"
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
-#include "solvers/trilinos/parallel.hpp"
+#include "parallel/exchange.hpp"
+#include "parallel/mpi/mpi_ranks.hpp"
+#include "app/unknown_share.hpp"
 #include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
 
 namespace peristat {
+
+/// MPI_COMM_WORLD's ranks, made in main() once MPI runs.
+std::unique_ptr<Ranks> g_ranks;
+
 namespace {
+
+const Ranks& ranks() { return *g_ranks; }
 
 /// A plate between mirror grips: rows on two ranks by strips, and owners for the layers.
 struct Parted {
@@ -39,21 +47,21 @@ Parted parted_plate(int nx, int ny, BelosPartition kind = BelosPartition::strips
   Parted p{test::scene_from_yaml(test::plate_yaml(spec)), {}, {}, {}};
   p.scene.solver.linear.belos.partition = kind;
   p.whole = discretise(p.scene);
-  p.owner = owned_rows(p.scene, p.whole, parallel::rank(), parallel::size()).owner;  // every particle owned
-  const int rank = parallel::rank();
+  p.owner = owned_rows(p.scene, p.whole, ranks().rank(), ranks().size()).owner;  // every particle owned
+  const int rank = ranks().rank();
   p.part = extract_part(p.whole, p.owner, rank, families_to_hold(p.whole, OwnedRows{rank, p.owner}, 1));
   return p;
 }
 
 TEST(PartExchange, EveryGhostGetsItsOwnersValue) {
-  ASSERT_EQ(parallel::size(), 2) << "run under mpirun -n 2";
+  ASSERT_EQ(ranks().size(), 2) << "run under mpirun -n 2";
   const Parted p = parted_plate(40, 16);
   const ModelPart& part = p.part;
   const auto value = [](std::int64_t id) { return 1.0 + 0.5 * static_cast<double>(id); };
   std::vector<double> x(part.global_id.size(), std::numeric_limits<double>::quiet_NaN());
   for (Index l = 0; l < part.n_owned; ++l)
     x[static_cast<std::size_t>(l)] = value(part.global_id[static_cast<std::size_t>(l)]);
-  parallel::PartExchange exchange(part.global_id, part.owner, static_cast<std::size_t>(part.n_owned));
+  PartExchange exchange(ranks(), part.global_id, part.owner, static_cast<std::size_t>(part.n_owned));
   EXPECT_GT(exchange.ghosts(), 0u);
   exchange.share(x.data());
   for (std::size_t l = 0; l < x.size(); ++l) ASSERT_EQ(x[l], value(part.global_id[l])) << "entry " << l;
@@ -66,7 +74,7 @@ TEST(PartLayout, EveryNodeHasOneGlobalNumber) {
   for (const BelosPartition kind : {BelosPartition::strips, BelosPartition::rcb}) {
     SCOPED_TRACE(std::string(to_string(kind)));
     const Parted p = parted_plate(16, 40, kind);  // tall: RCB cuts across y, strips (by index) across x
-    const UnknownLayout layout = part_unknown_layout(p.part, parallel::rank());
+    const UnknownLayout layout = part_unknown_layout(p.part, ranks().rank());
     const Constraints& wc = p.whole.constraints;
     std::int64_t nodes = 0;
     for (Index g = 0; g < p.whole.particles.size(); ++g)
@@ -76,7 +84,7 @@ TEST(PartLayout, EveryNodeHasOneGlobalNumber) {
     // layout whose owners every rank holds, recomputed here from the whole model.
     std::vector<std::int64_t> expected(static_cast<std::size_t>(p.whole.particles.size()), -1);
     std::int64_t next = 0;
-    for (int r = 0; r < parallel::size(); ++r)
+    for (int r = 0; r < ranks().size(); ++r)
       for (Index g = 0; g < p.whole.particles.size(); ++g)
         if (p.owner[static_cast<std::size_t>(g)] == r &&
             (wc.free_index[2 * g] >= 0 || wc.free_index[2 * g + 1] >= 0))
@@ -100,7 +108,7 @@ TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
   // matrix gives the reference. Krylov tolerance 1e-12: the answers within 1e-9 relative.
   const Parted p = parted_plate(60, 24);
   const ModelPart& part = p.part;
-  const int rank = parallel::rank();
+  const int rank = ranks().rank();
   ProblemOptions options = problem_options(p.scene);
   options.matrix_free = true;
   VectorXd x_ref;
@@ -119,10 +127,7 @@ TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
   }
   ProblemOptions part_options = options;
   part_options.rows = OwnedRows{rank, part.owner};
-  part_options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
-  part_options.max_over_ranks = parallel::max_over_ranks;
-  part_options.share_forces = [](VectorXd&) {};
-  QuasiStaticProblem problem(part.model, part_options);
+  QuasiStaticProblem problem(part.model, part_options, ranks());
   problem.set_load_factor(1.0);
   const Index n = part.model.constraints.n_free;
   SparseMatrix none;
@@ -148,8 +153,8 @@ TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
   // The solver writes the owned entries only; the ghosts come from their owners.
   for (Index f = 0; f < part.n_owned_unknowns; ++f)
     ASSERT_TRUE(std::isfinite(xl[f])) << "owned unknown " << f;
-  parallel::PartExchange(part.global_unknown, unknown_owners(part.model.constraints, part.owner),
-                         static_cast<std::size_t>(part.n_owned_unknowns))
+  PartExchange(ranks(), part.global_unknown, unknown_owners(part.model.constraints, part.owner),
+               static_cast<std::size_t>(part.n_owned_unknowns))
       .share(xl.data());
   const double scale = x_ref.cwiseAbs().maxCoeff();
   double worst = 0.0;
@@ -186,8 +191,8 @@ TEST(WholeView, RankZeroGathersTheWholeModelFromTheParts) {
   // model's exactly (a gather moves bits), and a whole state read back gives each part its own
   // and its ghosts' entries. RCB on a tall plate: the parts are not ranges of the whole's order.
   const Parted p = parted_plate(24, 40, BelosPartition::rcb);
-  const int rank = parallel::rank();
-  const WholeView view(p.part.model, &p.part, rank);
+  const int rank = ranks().rank();
+  const WholeView view(p.part.model, &p.part, ranks());
   EXPECT_TRUE(view.gathers());
   ASSERT_EQ(view.particles(), static_cast<std::size_t>(p.whole.particles.size()));
   const ParticleTable table = view.particle_table(p.scene);
@@ -247,7 +252,7 @@ TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
   // recomputed). The owned and ghost entries must be the whole model's answer (CHOLMOD, one
   // process) within 1e-8 of its largest entry (both Newton runs stop at rtol 1e-10), and
   // every rank must take the same Newton iterations (the same decisions).
-  const int rank = parallel::rank();
+  const int rank = ranks().rank();
   test::PlateSpec spec;  // tall: RCB's parts (across y) are not strips of the particle order (across x)
   spec.nx = 24;
   spec.ny = 60;
@@ -262,10 +267,10 @@ TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
     SCOPED_TRACE(std::string(to_string(kind)));
     Scene parted = scene;
     parted.solver.linear.belos.partition = kind;
-    const ModelPart part = part_model(parted, rank, parallel::size());
+    const ModelPart part = part_model(parted, rank, ranks().size());
     const ProblemOptions options = part_problem_options(scene, part, rank);
     ASSERT_TRUE(options.matrix_free);
-    QuasiStaticProblem problem(part.model, options);
+    QuasiStaticProblem problem(part.model, options, ranks());
     std::unique_ptr<LinearSolver> linear;
     const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, &part);
     VectorXd x = VectorXd::Zero(problem.n_unknowns());
@@ -276,7 +281,7 @@ TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
     };
     const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
     ASSERT_TRUE(run.completed) << run.message;
-    options.import_ghosts(x);  // the run keeps the owned entries right; the ghosts from their owners
+    problem.import_ghosts(x);  // the run keeps the owned entries right; the ghosts from their owners
     const double scale = x_ref.cwiseAbs().maxCoeff();
     double worst = 0.0;
     for (Index f = 0; f < x.size(); ++f)
@@ -284,8 +289,8 @@ TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
           std::max(worst, std::abs(x[f] - x_ref[part.global_unknown[static_cast<std::size_t>(f)]]) / scale);
     EXPECT_LT(worst, 1e-8) << "rank " << rank;
     // The same decisions on every rank: the residual histories (relative residuals, collective) alike.
-    const std::vector<double> all = parallel::gather_over_ranks(residuals);
-    ASSERT_EQ(all.size(), residuals.size() * static_cast<std::size_t>(parallel::size()));
+    const std::vector<double> all = ranks().all_gather(residuals);
+    ASSERT_EQ(all.size(), residuals.size() * static_cast<std::size_t>(ranks().size()));
     for (std::size_t k = 0; k < residuals.size(); ++k)
       EXPECT_EQ(all[k], all[k + residuals.size()]) << "residual " << k;
     std::printf("%s, rank %d: %d unknowns (%d owned); Newton residuals", std::string(to_string(kind)).c_str(),
@@ -302,6 +307,9 @@ TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
 
 int main(int argc, char** argv) {
   const peristat::parallel::Session mpi;
+  peristat::g_ranks = peristat::parallel::process_ranks();
   testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
+  const int failed = RUN_ALL_TESTS();
+  peristat::g_ranks.reset();
+  return failed;
 }
