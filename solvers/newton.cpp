@@ -45,7 +45,6 @@ void NewtonSolver::follow_structure() {
   if (m_problem.structure_version() == m_structure) return;
   m_structure = m_problem.structure_version();
   m_K = m_problem.make_tangent();
-  m_P = SparseMatrix();
   m_analyzed = m_unsymmetric_analyzed = false;
   m_have_factor = false;
   m_factored = nullptr;
@@ -56,8 +55,7 @@ bool NewtonSolver::reuse_factor() const {
 }
 
 LinearSolver& NewtonSolver::select_solver() {
-  m_linear.set_symmetric(m_K_symmetric);
-  if (m_K_symmetric || !m_linear.needs_symmetric()) return m_linear;
+  if (m_K_symmetric || !m_linear.traits().needs_symmetric) return m_linear;
   if (!m_unsymmetric) {  // first slip with a symmetric-only solver: UMFPACK takes over
     LinearOptions lu;
     lu.type = LinearSolverKind::umfpack;
@@ -68,18 +66,7 @@ LinearSolver& NewtonSolver::select_solver() {
 
 void NewtonSolver::factorize(SolveReport& report) {
   const double t0 = wall_seconds();
-  LinearSolver& lin = select_solver();
-  if (lin.takes_preconditioner_source()) {
-    // P when the solver sets up (at the state of the last evaluate, like K), not kept here
-    lin.set_preconditioner_source([this](SparseMatrix& P) {
-      P = m_problem.make_preconditioner();
-      m_problem.assemble_preconditioner(P);
-    });
-  } else if (lin.uses_preconditioner_matrix()) {
-    if (m_P.rows() == 0) m_P = m_problem.make_preconditioner();
-    m_problem.assemble_preconditioner(m_P);  // at the state of the last evaluate, like K
-    lin.set_preconditioner_matrix(m_P);
-  }
+  LinearSolver& lin = select_solver();  // which asks LinearSetup::system for P when it needs it
   bool& analyzed = &lin == &m_linear ? m_analyzed : m_unsymmetric_analyzed;
   if (!analyzed) {
     lin.analyzePattern(m_K);
@@ -92,17 +79,17 @@ void NewtonSolver::factorize(SolveReport& report) {
   report.seconds_factorize += wall_seconds() - t0;
 }
 
-void NewtonSolver::solve_linear(LinearSolver& lin, SolveReport& report, double t0) {
-  const double setup0 = lin.setup_seconds();
-  lin.set_state(m_problem.preconditioner_state());
+void NewtonSolver::solve_linear(LinearSolver& lin, double rtol, SolveReport& report, double t0) {
+  const double setup0 = lin.stats().setup_seconds;
+  lin.configure({m_K_symmetric, rtol, m_problem.preconditioner_state()});
   lin.solve(-m_r, m_dx);
-  const double setup = lin.setup_seconds() - setup0;  // a deferred set-up counts as one
+  const double setup = lin.stats().setup_seconds - setup0;  // a deferred set-up counts as one
   report.seconds_factorize += setup;
   report.seconds_solve += wall_seconds() - t0 - setup;
 }
 
 long NewtonSolver::factorizations() const {
-  return m_linear.factorizations() + (m_unsymmetric ? m_unsymmetric->factorizations() : 0);
+  return m_linear.stats().factorizations + (m_unsymmetric ? m_unsymmetric->stats().factorizations : 0);
 }
 
 void NewtonSolver::prepare(const VectorXd& x) {
@@ -165,12 +152,11 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
 
   t0 = wall_seconds();
   LinearSolver& lin = *m_factored;
-  lin.set_symmetric(m_K_symmetric);
-  if (m_options.adaptive_forcing && lin.iterative()) lin.set_relative_tolerance(kForcingMax);
+  const double rtol = m_options.adaptive_forcing && lin.traits().iterative ? kForcingMax : 0.0;
   m_dx.setZero(m_r.size());
-  solve_linear(lin, report, t0);
+  solve_linear(lin, rtol, report, t0);
   report.factorizations += static_cast<int>(factorizations() - f0);
-  report.linear_iterations += lin.iterations();
+  report.linear_iterations += lin.stats().iterations;
   report.predictor_solves = 1;
   if (lin.info() == Eigen::Success && m_problem.all_finite(m_dx)) x += m_dx;
   return report;
@@ -265,14 +251,11 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
     t0 = wall_seconds();
     m_dx.setZero(m_r.size());
     LinearSolver& lin = m_factored ? *m_factored : m_linear;
-    lin.set_symmetric(m_K_symmetric);
-    if (o.adaptive_forcing && lin.iterative()) {
-      eta = forcing_term(it, norm, previous_norm, eta);
-      lin.set_relative_tolerance(eta);
-    }
-    solve_linear(lin, report, t0);
-    const int krylov = lin.iterative() ? lin.iterations() : 0;
-    report.linear_iterations += lin.iterations();
+    const bool iterative = lin.traits().iterative;
+    if (o.adaptive_forcing && iterative) eta = forcing_term(it, norm, previous_norm, eta);
+    solve_linear(lin, o.adaptive_forcing && iterative ? eta : 0.0, report, t0);
+    const int krylov = iterative ? lin.stats().iterations : 0;
+    report.linear_iterations += lin.stats().iterations;
     ++report.iterations;
     use_existing = false;
     if (lin.info() != Eigen::Success || !m_problem.all_finite(m_dx)) {

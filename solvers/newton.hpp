@@ -53,8 +53,9 @@ class NewtonSolver final : public StepSolver {
   bool reuse_factor() const;
   long factorizations() const;
   void factorize(SolveReport& report);
-  /// m_dx = K^-1 (-m_r) with `lin`, timed from t0 (a deferred set-up inside it counts as set-up).
-  void solve_linear(LinearSolver& lin, SolveReport& report, double t0);
+  /// m_dx = K^-1 (-m_r) with `lin`, a Krylov solve stopping at `rtol` (0: its configured
+  /// floor), timed from t0 (a deferred set-up inside it counts as set-up).
+  void solve_linear(LinearSolver& lin, double rtol, SolveReport& report, double t0);
 
   /// The linear solver for the current tangent: m_linear, or UMFPACK (m_unsymmetric, made on
   /// first need) while the tangent is unsymmetric and m_linear needs a symmetric matrix.
@@ -70,7 +71,6 @@ class NewtonSolver final : public StepSolver {
   bool m_K_symmetric = true;  ///< whether the tangent held in m_K is symmetric
   NewtonOptions m_options;
   SparseMatrix m_K;
-  SparseMatrix m_P;  ///< preconditioner matrix, when the linear solver uses one
   bool m_analyzed = false;
   bool m_have_factor = false;
   std::uint64_t m_structure = 0;  ///< the problem's structure_version() of m_K

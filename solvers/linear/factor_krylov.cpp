@@ -34,17 +34,15 @@ void general_product(const SparseMatrix& A, const VectorXd& x, VectorXd& y) {
 
 class FactorPreconditionedKrylov final : public LinearSolver {
  public:
-  FactorPreconditionedKrylov(std::unique_ptr<LinearSolver> factor, FactorSource source,
-                             const LinearOptions& o, bool matrix_free)
+  FactorPreconditionedKrylov(std::unique_ptr<Preconditioner> factor, FactorSource source,
+                             const LinearOptions& o, std::shared_ptr<LinearSystem> system, bool matrix_free)
       : m_factor(std::move(factor)),
         m_source(source),
         m_matrix_free(matrix_free),
+        m_system(std::move(system)),
         m_rtol(o.rtol),
         m_rtol_floor(o.rtol),
         m_max_iterations(o.max_iterations) {}
-
-  bool iterative() const override { return true; }
-  void set_relative_tolerance(double rtol) override { m_rtol = std::max(rtol, m_rtol_floor); }
 
   void analyzePattern(const SparseMatrix& A) override {
     m_A = &A;
@@ -69,28 +67,21 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   }
 
   Eigen::ComputationInfo info() const override { return m_info; }
-  std::string name() const override {
+  /// CG on symmetric matrices, GMRES with the same factor otherwise: needs no symmetric matrix.
+  LinearSolverTraits traits() const override {
     const std::string factor = m_factor->name();
-    if (m_matrix_free) return "matrix-free+bond-" + factor;
-    return m_source == FactorSource::preconditioner_matrix ? "cg+bond-" + factor : "cg+" + factor;
+    if (m_matrix_free) return {"matrix-free+bond-" + factor, false, true};
+    return {m_source == FactorSource::preconditioner_matrix ? "cg+bond-" + factor : "cg+" + factor, false, true};
   }
-  bool needs_unknown_layout() const override { return m_factor->needs_unknown_layout(); }
-  void set_unknown_layout(const UnknownLayout& layout) override { m_factor->set_unknown_layout(layout); }
-  bool needs_operator() const override { return m_matrix_free; }
-  void set_operator(Operator apply) override { m_apply = std::move(apply); }
-  /// CG on symmetric matrices, GMRES with the same factor otherwise.
-  bool needs_symmetric() const override { return false; }
-  void set_symmetric(bool symmetric) override { m_symmetric = symmetric; }
-  void set_may_be_unsymmetric(bool may) override { m_factor->set_may_be_unsymmetric(may); }
+  LinearSolverStats stats() const override {
+    return {m_iterations, m_error, m_factor->factorizations(), m_setup_seconds};
+  }
+  void configure(const LinearSolve& next) override {
+    m_symmetric = next.symmetric;
+    m_rtol = std::max(next.rtol, m_rtol_floor);
+    m_reuse.set_state(next.state);
+  }
   void renew_preconditioner() override { m_reuse.renew(); }
-  void set_state(std::uint64_t state) override { m_reuse.set_state(state); }
-  int iterations() const override { return m_iterations; }
-  double error() const override { return m_error; }
-  long factorizations() const override { return m_factor->factorizations(); }
-  double setup_seconds() const override { return m_setup_seconds; }
-  bool uses_preconditioner_matrix() const override { return m_source == FactorSource::preconditioner_matrix; }
-  bool takes_preconditioner_source() const override { return m_source == FactorSource::preconditioner_matrix; }
-  void set_preconditioner_source(MatrixSource source) override { m_P_source = std::move(source); }
 
  private:
   void refresh_factor() {
@@ -116,10 +107,10 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   /// into the factor, which keeps what it needs; P is dropped here, the factor's old set-up
   /// before P is assembled.
   void load_preconditioner_matrix() {
-    if (!m_P_source) throw std::logic_error("factor-preconditioned Krylov: set_preconditioner_source() first");
+    if (!m_system) throw std::logic_error("factor-preconditioned Krylov: LinearSetup::system is needed");
     m_factor->release_factor();
     SparseMatrix P;
-    m_P_source(P);
+    m_system->preconditioner(P);
     if (!m_analyzed) {
       m_factor->analyzePattern(P);
       m_analyzed = true;
@@ -234,21 +225,20 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   /// A is symmetric, deterministic; a scatter otherwise).
   void product(const VectorXd& x, VectorXd& y) {
     if (m_matrix_free)
-      m_apply(x, y);
+      m_system->apply(x, y);
     else if (m_symmetric)
       symmetric_product(*m_A, x, y);
     else
       general_product(*m_A, x, y);
   }
 
-  std::unique_ptr<LinearSolver> m_factor;
+  std::unique_ptr<Preconditioner> m_factor;
   FactorSource m_source;
   bool m_matrix_free;
-  Operator m_apply;
+  std::shared_ptr<LinearSystem> m_system;  ///< the action (matrix-free) and P on demand
   double m_rtol, m_rtol_floor;
   int m_max_iterations;
   const SparseMatrix* m_A = nullptr;
-  MatrixSource m_P_source;  ///< P on demand (FactorSource::preconditioner_matrix)
   bool m_loaded = false;    ///< the factor holds P's values for a set-up not built yet
   bool m_analyzed = false, m_have_factor = false, m_symmetric = true;
   PreconditionerReuse m_reuse;
@@ -261,11 +251,13 @@ class FactorPreconditionedKrylov final : public LinearSolver {
 
 }  // namespace
 
-std::unique_ptr<LinearSolver> make_factor_preconditioned_krylov(std::unique_ptr<LinearSolver> factor,
+std::unique_ptr<LinearSolver> make_factor_preconditioned_krylov(std::unique_ptr<Preconditioner> factor,
                                                                 FactorSource source,
                                                                 const LinearOptions& options,
+                                                                std::shared_ptr<LinearSystem> system,
                                                                 bool matrix_free) {
-  return std::make_unique<FactorPreconditionedKrylov>(std::move(factor), source, options, matrix_free);
+  return std::make_unique<FactorPreconditionedKrylov>(std::move(factor), source, options, std::move(system),
+                                                      matrix_free);
 }
 
 }  // namespace peristat

@@ -8,20 +8,22 @@
 #include <memory>
 
 #include "solvers/linear/linear_solver.hpp"
+#include "solvers/linear/preconditioner.hpp"
 
 namespace peristat {
 
 enum class FactorSource {
   system_matrix,         ///< factor A itself (refreshed when iterations climb)
-  preconditioner_matrix  ///< factor the P that set_preconditioner_source() assembles
+  preconditioner_matrix  ///< factor the P that LinearSystem::preconditioner() assembles
 };
 
-/// `factor` is a direct solver for symmetric matrices (CHOLMOD in practice). With
-/// `matrix_free` the system matrix is applied through LinearSolver::set_operator() (source
-/// must be preconditioner_matrix).
-std::unique_ptr<LinearSolver> make_factor_preconditioned_krylov(std::unique_ptr<LinearSolver> factor,
+/// `factor` is a factor of symmetric matrices (CHOLMOD) or a V-cycle. With `matrix_free` the
+/// system matrix is applied through LinearSystem::apply() (source must be
+/// preconditioner_matrix). `system` serves P and the action; it may be null when neither is used.
+std::unique_ptr<LinearSolver> make_factor_preconditioned_krylov(std::unique_ptr<Preconditioner> factor,
                                                                 FactorSource source,
                                                                 const LinearOptions& options,
+                                                                std::shared_ptr<LinearSystem> system,
                                                                 bool matrix_free = false);
 
 }  // namespace peristat

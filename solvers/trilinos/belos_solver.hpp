@@ -1,19 +1,22 @@
 // solver.linear: belos. Trilinos's Krylov solvers (Belos) with MueLu or Ifpack2, or a factor
 // of each rank's block of the bond matrix, behind the linear-solver seam: nothing above it
-// knows Trilinos exists. The model and the assembly are the same on every rank; the matrix
-// is distributed by rows (particles in contiguous ranges, both directions of a particle on
-// one rank), solved by all ranks together, and the solution gathered on every rank
-// (docs/guide/distributed.md). Compiled as C++17: MueLu's headers do not build as C++20.
+// knows Trilinos exists (src/app/linear_solvers.cpp registers these makers). The model and
+// the assembly are the same on every rank; the matrix is distributed by rows (particles in
+// contiguous ranges, both directions of a particle on one rank), solved by all ranks
+// together, and the solution gathered on every rank (docs/guide/distributed.md). Compiled
+// as C++17: MueLu's headers do not build as C++20.
 #pragma once
 
 #include <memory>
 
 #include "solvers/linear/linear_solver.hpp"
+#include "solvers/linear/preconditioner.hpp"
 
 namespace peristat {
 
-/// Starts MPI (through Tpetra) when it has not been started.
-std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options);
+/// Starts MPI (through Tpetra) when it has not been started. Reads setup.layout (required),
+/// and setup.system with a matrix-free tangent or the bond_factor preconditioner.
+std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options, LinearSetup setup);
 
 /// Who applies the MueLu V-cycle, and from what copy of its finest matrix.
 enum class CycleApply {
@@ -28,7 +31,9 @@ enum class CycleApply {
 
 /// One MueLu V-cycle of the matrix it factorises (smoothed aggregation, in this process), as
 /// the preconditioner of factor-preconditioned Krylov (solver.krylov.preconditioner: bond_amg).
-std::unique_ptr<LinearSolver> make_muelu_cycle(CycleApply apply = CycleApply::threads);
+/// Reads setup.layout (two unknowns per particle, the rigid-body modes) and
+/// setup.may_be_unsymmetric (the cycle may serve GMRES: Chebyshev degree 2).
+std::unique_ptr<Preconditioner> make_muelu_cycle(const LinearSetup& setup, CycleApply apply = CycleApply::threads);
 
 /// Above this many rows the MueLu V-cycle puts memory before set-up and cycle time: the
 /// Galerkin product without its AP temporary, no blocked copy of the finest matrix

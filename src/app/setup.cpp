@@ -4,6 +4,7 @@
 #include <memory>
 #include <stdexcept>
 
+#include "app/linear_solvers.hpp"
 #include "app/preflight.hpp"
 #include "core/error.hpp"
 #include "solvers/adr.hpp"
@@ -360,19 +361,7 @@ std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProb
   if (free != problem.matrix_free())
     throw std::logic_error("make_step_solver: solver.linear matrix_free needs a problem built with "
                            "ProblemOptions::matrix_free (problem_options() of the same scene)");
-  linear = make_linear_solver(options);
-  if (linear->needs_operator()) {
-    linear->set_operator([&problem](const VectorXd& v, VectorXd& y) { problem.apply_tangent(v, y); });
-    linear->set_operator_reads([&problem] { return problem.action_reads(); });
-  }
-  if (part) {
-    linear->set_unknown_layout(part_unknown_layout(*part, problem.owned_rows().rank));
-  } else if (linear->needs_unknown_layout()) {
-    UnknownLayout layout = unknown_layout(problem.model(), problem.n_unknowns());
-    layout.owner = problem.owned_rows().owner;  // the ranks' rows, as the problem assembles them
-    linear->set_unknown_layout(layout);
-  }
-  linear->set_may_be_unsymmetric(scene.contact.enabled && scene.contact.friction > 0.0);  // pairs may slip
+  linear = make_problem_linear_solver(scene, problem, options, part);
   return std::make_unique<NewtonSolver>(problem, *linear, scene.solver.newton);
 }
 

@@ -32,6 +32,7 @@
 #include <Eigen/CholmodSupport>
 #include <omp.h>
 
+#include "app/linear_solvers.hpp"
 #include "app/model_size.hpp"
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
@@ -85,7 +86,7 @@ int tension(int n, const std::vector<Override>& overrides) {
   const long long nonzeros = problem.pattern().nonzeros;
   std::fprintf(stderr, "discretise %.2f s, problem set-up (pattern) %.2f s\n", t_discretise,
                t_model - t_discretise);
-  auto linear = make_linear_solver(scene.solver.linear);
+  auto linear = make_problem_linear_solver(scene, problem, scene.solver.linear);
   NewtonSolver newton(problem, *linear, scene.solver.newton);
   VectorXd x = VectorXd::Zero(problem.n_unknowns());
   problem.set_load_factor(0.0);

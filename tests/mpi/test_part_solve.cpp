@@ -10,6 +10,7 @@
 #include <Eigen/CholmodSupport>
 #include <gtest/gtest.h>
 
+#include "app/linear_solvers.hpp"
 #include "app/setup.hpp"
 #include "app/whole_view.hpp"
 #include "assembly/quasi_static.hpp"
@@ -140,8 +141,9 @@ TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
   lin.belos.method = BelosMethod::cg;
   lin.belos.tangent = BelosTangent::assembled;
   lin.belos.rtol = 1e-12;
-  const std::unique_ptr<LinearSolver> solver = make_linear_solver(lin);
-  solver->set_unknown_layout(part_unknown_layout(part, rank));
+  register_linear_solvers();
+  const std::unique_ptr<LinearSolver> solver =
+      make_linear_solver(lin, {part_unknown_layout(part, rank), false, nullptr});
   solver->analyzePattern(P);
   solver->factorize(P);
   VectorXd bl(n), xl = VectorXd::Zero(n);
@@ -149,7 +151,7 @@ TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
   xl.tail(n - part.n_owned_unknowns).setConstant(std::numeric_limits<double>::quiet_NaN());
   solver->solve(bl, xl);
   ASSERT_EQ(solver->info(), Eigen::Success);
-  EXPECT_GT(solver->iterations(), 0);
+  EXPECT_GT(solver->stats().iterations, 0);
   // The solver writes the owned entries only; the ghosts come from their owners.
   for (Index f = 0; f < part.n_owned_unknowns; ++f)
     ASSERT_TRUE(std::isfinite(xl[f])) << "owned unknown " << f;
@@ -161,10 +163,10 @@ TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
   for (Index f = 0; f < n; ++f)  // owned and imported ghost entries alike
     worst =
         std::max(worst, std::abs(xl[f] - x_ref[part.global_unknown[static_cast<std::size_t>(f)]]) / scale);
-  EXPECT_LT(worst, 1e-9) << "rank " << rank << ", " << solver->iterations() << " Krylov iterations";
+  EXPECT_LT(worst, 1e-9) << "rank " << rank << ", " << solver->stats().iterations << " Krylov iterations";
   std::printf(
       "rank %d: %d unknowns (%d owned), %d Krylov iterations, largest difference %.2e of the largest entry\n",
-      rank, n, part.n_owned_unknowns, solver->iterations(), worst);
+      rank, n, part.n_owned_unknowns, solver->stats().iterations, worst);
 }
 
 /// The run of `scene` (its load steps, from zero) on this process's whole model with CHOLMOD:

@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 
+#include "app/linear_solvers.hpp"
 #include "app/setup.hpp"
 #include "core/clock.hpp"
 #include "support/forwarding_solver.hpp"
@@ -33,6 +34,7 @@ class AlwaysReproducible final : public ForwardingStepSolver {
 std::unique_ptr<Solved> solve_parsed(Scene scene, bool always_reproducible) {
   auto s = std::make_unique<Solved>();
   s->scene = std::move(scene);
+  register_linear_solvers();  // as main() does
   // solver.linear: auto resolved as `peristat run` does, before the problem is built.
   resolve_linear_solver(s->scene, 1);
   s->model = discretise(s->scene);

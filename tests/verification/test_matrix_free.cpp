@@ -92,14 +92,13 @@ TEST(BondAmg, SameAnswerAsTheBondFactor) {
 /// own apply): the factor-preconditioned Krylov solver's inner "factor".
 struct Cycle {
   SparseMatrix P;
-  std::unique_ptr<LinearSolver> cycle;
+  std::unique_ptr<Preconditioner> cycle;
 };
 Cycle bond_cycle(QuasiStaticProblem& problem, CycleApply apply, bool for_gmres = false) {
-  Cycle c{problem.make_preconditioner(), make_muelu_cycle(apply)};
+  // for_gmres: the cycle may serve GMRES (Chebyshev degree 2)
+  Cycle c{problem.make_preconditioner(),
+          make_muelu_cycle({unknown_layout(problem.model(), problem.n_unknowns()), for_gmres, nullptr}, apply)};
   problem.assemble_preconditioner(c.P);
-  c.cycle->set_may_be_unsymmetric(for_gmres);  // the cycle may serve GMRES: Chebyshev degree 2
-  EXPECT_TRUE(c.cycle->needs_unknown_layout());
-  c.cycle->set_unknown_layout(unknown_layout(problem.model(), problem.n_unknowns()));
   c.cycle->analyzePattern(c.P);
   c.cycle->factorize(c.P);
   EXPECT_EQ(c.cycle->info(), Eigen::Success);
@@ -115,7 +114,7 @@ TEST(BondAmg, VCycleIsASymmetricContraction) {
   ASSERT_TRUE(s->run.completed) << s->run.message;
   const Cycle c = bond_cycle(*s->problem, CycleApply::threads);
   const SparseMatrix& P = c.P;
-  LinearSolver* cycle = c.cycle.get();
+  Preconditioner* cycle = c.cycle.get();
   const Index n = P.rows();
   VectorXd a = VectorXd::Random(n), b = VectorXd::Random(n), Ma, Mb;
   cycle->solve(a, Ma);
@@ -162,7 +161,7 @@ TEST(BondAmg, ThreadedCycleRepeatsMueLus) {
                   f = bond_cycle(*s->problem, CycleApply::threads, for_gmres),
                   m = bond_cycle(*s->problem, CycleApply::muelu, for_gmres);
       t.cycle->solve(probe, by_degree[for_gmres ? 1 : 0]);
-      LinearSolver *threaded = t.cycle.get(), *rounded = f.cycle.get(), *serial = m.cycle.get();
+      Preconditioner *threaded = t.cycle.get(), *rounded = f.cycle.get(), *serial = m.cycle.get();
       const Index n = t.P.rows();
       ASSERT_EQ(threaded->name(), "muelu") << name << ": the threaded cycle took this hierarchy";
       ASSERT_EQ(rounded->name(), "muelu") << name << ": the threaded cycle took this hierarchy";
@@ -197,7 +196,7 @@ TEST(BondAmg, ThreadedCycleRepeatsMueLus) {
     // Each row is one thread's and the restriction adds fixed chunks in order: the same bits
     // on one thread as on two.
     const Cycle t = bond_cycle(*s->problem, CycleApply::threads);
-    LinearSolver* threaded = t.cycle.get();
+    Preconditioner* threaded = t.cycle.get();
     const VectorXd b = VectorXd::Random(t.P.rows());
     VectorXd one, two;
     const int threads = omp_get_max_threads();

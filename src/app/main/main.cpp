@@ -7,6 +7,7 @@
 #include <CLI/CLI.hpp>
 
 #include "app/commands.hpp"
+#include "app/linear_solvers.hpp"
 #include "core/error.hpp"
 #include "core/version.hpp"
 #include "solvers/trilinos/parallel.hpp"
@@ -16,6 +17,7 @@ int main(int argc, char** argv) {
   // Under mpirun: MPI starts now, and the ranks other than 0 print nothing (they run the same
   // model; docs/guide/distributed.md).
   const parallel::Session mpi;
+  register_linear_solvers();  // belos and the bond_amg V-cycle behind the linear-solver seam
   if (parallel::rank() > 0) {
     std::FILE* out = std::freopen("/dev/null", "w", stdout);
     std::FILE* err = std::freopen("/dev/null", "w", stderr);

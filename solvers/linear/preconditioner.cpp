@@ -1,0 +1,48 @@
+#include "solvers/linear/preconditioner.hpp"
+
+#include <map>
+
+#include "core/error.hpp"
+
+namespace peristat {
+
+namespace {
+
+/// A direct solver's factor of P as the preconditioner: M^-1 b is its solve.
+class FactorPreconditioner final : public Preconditioner {
+ public:
+  explicit FactorPreconditioner(std::unique_ptr<LinearSolver> factor) : m_factor(std::move(factor)) {}
+  void analyzePattern(const SparseMatrix& P) override { m_factor->analyzePattern(P); }
+  void factorize(const SparseMatrix& P) override { m_factor->factorize(P); }
+  void solve(const VectorXd& b, VectorXd& x) override { m_factor->solve(b, x); }
+  Eigen::ComputationInfo info() const override { return m_factor->info(); }
+  std::string name() const override { return m_factor->name(); }
+  long factorizations() const override { return m_factor->stats().factorizations; }
+
+ private:
+  std::unique_ptr<LinearSolver> m_factor;
+};
+
+/// The registered makers (register_preconditioner), set once at start-up.
+std::map<PreconditionerKind, PreconditionerMaker>& makers() {
+  static std::map<PreconditionerKind, PreconditionerMaker> registered;
+  return registered;
+}
+
+}  // namespace
+
+std::unique_ptr<Preconditioner> factor_preconditioner(std::unique_ptr<LinearSolver> factor) {
+  return std::make_unique<FactorPreconditioner>(std::move(factor));
+}
+
+void register_preconditioner(PreconditionerKind kind, PreconditionerMaker make) { makers()[kind] = make; }
+
+std::unique_ptr<Preconditioner> make_registered_preconditioner(PreconditionerKind kind, const LinearSetup& setup) {
+  const auto found = makers().find(kind);
+  if (found == makers().end())
+    throw InputError("solver.krylov.preconditioner: '" + std::string(to_string(kind)) +
+                     "' is not available in this program (no maker registered)");
+  return found->second(setup);
+}
+
+}  // namespace peristat
