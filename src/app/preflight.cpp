@@ -11,7 +11,7 @@
 
 #include "core/error.hpp"
 #include "discretisation/model.hpp"
-#include "scene/geometry.hpp"
+#include "core/geometry.hpp"
 #include "solvers/trilinos/belos_solver.hpp"
 #include "solvers/trilinos/parallel.hpp"
 
