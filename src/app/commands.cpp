@@ -109,31 +109,22 @@ struct ProcessModel {
   Model model;
   std::optional<ModelPart> part;
   OwnedRows rows;
-  BondsChoice bonds;
-  ModelChoice choice;
   const Model& held() const { return part ? part->model : model; }
   const ModelPart* part_or_null() const { return part ? &*part : nullptr; }
 };
 
-ProcessModel process_model(const Scene& scene) {
+/// The model the plan says this process holds (RunPlan::model, RunPlan::bonds).
+ProcessModel process_model(const Scene& scene, const RunPlan& plan) {
   ProcessModel m;
-  const int ranks = parallel::size();
-  m.choice = part_model_choice(scene, ranks);
-  if (m.choice.part) {
-    m.part.emplace(part_model(scene, parallel::rank(), ranks));
-    m.bonds = {
-        true, part_rings(scene),
-        part_rings(scene) == 1
-            ? "a rank's part holds the families of its particles and their neighbours"
-            : "a rank's part holds the families of its particles and of two rings around them (an assembled "
-              "tangent)"};
+  const int ranks = plan.ranks;
+  if (plan.model.part) {
+    m.part.emplace(part_model(scene, plan.bonds.rings, parallel::rank(), ranks));
     return m;
   }
-  m.bonds = partitioned_bonds(scene, ranks);
-  if (m.bonds.partitioned) {
+  if (plan.bonds.partitioned) {
     m.model = discretise(scene, [&](const Model& unbonded) {
       m.rows = owned_rows(scene, unbonded, parallel::rank(), ranks);
-      return families_to_hold(unbonded, m.rows, m.bonds.rings);
+      return families_to_hold(unbonded, m.rows, plan.bonds.rings);
     });
   } else {
     m.model = discretise(scene);
@@ -143,14 +134,14 @@ ProcessModel process_model(const Scene& scene) {
 }
 
 /// The problem's options for this process: under mpirun, the rank's own rows.
-ProblemOptions process_problem_options(const Scene& scene, const ProcessModel& m) {
-  if (m.part) return part_problem_options(scene, *m.part, parallel::rank());
-  ProblemOptions options = problem_options(scene);
+ProblemOptions process_problem_options(const Scene& scene, const RunPlan& plan, const ProcessModel& m) {
+  if (m.part) return part_problem_options(scene, plan, *m.part, parallel::rank());
+  ProblemOptions options = problem_options(scene, plan);
   if (parallel::size() > 1) {
     options.rows = m.rows;
     options.max_over_ranks = parallel::max_over_ranks;
     options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
-    if (m.bonds.partitioned) {
+    if (plan.bonds.partitioned) {
       options.share_forces = force_exchange(m.rows);
       options.gather_over_ranks = parallel::gather_over_ranks;
       options.share_particle_values = particle_exchange(m.rows);
@@ -160,25 +151,161 @@ ProblemOptions process_problem_options(const Scene& scene, const ProcessModel& m
 }
 
 /// What `run` and `check` print of how the model is spread over the ranks.
-std::string held_text(const ProcessModel& m) {
-  if (m.part) return "model in parts: " + m.choice.reason;
-  return std::string("bonds ") + (m.bonds.partitioned ? "partitioned" : "whole") + ": " + m.bonds.reason +
-         (m.choice.reason.empty() || m.choice.reason == "solver.belos.model: whole"
+std::string held_text(const RunPlan& plan) {
+  if (plan.model.part) return "model in parts: " + plan.model.reason;
+  return std::string("bonds ") + (plan.bonds.partitioned ? "partitioned" : "whole") + ": " + plan.bonds.reason +
+         (plan.model.reason.empty() || plan.model.reason == "solver.belos.model: whole"
               ? std::string()
-              : "; the whole particle table on every rank (" + m.choice.reason + ")");
+              : "; the whole particle table on every rank (" + plan.model.reason + ")");
 }
+
+/// One `peristat run`: the objects it builds, in the order it builds them, one method per step
+/// (run_command lists them). Under mpirun every rank makes every step alike (the model, the
+/// problem, the solver and the record are collective on the parts); rank 0 alone writes and
+/// prints.
+class Run {
+ public:
+  explicit Run(const RunArguments& args) : m_args(args), m_root(parallel::rank() == 0) {}
+
+  /// The scene with the --set overrides and --solver.
+  void parse_scene() {
+    std::vector<Override> overrides = parse_overrides(m_args.overrides);
+    if (!m_args.solver.empty()) overrides.push_back({"solver.type", m_args.solver});
+    m_scene = peristat::parse_scene(m_args.scene, overrides);
+  }
+
+  /// The choices of the run, once (`auto` becomes a solver here, from the size estimate,
+  /// before the preflight estimates its memory; an explicit choice is kept), and the threads
+  /// of each rank.
+  void plan() {
+    const int ranks = parallel::size();
+    m_plan = resolve_run_plan(m_scene, ranks);
+    if (!m_plan.linear_auto.empty() && !m_args.quiet && m_root)
+      std::printf("peristat: solver.linear auto: %s\n", m_plan.linear_auto.c_str());
+    // Under mpirun Newton distributes its linear solves, ADR its pseudo-time steps
+    // (docs/guide/distributed.md).
+    if (ranks > 1 && m_plan.newton() && m_plan.linear != LinearSolverKind::belos)
+      throw InputError("solver.linear: under mpirun with " + std::to_string(ranks) +
+                       " ranks Newton distributes its work only with solver.linear=belos (this run has " +
+                       std::string(to_string(m_plan.linear)) +
+                       "); add --set solver.linear=belos, run ADR (--solver adr), or run without mpirun");
+    if (m_args.threads > 0)
+      omp_set_num_threads(m_args.threads);
+    else if (ranks > 1)  // the ranks share the machine's cores
+      omp_set_num_threads(std::max(1, omp_get_num_procs() / ranks));
+  }
+
+  /// Refuses what cannot run or fit before anything is allocated; prints the warnings.
+  void preflight() {
+    m_t_start = wall_seconds();
+    m_warnings = peristat::preflight(m_scene, m_plan, estimate_size(m_scene, m_plan));
+    for (const std::string& w : m_warnings) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
+  }
+
+  /// This process's model: the whole model, or the rank's part of it.
+  void build_model() { m_model = process_model(m_scene, m_plan); }
+
+  /// The problem on it, and its size.
+  void build_problem() {
+    m_problem = std::make_unique<QuasiStaticProblem>(m_model.held(), process_problem_options(m_scene, m_plan, m_model));
+    if ((m_plan.ranks > 1 || m_model.part) && !m_args.quiet && m_root)
+      std::printf("peristat: %s\n", held_text(m_plan).c_str());
+    m_size = measure(m_model.held(), *m_problem, m_model.part_or_null());
+  }
+
+  /// The step solver (Newton and its linear solver, or ADR), and the whole model's view that
+  /// rank 0 writes (gathered from the parts on a part).
+  void make_solver() {
+    m_solver = make_step_solver(m_scene, m_plan, *m_problem, m_linear, m_model.part_or_null());
+    m_view = std::make_unique<WholeView>(m_model.held(), m_model.part_or_null(), parallel::rank());
+    m_method = m_linear ? "Newton, linear solver " + m_linear->name() : std::string("ADR");
+  }
+
+  /// With --resume, the state of the last converged step of the checkpoint (the same scene and
+  /// options only); else the unloaded state.
+  void resume_or_start() {
+    m_out = m_args.out.empty() ? "results/" + m_scene.name : m_args.out;
+    m_checkpoint_path = m_out + "/" + m_scene.name + ".checkpoint.h5";
+    m_x = VectorXd::Zero(m_problem->n_unknowns());
+    if (!m_args.resume) {
+      m_problem->set_load_factor(0.0);
+      return;
+    }
+    const StateArchive checkpoint = read_checkpoint(m_checkpoint_path);
+    check_same_run(checkpoint, m_checkpoint_path, m_scene, m_args);
+    m_x = m_view->unknowns_from(checkpoint.get("state/x", m_size.unknowns));  // the whole model's unknowns
+    m_steps_done = static_cast<int>(checkpoint.scalar("state/steps_done"));
+    m_problem->restore_state(checkpoint, m_x);
+  }
+
+  /// The header, and the results record (HDF5, XDMF, summary.json) with the warnings.
+  void open_record() {
+    m_progress = std::make_unique<ProgressPrinter>(verbose(), m_scene.solver.type, *m_problem);
+    m_progress->header(m_scene, m_size, wall_seconds() - m_t_start, m_method);
+    m_recorder = std::make_unique<StepRecorder>(m_out, m_scene, *m_problem, *m_view, m_size,
+                                                m_linear ? m_linear->name() : "", omp_get_max_threads(),
+                                                m_args.resume ? m_steps_done : -1, m_root);
+    for (const std::string& w : m_warnings) m_recorder->add_warning(w);
+    if (m_args.resume && verbose())
+      std::printf("peristat: resuming after load step %d/%d (load factor %.6g) from %s\n", m_steps_done,
+                  m_scene.loading.steps, m_problem->load_factor(), m_checkpoint_path.c_str());
+  }
+
+  /// The load steps, each recorded and checkpointed; the exit code of how they ended.
+  int run_load_steps_and_finish() {
+    // Every nominal step: the results, then the checkpoint (a stop between the two repeats the step).
+    StateArchive checkpoint;
+    checkpoint.texts = {{"scene", m_scene.text}, {"overrides", joined(m_args.overrides)}, {"solver", m_args.solver}};
+    LoadSteppingCallbacks callbacks = m_progress->callbacks();
+    callbacks.on_step = [&](const StepReport& step, const VectorXd& state) {
+      m_recorder->record(step, state);
+      if (m_recorder->due(step.step)) m_progress->step_done(step);
+      checkpoint.arrays.clear();
+      checkpoint.put("state/x", m_view->unknowns(state));  // collective on the parts
+      checkpoint.put("state/steps_done", step.step);
+      m_problem->save_state(checkpoint);
+      if (m_root) write_checkpoint(m_checkpoint_path, checkpoint);
+    };
+    return finish_run(
+        *m_recorder,
+        [&] { return run_load_steps(*m_problem, *m_solver, m_x, m_scene.loading, callbacks, m_steps_done); },
+        verbose(), m_t_start);
+  }
+
+ private:
+  bool verbose() const { return !m_args.quiet && m_root; }
+
+  // In the order they are built (and destroyed in reverse: the solvers before the problem).
+  const RunArguments& m_args;
+  const bool m_root;
+  Scene m_scene;
+  RunPlan m_plan;
+  double m_t_start = 0.0;
+  std::vector<std::string> m_warnings;
+  ProcessModel m_model;
+  std::unique_ptr<QuasiStaticProblem> m_problem;
+  ModelSize m_size;
+  std::unique_ptr<LinearSolver> m_linear;
+  std::unique_ptr<StepSolver> m_solver;
+  std::unique_ptr<WholeView> m_view;
+  std::string m_method;
+  std::string m_out, m_checkpoint_path;
+  VectorXd m_x;
+  int m_steps_done = 0;
+  std::unique_ptr<ProgressPrinter> m_progress;
+  std::unique_ptr<StepRecorder> m_recorder;
+};
 
 }  // namespace
 
 int check_command(const std::string& scene_path, const std::vector<std::string>& overrides) {
   Scene scene = parse_scene(scene_path, parse_overrides(overrides));
-  const std::string linear_choice =
-      resolve_linear_solver(scene, parallel::size());
-  const SizeEstimate estimate = estimate_size(scene);
-  for (const std::string& w : preflight(scene, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
-  const ProcessModel pm = process_model(scene);
+  const RunPlan plan = resolve_run_plan(scene, parallel::size());
+  const SizeEstimate estimate = estimate_size(scene, plan);
+  for (const std::string& w : preflight(scene, plan, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
+  const ProcessModel pm = process_model(scene, plan);
   const Model& model = pm.held();
-  const QuasiStaticProblem problem(model, process_problem_options(scene, pm));
+  const QuasiStaticProblem problem(model, process_problem_options(scene, plan, pm));
   const ModelSize size = measure(model, problem, pm.part_or_null());
   if (parallel::rank() != 0) return exit_success;
   std::printf("%s: scene '%s' is valid\n", scene_path.c_str(), scene.name.c_str());
@@ -187,8 +314,8 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   std::printf("  spacing        %g m, horizon %g m (m = %g), %zu bonds per interior family\n", model.spacing,
               model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
   print_size(size);
-  if (!linear_choice.empty()) std::printf("  solver.linear  auto: %s\n", linear_choice.c_str());
-  if (parallel::size() > 1 || pm.part) std::printf("  ranks          %s\n", held_text(pm).c_str());
+  if (!plan.linear_auto.empty()) std::printf("  solver.linear  auto: %s\n", plan.linear_auto.c_str());
+  if (parallel::size() > 1 || pm.part) std::printf("  ranks          %s\n", held_text(plan).c_str());
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
               estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,
               estimate.available_bytes / 1e6);
@@ -201,83 +328,18 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   return exit_success;
 }
 
+/// The steps of a run (deal.II step-44's run()).
 int run_command(const RunArguments& args) {
-  std::vector<Override> overrides = parse_overrides(args.overrides);
-  if (!args.solver.empty()) overrides.push_back({"solver.type", args.solver});
-  Scene scene = parse_scene(args.scene, overrides);
-  // Under mpirun every rank holds the same model; Newton distributes its linear solves, ADR
-  // its pseudo-time steps (docs/guide/distributed.md); rank 0 alone writes and prints.
-  const int ranks = parallel::size();
-  const bool root = parallel::rank() == 0;
-  // solver.linear: auto becomes a solver here, from the size estimate, before the preflight
-  // estimates its memory (an explicit choice is kept).
-  const std::string linear_choice = resolve_linear_solver(scene, ranks);
-  if (!linear_choice.empty() && !args.quiet && root) std::printf("peristat: solver.linear auto: %s\n", linear_choice.c_str());
-  if (ranks > 1 && scene.solver.type == SolverKind::newton &&
-      scene.solver.linear.type != LinearSolverKind::belos)
-    throw InputError("solver.linear: under mpirun with " + std::to_string(ranks) +
-                     " ranks Newton distributes its work only with solver.linear=belos (this run has " +
-                     std::string(to_string(scene.solver.linear.type)) +
-                     "); add --set solver.linear=belos, run ADR (--solver adr), or run without mpirun");
-  if (args.threads > 0)
-    omp_set_num_threads(args.threads);
-  else if (ranks > 1)  // the ranks share the machine's cores
-    omp_set_num_threads(std::max(1, omp_get_num_procs() / ranks));
-  const double t_start = wall_seconds();
-  const std::vector<std::string> warnings = preflight(scene, estimate_size(scene));
-  for (const std::string& w : warnings) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
-
-  const ProcessModel pm = process_model(scene);
-  const Model& model = pm.held();
-  QuasiStaticProblem problem(model, process_problem_options(scene, pm));
-  if ((ranks > 1 || pm.part) && !args.quiet && root) std::printf("peristat: %s\n", held_text(pm).c_str());
-  const ModelSize size = measure(model, problem, pm.part_or_null());
-  std::unique_ptr<LinearSolver> linear;
-  const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, pm.part_or_null());
-  // What rank 0 writes is the whole model's: gathered from the parts on a part.
-  const WholeView view(model, pm.part_or_null(), parallel::rank());
-  const std::string method = linear ? "Newton, linear solver " + linear->name() : std::string("ADR");
-
-  const std::string out = args.out.empty() ? "results/" + scene.name : args.out;
-  const std::string checkpoint_path = out + "/" + scene.name + ".checkpoint.h5";
-  VectorXd x = VectorXd::Zero(problem.n_unknowns());
-  int steps_done = 0;
-  if (args.resume) {
-    const StateArchive checkpoint = read_checkpoint(checkpoint_path);
-    check_same_run(checkpoint, checkpoint_path, scene, args);
-    x = view.unknowns_from(checkpoint.get("state/x", size.unknowns));  // the whole model's unknowns
-    steps_done = static_cast<int>(checkpoint.scalar("state/steps_done"));
-    problem.restore_state(checkpoint, x);
-  } else {
-    problem.set_load_factor(0.0);
-  }
-
-  const bool verbose = !args.quiet && root;
-  const ProgressPrinter progress(verbose, scene.solver.type, problem);
-  progress.header(scene, size, wall_seconds() - t_start, method);
-  StepRecorder recorder(out, scene, problem, view, size, linear ? linear->name() : "", omp_get_max_threads(),
-                        args.resume ? steps_done : -1, root);
-  for (const std::string& w : warnings) recorder.add_warning(w);
-  if (args.resume && verbose)
-    std::printf("peristat: resuming after load step %d/%d (load factor %.6g) from %s\n", steps_done,
-                scene.loading.steps, problem.load_factor(), checkpoint_path.c_str());
-
-  // Every nominal step: the results, then the checkpoint (a stop between the two repeats the step).
-  StateArchive checkpoint;
-  checkpoint.texts = {{"scene", scene.text}, {"overrides", joined(args.overrides)}, {"solver", args.solver}};
-  LoadSteppingCallbacks callbacks = progress.callbacks();
-  callbacks.on_step = [&](const StepReport& step, const VectorXd& state) {
-    recorder.record(step, state);
-    if (recorder.due(step.step)) progress.step_done(step);
-    checkpoint.arrays.clear();
-    checkpoint.put("state/x", view.unknowns(state));  // collective on the parts
-    checkpoint.put("state/steps_done", step.step);
-    problem.save_state(checkpoint);
-    if (root) write_checkpoint(checkpoint_path, checkpoint);
-  };
-  return finish_run(
-      recorder, [&] { return run_load_steps(problem, *solver, x, scene.loading, callbacks, steps_done); },
-      verbose, t_start);
+  Run run(args);
+  run.parse_scene();
+  run.plan();
+  run.preflight();
+  run.build_model();
+  run.build_problem();
+  run.make_solver();
+  run.resume_or_start();
+  run.open_record();
+  return run.run_load_steps_and_finish();
 }
 
 int probe_command(const ProbeArguments& args) {

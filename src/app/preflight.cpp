@@ -11,7 +11,7 @@
 
 #include "core/error.hpp"
 #include "discretisation/model.hpp"
-#include "scene/geometry.hpp"
+#include "core/geometry.hpp"
 #include "solvers/trilinos/belos_solver.hpp"
 #include "solvers/trilinos/parallel.hpp"
 
@@ -60,7 +60,7 @@ const Body* find_body(const Scene& scene, const std::string& name) {
 /// 2,500, 10,000, 40,000 particles).
 constexpr double kBondNonzeroShare = 0.14;
 
-SizeEstimate estimate_size(const Scene& scene) {
+SizeEstimate estimate_model(const Scene& scene) {
   SizeEstimate e;
   const double dx = scene.discretization.spacing, m = scene.discretization.horizon_factor;
   const double pi = std::numbers::pi;
@@ -87,97 +87,119 @@ SizeEstimate estimate_size(const Scene& scene) {
   const double coupled = pi * (2.0 * m + 0.5) * (2.0 * m + 0.5);
   e.nonzeros = 4.0 * (e.particles + e.fictitious) * coupled;
   e.memory_bytes = kBytesPerNonzero * e.nonzeros;
-  // The factorisation: the tangent's (direct solvers, cg with the cholmod preconditioner) or
-  // the bond preconditioner's (cg's default); LU (UMFPACK, KLU) holds L and U, twice a
-  // Cholesky factor; ADR and the incomplete or diagonal preconditioners none to speak of.
-  const LinearOptions& lin = scene.solver.linear;
-  // `auto` is estimated as what it will pick (the run resolves it from the same estimate).
-  const LinearSolverKind kind = lin.type == LinearSolverKind::automatic
-                                    ? choose_linear_solver(scene, estimated_unknowns(e), parallel::size()).kind
-                                    : lin.type;
-  const double n = e.particles + e.fictitious;
-  // solver.belos.tangent: matrix_free applies the tangent like matrix_free and assembles the
-  // bond matrix only (its copy in Tpetra is what MueLu, Ifpack2 or the factor work on).
-  const bool belos_free = kind == LinearSolverKind::belos && lin.belos.tangent == BelosTangent::matrix_free;
-  if (scene.solver.type == SolverKind::newton && (kind == LinearSolverKind::matrix_free || belos_free)) {
-    // No tangent and no pattern: the model and the families' tangent data only.
-    e.memory_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
+  return e;
+}
+
+namespace {
+
+/// Belos on its matrix-free tangent (solver.belos.tangent: matrix_free) applies the tangent
+/// like matrix_free and assembles the bond matrix only (its copy in Tpetra is what MueLu,
+/// Ifpack2 or the factor work on).
+void price_belos_bond_matrix(const BelosOptions& belos, double n, SizeEstimate& e) {
+  const double nnz = kBondNonzeroShare * e.nonzeros;  // the default bond radius
+  if (belos.preconditioner == BelosPreconditioner::bond_factor) {
+    e.factor_of = "the bond preconditioner, with its copy in Tpetra";
+    e.factor_nonzeros = factor_fill(n, true) * nnz;
+    e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + 2.0 * kBytesPerCopiedNonzero * nnz;
+  } else if (belos.preconditioner == BelosPreconditioner::muelu) {
+    e.factor_of = "the bond matrix, its copy in Tpetra and MueLu's hierarchy";
+    e.factor_bytes = kBytesPerAmgNonzero * nnz;
+  } else {
+    e.factor_of = "the bond matrix and its copy in Tpetra (Ifpack2's own storage not estimated)";
+    e.factor_bytes = 2.0 * kBytesPerCopiedNonzero * nnz;
   }
-  if (scene.solver.type == SolverKind::newton) {
-    const bool cg = kind == LinearSolverKind::cg || kind == LinearSolverKind::matrix_free;
-    const PreconditionerKind pc = lin.preconditioner;
-    const bool belos = kind == LinearSolverKind::belos;
-    if (belos_free) {
-      const double nnz = kBondNonzeroShare * e.nonzeros;  // the default bond radius
-      if (lin.belos.preconditioner == BelosPreconditioner::bond_factor) {
-        e.factor_of = "the bond preconditioner, with its copy in Tpetra";
-        e.factor_nonzeros = factor_fill(n, true) * nnz;
-        e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + 2.0 * kBytesPerCopiedNonzero * nnz;
-      } else if (lin.belos.preconditioner == BelosPreconditioner::muelu) {
-        e.factor_of = "the bond matrix, its copy in Tpetra and MueLu's hierarchy";
-        e.factor_bytes = kBytesPerAmgNonzero * nnz;
-      } else {
-        e.factor_of = "the bond matrix and its copy in Tpetra (Ifpack2's own storage not estimated)";
-        e.factor_bytes = 2.0 * kBytesPerCopiedNonzero * nnz;
-      }
-    } else if (belos && lin.belos.preconditioner != BelosPreconditioner::bond_factor) {
-      // MueLu's hierarchy and Ifpack2's incomplete factors are not estimated; the tangent's
-      // copy in Tpetra is (added below).
-      e.factor_of = "the tangent's copy in Tpetra (the preconditioner's own storage not estimated)";
-    } else if ((cg || belos) && (pc == PreconditionerKind::bond || pc == PreconditionerKind::bond_amg ||
-                                 pc == PreconditionerKind::automatic)) {
-      // kBondNonzeroShare is for the default radius (20 lattice neighbours); another radius
-      // scales it by its own neighbour count (1.42 dx: 8).
-      const double r2 = scene.solver.bond_preconditioner.bond_radius * scene.solver.bond_preconditioner.bond_radius;
-      const int reach = static_cast<int>(std::floor(scene.solver.bond_preconditioner.bond_radius));
-      int neighbours = 0;
-      for (int i = -reach; i <= reach; ++i)
-        for (int j = -reach; j <= reach; ++j)
-          if ((i != 0 || j != 0) && i * i + j * j <= r2 * (1.0 + kBondRadiusMargin)) ++neighbours;
-      const double nnz = kBondNonzeroShare * e.nonzeros * (1.0 + neighbours) / 21.0;
-      const bool amg = pc == PreconditionerKind::bond_amg ||
-                       (pc == PreconditionerKind::automatic && kind == LinearSolverKind::matrix_free);
-      if (amg) {
-        e.factor_of = "the bond matrix, its copy in Tpetra and MueLu's hierarchy";
-        e.factor_bytes = kBytesPerAmgNonzero * nnz;
-        if (2.0 * n <= static_cast<double>(kAmgMemoryFirstRows)) e.factor_bytes += kBytesPerBlockedNonzero * nnz;
-      } else {
-        e.factor_of = "the bond preconditioner";
-        e.factor_nonzeros = factor_fill(n, true) * nnz;
-        e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * nnz;
-      }
-    } else if ((!cg && !belos && kind != LinearSolverKind::bicgstab) ||
-               (cg && pc == PreconditionerKind::cholmod)) {
-      e.factor_of = "the tangent";
-      const double lu = kind == LinearSolverKind::umfpack || kind == LinearSolverKind::klu ? 2.0 : 1.0;
-      e.factor_nonzeros = lu * factor_fill(n, false) * e.nonzeros;
-      e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * e.nonzeros;
+}
+
+/// The bond preconditioner of cg, matrix_free or belos: its factor, or its MueLu V-cycle
+/// (bond_amg).
+void price_bond_preconditioner(const RunPlan& plan, double n, SizeEstimate& e) {
+  // kBondNonzeroShare is for the default radius (20 lattice neighbours); another radius
+  // scales it by its own neighbour count (1.42 dx: 8).
+  const double radius = plan.bond_preconditioner.bond_radius;
+  const double r2 = radius * radius;
+  const int reach = static_cast<int>(std::floor(radius));
+  int neighbours = 0;
+  for (int i = -reach; i <= reach; ++i)
+    for (int j = -reach; j <= reach; ++j)
+      if ((i != 0 || j != 0) && i * i + j * j <= r2 * (1.0 + kBondRadiusMargin)) ++neighbours;
+  const double nnz = kBondNonzeroShare * e.nonzeros * (1.0 + neighbours) / 21.0;
+  if (plan.preconditioner == PreconditionerKind::bond_amg) {
+    e.factor_of = "the bond matrix, its copy in Tpetra and MueLu's hierarchy";
+    e.factor_bytes = kBytesPerAmgNonzero * nnz;
+    if (2.0 * n <= static_cast<double>(kAmgMemoryFirstRows)) e.factor_bytes += kBytesPerBlockedNonzero * nnz;
+  } else {
+    e.factor_of = "the bond preconditioner";
+    e.factor_nonzeros = factor_fill(n, true) * nnz;
+    e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * nnz;
+  }
+}
+
+/// The factorisation Newton's linear solver makes: the tangent's (direct solvers, cg with the
+/// cholmod preconditioner) or the bond preconditioner's (cg's default); LU (UMFPACK, KLU) holds
+/// L and U, twice a Cholesky factor; the incomplete or diagonal preconditioners none to speak of.
+void price_factorisation(const Scene& scene, const RunPlan& plan, double n, SizeEstimate& e) {
+  const LinearSolverKind kind = plan.linear;
+  const bool cg = kind == LinearSolverKind::cg || kind == LinearSolverKind::matrix_free;
+  const bool belos = kind == LinearSolverKind::belos;
+  const PreconditionerKind pc = plan.preconditioner;
+  if (belos && plan.matrix_free()) {
+    price_belos_bond_matrix(scene.solver.linear.belos, n, e);
+  } else if (belos && scene.solver.linear.belos.preconditioner != BelosPreconditioner::bond_factor) {
+    // MueLu's hierarchy and Ifpack2's incomplete factors are not estimated; the tangent's
+    // copy in Tpetra is (added by share_over_ranks()).
+    e.factor_of = "the tangent's copy in Tpetra (the preconditioner's own storage not estimated)";
+  } else if ((cg || belos) && (pc == PreconditionerKind::bond || pc == PreconditionerKind::bond_amg)) {
+    price_bond_preconditioner(plan, n, e);
+  } else if ((!cg && !belos && kind != LinearSolverKind::bicgstab) || (cg && pc == PreconditionerKind::cholmod)) {
+    e.factor_of = "the tangent";
+    const double lu = kind == LinearSolverKind::umfpack || kind == LinearSolverKind::klu ? 2.0 : 1.0;
+    e.factor_nonzeros = lu * factor_fill(n, false) * e.nonzeros;
+    e.factor_bytes = kBytesPerFactorNonzero * e.factor_nonzeros + kBytesPerCopiedNonzero * e.nonzeros;
+  }
+}
+
+/// Belos's share per rank, and its copy of the tangent.
+void share_over_ranks(const Scene& scene, const RunPlan& plan, double n, SizeEstimate& e) {
+  if (plan.linear != LinearSolverKind::belos) return;
+  const int ranks = plan.ranks;
+  if (plan.matrix_free()) {
+    // Under mpirun every rank holds its share of the bond matrix, and with partitioned bonds
+    // (solver.belos.bonds) the families of its part and of a ring (m + 1) spacings deep
+    // around it: about 1/P + 4 (m + 1) / sqrt(N P) of them for square parts (measured
+    // 0.513 at 1000 x 1000 on two ranks: 1/2 + 0.011 and the fictitious layers), else the
+    // whole model.
+    if (ranks > 1) {
+      const double m = scene.discretization.horizon_factor;
+      e.factor_bytes /= ranks;
+      e.factor_nonzeros /= ranks;
+      if (plan.bonds.partitioned)
+        e.memory_bytes *= std::min(1.0, 1.0 / ranks + 4.0 * (m + 1.0) / std::sqrt(n * ranks));
     }
-    if (belos_free) {
-      // Under mpirun every rank holds its share of the bond matrix, and with partitioned bonds
-      // (solver.belos.bonds) the families of its part and of a ring (m + 1) spacings deep
-      // around it: about 1/P + 4 (m + 1) / sqrt(N P) of them for square parts (measured
-      // 0.513 at 1000 x 1000 on two ranks: 1/2 + 0.011 and the fictitious layers), else the
-      // whole model.
-      if (const int ranks = parallel::size(); ranks > 1) {
-        e.factor_bytes /= ranks;
-        e.factor_nonzeros /= ranks;
-        if (partitioned_bonds(scene, ranks).partitioned)
-          e.memory_bytes *= std::min(1.0, 1.0 / ranks + 4.0 * (m + 1.0) / std::sqrt(n * ranks));
-      }
-    } else if (belos) {  // the tangent's copy in Tpetra
-      e.factor_bytes += kBytesPerCopiedNonzero * e.nonzeros;
-      if (lin.belos.preconditioner == BelosPreconditioner::bond_factor)
-        e.factor_of = "the bond preconditioner, with the tangent's copy in Tpetra";
-      // Under mpirun a rank assembles, copies and factorises its own rows only
-      // (docs/guide/distributed.md); the model stays whole on every rank.
-      if (const int ranks = parallel::size(); ranks > 1) {
-        const double model_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
-        e.memory_bytes = model_bytes + (e.memory_bytes - model_bytes) / ranks;
-        e.factor_bytes /= ranks;
-        e.factor_nonzeros /= ranks;
-      }
-    }
+    return;
+  }
+  e.factor_bytes += kBytesPerCopiedNonzero * e.nonzeros;  // the tangent's copy in Tpetra
+  if (scene.solver.linear.belos.preconditioner == BelosPreconditioner::bond_factor)
+    e.factor_of = "the bond preconditioner, with the tangent's copy in Tpetra";
+  // Under mpirun a rank assembles, copies and factorises its own rows only
+  // (docs/guide/distributed.md); the model stays whole on every rank.
+  if (ranks > 1) {
+    const double model_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
+    e.memory_bytes = model_bytes + (e.memory_bytes - model_bytes) / ranks;
+    e.factor_bytes /= ranks;
+    e.factor_nonzeros /= ranks;
+  }
+}
+
+}  // namespace
+
+SizeEstimate estimate_size(const Scene& scene, const RunPlan& plan) {
+  SizeEstimate e = estimate_model(scene);
+  if (plan.newton()) {
+    const double n = e.particles + e.fictitious;
+    // No tangent and no pattern: the model and the families' tangent data only.
+    if (plan.matrix_free()) e.memory_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
+    price_factorisation(scene, plan, n, e);
+    share_over_ranks(scene, plan, n, e);
   }
   // Under mpirun the ranks on this machine share its memory (docs/guide/distributed.md).
   e.sharing_ranks = parallel::ranks_on_this_machine();
@@ -185,12 +207,55 @@ SizeEstimate estimate_size(const Scene& scene) {
   return e;
 }
 
+SizeEstimate estimate_size(const Scene& scene) { return estimate_size(scene, make_run_plan(scene, parallel::size())); }
+
 double factor_fill(double particles, bool bond_preconditioner) {
   const double log_n = std::log2(std::max(particles, 2.0));
   return std::max(1.0, bond_preconditioner ? 0.51 * log_n - 2.0 : 0.59 * log_n - 4.7);
 }
 
-std::vector<std::string> preflight(const Scene& scene, const SizeEstimate& e) {
+namespace {
+
+/// Refuses (InputError) a model, or its factorisation, that the machine's memory cannot hold.
+void check_memory(const Scene& scene, const RunPlan& plan, const SizeEstimate& e) {
+  const Discretization& d = scene.discretization;
+  char buf[640];
+  if (e.available_bytes > 0.0 && e.memory_bytes <= e.available_bytes &&
+      e.memory_bytes + e.factor_bytes > e.available_bytes) {
+    std::snprintf(buf, sizeof buf,
+                  "the model needs about %s and the factorisation of %s about %s more (%.3g factor nonzeros, "
+                  "estimated), and the machine has %s available%s: refused before allocating; use a coarser spacing%s",
+                  format_bytes(e.memory_bytes).c_str(), e.factor_of.c_str(), format_bytes(e.factor_bytes).c_str(),
+                  e.factor_nonzeros, format_bytes(e.available_bytes).c_str(), sharing(e).c_str(),
+                  e.factor_of == "the tangent" ? " or solver.linear=cg (its bond preconditioner factorises a "
+                                                 "matrix of about a seventh of the tangent's nonzeros)"
+                                               : "");
+    throw InputError(d.spacing_where, buf);
+  }
+  if (e.available_bytes > 0.0 && e.memory_bytes > e.available_bytes) {
+    // Without an assembled tangent the model may fit: say so, with its size.
+    const double free_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
+    const std::string hint =
+        !plan.matrix_free() && plan.newton() && free_bytes < e.available_bytes
+            ? std::string(plan.linear == LinearSolverKind::belos ? " or solver.belos.tangent=matrix_free"
+                                                                 : " or solver.linear=matrix_free") +
+                  " (no assembled tangent: about " + format_bytes(free_bytes) +
+                  " before the bond preconditioner's factor)"
+            : "";
+    std::snprintf(buf, sizeof buf,
+                  "the model needs about %s (%.3g particles, %.3g tangent nonzeros at %.1f B each, before any "
+                  "factorisation) and the machine has %s available%s: refused before allocating; use a coarser "
+                  "spacing%s",
+                  format_bytes(e.memory_bytes).c_str(), e.particles + e.fictitious, e.nonzeros,
+                  e.memory_bytes / std::max(e.nonzeros, 1.0), format_bytes(e.available_bytes).c_str(),
+                  sharing(e).c_str(), hint.c_str());
+    throw InputError(d.spacing_where, buf);
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> preflight(const Scene& scene, const RunPlan& plan, const SizeEstimate& e) {
   const Discretization& d = scene.discretization;
   const double delta = d.horizon_factor * d.spacing;
   char buf[640];
@@ -219,41 +284,7 @@ std::vector<std::string> preflight(const Scene& scene, const SizeEstimate& e) {
       throw InputError(d.spacing * 2.0 > longest ? d.spacing_where : d.horizon_where, buf);
     }
   }
-  if (e.available_bytes > 0.0 && e.memory_bytes <= e.available_bytes &&
-      e.memory_bytes + e.factor_bytes > e.available_bytes) {
-    std::snprintf(buf, sizeof buf,
-                  "the model needs about %s and the factorisation of %s about %s more (%.3g factor nonzeros, "
-                  "estimated), and the machine has %s available%s: refused before allocating; use a coarser spacing%s",
-                  format_bytes(e.memory_bytes).c_str(), e.factor_of.c_str(), format_bytes(e.factor_bytes).c_str(),
-                  e.factor_nonzeros, format_bytes(e.available_bytes).c_str(), sharing(e).c_str(),
-                  e.factor_of == "the tangent" ? " or solver.linear=cg (its bond preconditioner factorises a "
-                                                 "matrix of about a seventh of the tangent's nonzeros)"
-                                               : "");
-    throw InputError(d.spacing_where, buf);
-  }
-  if (e.available_bytes > 0.0 && e.memory_bytes > e.available_bytes) {
-    // Without an assembled tangent the model may fit: say so, with its size.
-    const bool matrix_free = scene.solver.linear.type == LinearSolverKind::matrix_free ||
-                             (scene.solver.linear.type == LinearSolverKind::belos &&
-                              scene.solver.linear.belos.tangent == BelosTangent::matrix_free);
-    const double free_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
-    const std::string hint =
-        !matrix_free && scene.solver.type == SolverKind::newton && free_bytes < e.available_bytes
-            ? std::string(scene.solver.linear.type == LinearSolverKind::belos
-                              ? " or solver.belos.tangent=matrix_free"
-                              : " or solver.linear=matrix_free") +
-                  " (no assembled tangent: about " + format_bytes(free_bytes) +
-                  " before the bond preconditioner's factor)"
-            : "";
-    std::snprintf(buf, sizeof buf,
-                  "the model needs about %s (%.3g particles, %.3g tangent nonzeros at %.1f B each, before any "
-                  "factorisation) and the machine has %s available%s: refused before allocating; use a coarser "
-                  "spacing%s",
-                  format_bytes(e.memory_bytes).c_str(), e.particles + e.fictitious, e.nonzeros,
-                  e.memory_bytes / std::max(e.nonzeros, 1.0), format_bytes(e.available_bytes).c_str(),
-                  sharing(e).c_str(), hint.c_str());
-    throw InputError(d.spacing_where, buf);
-  }
+  check_memory(scene, plan, e);
   std::vector<std::string> warnings;
   if (d.horizon_factor < 2.0) {
     std::snprintf(buf, sizeof buf,

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "app/run_plan.hpp"
 #include "scene/scene.hpp"
 
 namespace peristat {
@@ -61,6 +62,13 @@ inline constexpr double kBytesPerCopiedNonzero = 12.0;
 /// Largest family accepted (bonds of an interior particle): horizon_factor up to about 24.
 inline constexpr double kMaxFamily = 2000.0;
 
+/// The model's part of the estimate: particles, fictitious, family, nonzeros, and the memory
+/// with an assembled tangent (no solver priced, no machine read).
+SizeEstimate estimate_model(const Scene& scene);
+/// The whole estimate of a run with `plan`: the model, what its solver adds (the tangent or
+/// not, the factorisation or preconditioner), per rank, and the memory available.
+SizeEstimate estimate_size(const Scene& scene, const RunPlan& plan);
+/// The same for the run the scene would make under this process's ranks (make_run_plan()).
 SizeEstimate estimate_size(const Scene& scene);
 
 /// The unknowns `solver.linear: auto` decides by before discretising: two per real particle
@@ -70,6 +78,6 @@ inline double estimated_unknowns(const SizeEstimate& e) { return 2.0 * e.particl
 /// Throws InputError (exit 2) when the scene cannot be run: a family over kMaxFamily bonds,
 /// a horizon longer than a body's longest side, or an estimated memory over what the machine
 /// has available. Returns warnings to print (horizon_factor below 2).
-std::vector<std::string> preflight(const Scene& scene, const SizeEstimate& estimate);
+std::vector<std::string> preflight(const Scene& scene, const RunPlan& plan, const SizeEstimate& estimate);
 
 }  // namespace peristat

@@ -1,11 +1,9 @@
 #include "app/setup.hpp"
 
-#include <cstdio>
 #include <memory>
 #include <stdexcept>
 
 #include "app/linear_solvers.hpp"
-#include "app/preflight.hpp"
 #include "core/error.hpp"
 #include "solvers/adr.hpp"
 #include "solvers/newton.hpp"
@@ -14,19 +12,17 @@
 
 namespace peristat {
 
-ProblemOptions problem_options(const Scene& scene) {
+ProblemOptions problem_options(const Scene& scene, const RunPlan& plan) {
   ProblemOptions options;
   options.contact = scene.contact;
   options.failure = scene.failure;
-  options.bond_preconditioner = scene.solver.bond_preconditioner;
+  options.bond_preconditioner = plan.bond_preconditioner;
   options.surface_correction = scene.discretization.surface_correction;
-  const LinearOptions& lin = scene.solver.linear;
-  options.matrix_free =
-      scene.solver.type == SolverKind::newton &&
-      (lin.type == LinearSolverKind::matrix_free ||
-       (lin.type == LinearSolverKind::belos && lin.belos.tangent == BelosTangent::matrix_free));
+  options.matrix_free = plan.matrix_free();
   return options;
 }
+
+ProblemOptions problem_options(const Scene& scene) { return problem_options(scene, scene_plan(scene, 1)); }
 
 OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks) {
   OwnedRows rows;
@@ -53,21 +49,6 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
     rows.owner[static_cast<std::size_t>(node_particle[k])] = part[k];
   complete_owners(model, rows.owner);
   return rows;
-}
-
-BondsChoice partitioned_bonds(const Scene& scene, int ranks) {
-  const BelosBonds asked = scene.solver.linear.belos.bonds;
-  if (ranks <= 1 || asked == BelosBonds::whole)
-    return {false, 0, ranks <= 1 ? "one process" : "solver.belos.bonds: whole"};
-  const bool action = scene.solver.type == SolverKind::newton &&
-                      scene.solver.linear.type == LinearSolverKind::belos &&
-                      scene.solver.linear.belos.tangent == BelosTangent::matrix_free;
-  if (action) return {true, 1, "each rank holds the families of its rows and of their neighbours"};
-  return {true, 2,
-          std::string(
-              "each rank holds the families of its rows and of the particles within two horizons of them (") +
-              (scene.solver.type == SolverKind::adr ? "ADR's density reads" : "the assembled tangent reads") +
-              " columns two horizons from its rows)"};
 }
 
 std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows, int rings) {
@@ -116,43 +97,19 @@ std::vector<int> unknown_owners(const Constraints& constraints, const std::vecto
   return owner;
 }
 
-ModelChoice part_model_choice(const Scene& scene, int ranks) {
-  const BelosModel asked = scene.solver.linear.belos.model;
-  if (asked == BelosModel::whole) return {false, "solver.belos.model: whole"};
-  // It applies to Newton with belos, and to ADR under mpirun; in one process a run with
-  // another linear solver, or ADR, ignores it.
-  const bool belos =
-      scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::belos;
-  if (!belos && (ranks <= 1 || scene.solver.type == SolverKind::newton))
-    return {false, "solver.linear is not belos"};
-  if (asked == BelosModel::automatic && ranks <= 1) return {false, "one process"};
-  if (asked == BelosModel::automatic && scene.contact.enabled)
-    return {false,
-            "contact: a part holds the pairs within its reach, which faces that slide far can exceed "
-            "(the run would then stop with exit 3); solver.belos.model=part runs it on the parts"};
-  return {true, asked == BelosModel::part
-                    ? "solver.belos.model: part"
-                    : "each rank holds its own particles and their neighbours, and vectors "
-                      "over their unknowns only"};
-}
-
-int part_rings(const Scene& scene) {
-  // The matrix-free tangent reads the families one stencil around the rows; the assembled
-  // tangent's columns (Newton's, or ADR's for its density) reach two.
-  const bool assembled =
-      scene.solver.type == SolverKind::adr || scene.solver.linear.belos.tangent != BelosTangent::matrix_free;
-  return assembled ? 2 : 1;
-}
-
-ModelPart part_model(const Scene& scene, int rank, int ranks) {
+ModelPart part_model(const Scene& scene, int rings, int rank, int ranks) {
   OwnedRows rows;
   const Model whole = discretise(scene, [&](const Model& unbonded) {
     rows = owned_rows(scene, unbonded, rank, ranks);
     if (rows.owner.empty())
       rows = OwnedRows{0, std::vector<int>(static_cast<std::size_t>(unbonded.particles.size()), 0)};
-    return families_to_hold(unbonded, rows, part_rings(scene));
+    return families_to_hold(unbonded, rows, rings);
   });
   return extract_part(whole, rows.owner, rank, whole.family_held);
+}
+
+ModelPart part_model(const Scene& scene, int rank, int ranks) {
+  return part_model(scene, part_rings(make_run_plan(scene, ranks)), rank, ranks);
 }
 
 namespace {
@@ -183,7 +140,11 @@ std::function<void(VectorXd&)> part_particle_exchange(const ModelPart& part) {
 }  // namespace
 
 ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, int rank) {
-  ProblemOptions options = problem_options(scene);
+  return part_problem_options(scene, scene_plan(scene, parallel::size()), part, rank);
+}
+
+ProblemOptions part_problem_options(const Scene& scene, const RunPlan& plan, const ModelPart& part, int rank) {
+  ProblemOptions options = problem_options(scene, plan);
   options.rows = OwnedRows{rank, part.owner};
   options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
   options.max_over_ranks = parallel::max_over_ranks;
@@ -249,56 +210,6 @@ UnknownLayout part_unknown_layout(const ModelPart& part, int rank) {
   return layout;
 }
 
-LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks) {
-  char buf[200];
-  if (ranks > 1) {
-    std::snprintf(buf, sizeof buf, "%d MPI ranks: only belos distributes the solves", ranks);
-    return {LinearSolverKind::belos, buf};
-  }
-  if (scene.contact.enabled && scene.contact.friction > 0.0)
-    return {LinearSolverKind::matrix_free,
-            "friction: slipping pairs make the tangent unsymmetric, where GMRES beats UMFPACK (case 4.3 at "
-            "5,000 unknowns: 1.0 s against 2.7 s), the tangent's action beats assembling it (case 4.1: 7.3 s "
-            "against 10.8 s) and a MueLu V-cycle of the bond matrix beats its factor (4.3 s against 6.4 s)"};
-  if (unknowns <= kDirectMaxUnknowns) {
-    std::snprintf(buf, sizeof buf, "about %.0f unknowns <= %.0f: a direct factor is as fast and needs no Krylov tolerance",
-                  unknowns, kDirectMaxUnknowns);
-    return {LinearSolverKind::cholmod, buf};
-  }
-  std::snprintf(buf, sizeof buf,
-                "about %.0f unknowns > %.0f: CG with the tangent's action, preconditioned by a MueLu V-cycle "
-                "of the bond matrix, is faster and smaller than a factor of the tangent or an assembled tangent",
-                unknowns, kDirectMaxUnknowns);
-  return {LinearSolverKind::matrix_free, buf};
-}
-
-std::string resolve_linear_solver(Scene& scene, int ranks) {
-  if (scene.solver.type != SolverKind::newton || scene.solver.linear.type != LinearSolverKind::automatic) return {};
-  const double unknowns = estimated_unknowns(estimate_size(scene));
-  LinearChoice choice = choose_linear_solver(scene, unknowns, ranks);
-  scene.solver.linear.type = choice.kind;
-  BondPreconditionerOptions& bond = scene.solver.bond_preconditioner;
-  const bool tangent_action = choice.kind == LinearSolverKind::matrix_free ||
-                              (choice.kind == LinearSolverKind::belos &&
-                               scene.solver.linear.belos.tangent == BelosTangent::matrix_free);
-  if (tangent_action && !bond.radius_given) {
-    // The bond matrix's preconditioner dominates memory on large plates; a shorter radius
-    // makes it sparser for a few more iterations (docs/performance.md, "Matrix-free": with the
-    // bond factor, 700 x 700 at 2.25 / 2.0 / 1.42: 112 / 91 / 93 s, 7.1 / 5.6 / 4.4 GB; with
-    // its MueLu V-cycle, 300 x 300 at 1.42 / 2.0 / 2.25 / 3.0: 3.8 / 3.6 / 4.2 / 5.3 s, and
-    // 1000 x 1000 needs 1.42 to stay under 8 GB; the contact cases differ by 10% at most).
-    const double radius = unknowns > kShortBondsAbove ? 1.42 : unknowns > kMediumBondsAbove ? 2.0 : bond.bond_radius;
-    if (radius != bond.bond_radius) {
-      char buf[120];
-      std::snprintf(buf, sizeof buf, "; bond preconditioner radius %.3g dx for this size", radius);
-      choice.reason += buf;
-      bond.bond_radius = radius;
-    }
-  }
-  scene.solver.linear.auto_choice = std::string(to_string(choice.kind)) + ": " + choice.reason;
-  return scene.solver.linear.auto_choice;
-}
-
 UnknownShare part_unknown_share(const QuasiStaticProblem& problem, const ModelPart& part) {
   UnknownShare share;
   share.owned.assign(static_cast<std::size_t>(part.model.constraints.n_free), 0);
@@ -342,27 +253,31 @@ UnknownShare unknown_share(const QuasiStaticProblem& problem) {
   return share;
 }
 
-std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProblem& problem,
+std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, const RunPlan& plan, QuasiStaticProblem& problem,
                                              std::unique_ptr<LinearSolver>& linear, const ModelPart* part) {
-  if (part && scene.solver.type == SolverKind::newton && scene.solver.linear.type != LinearSolverKind::belos)
+  if (part && plan.newton() && plan.linear != LinearSolverKind::belos)
     throw std::logic_error("make_step_solver: a rank's part of the model runs Newton with belos or ADR");
-  if (scene.solver.type == SolverKind::adr)
+  if (!plan.newton())
     return std::make_unique<AdrSolver>(problem, scene.solver.adr, problem.pseudo_velocity_input(),
                                        part ? part_unknown_share(problem, *part) : unknown_share(problem));
-  LinearOptions options = scene.solver.linear;
-  if (options.type == LinearSolverKind::automatic) {  // callers that did not resolve it (tests)
-    options.type = choose_linear_solver(scene, static_cast<double>(problem.n_unknowns()), 1).kind;
-    // The problem was built before the choice: with its tangent assembled, the same method on it.
-    if (options.type == LinearSolverKind::matrix_free && !problem.matrix_free()) options.type = LinearSolverKind::cg;
-  }
-  const bool free =
-      options.type == LinearSolverKind::matrix_free ||
-      (options.type == LinearSolverKind::belos && options.belos.tangent == BelosTangent::matrix_free);
-  if (free != problem.matrix_free())
+  if (plan.matrix_free() != problem.matrix_free())
     throw std::logic_error("make_step_solver: solver.linear matrix_free needs a problem built with "
-                           "ProblemOptions::matrix_free (problem_options() of the same scene)");
+                           "ProblemOptions::matrix_free (problem_options() of the same plan)");
+  LinearOptions options = scene.solver.linear;
+  options.type = plan.linear;
   linear = make_problem_linear_solver(scene, problem, options, part);
   return std::make_unique<NewtonSolver>(problem, *linear, scene.solver.newton);
+}
+
+std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProblem& problem,
+                                             std::unique_ptr<LinearSolver>& linear, const ModelPart* part) {
+  LinearSolverKind kind = scene.solver.linear.type;
+  if (scene.solver.type == SolverKind::newton && kind == LinearSolverKind::automatic) {
+    kind = choose_linear_solver(scene, static_cast<double>(problem.n_unknowns()), 1).kind;
+    // The problem was built before the choice: with its tangent assembled, the same method on it.
+    if (kind == LinearSolverKind::matrix_free && !problem.matrix_free()) kind = LinearSolverKind::cg;
+  }
+  return make_step_solver(scene, plan_with_linear(scene, parallel::size(), kind), problem, linear, part);
 }
 
 }  // namespace peristat

@@ -10,7 +10,7 @@
 #include <unordered_set>
 
 #include "core/error.hpp"
-#include "scene/geometry.hpp"
+#include "core/geometry.hpp"
 
 namespace peristat {
 

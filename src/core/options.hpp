@@ -54,7 +54,7 @@ struct AdrOptions {
 /// solver.linear: the linear solver behind Newton.
 /// solver.linear. `automatic` is the key's value `auto` (the default): the program picks one
 /// of the others from the model's size, its physics and the ranks (choose_linear_solver in
-/// src/app/setup.hpp) before anything is built.
+/// src/app/run_plan.hpp) before anything is built.
 /// `matrix_free`: CG/GMRES on the exact tangent action, never assembled, preconditioned by the
 /// bond factor (docs/theory/newton.md, "Matrix-free").
 enum class LinearSolverKind { cholmod, umfpack, klu, ldlt, cg, bicgstab, belos, matrix_free, automatic };
@@ -91,7 +91,7 @@ enum class BelosTangent {
 /// solver.belos.bonds: which bond families a rank of a distributed run holds
 /// (docs/guide/distributed.md, "Partitioned bonds").
 enum class BelosBonds {
-  automatic,    ///< `partitioned` in every distributed run (partitioned_bonds())
+  automatic,    ///< `partitioned` in every distributed run (the run plan, src/app/run_plan.hpp)
   partitioned,  ///< the families its rows and their neighbours' read, built on the rank alone
   whole         ///< every family on every rank
 };
@@ -99,7 +99,7 @@ enum class BelosBonds {
 /// solver.belos.model: what a rank of a distributed run holds of the model
 /// (docs/guide/distributed.md, "The partitioned model").
 enum class BelosModel {
-  automatic,  ///< `part` where a part can run the scene (part_model_choice()), `whole` elsewhere
+  automatic,  ///< `part` where a part can run the scene (the run plan, src/app/run_plan.hpp), `whole` elsewhere
   whole,      ///< every particle and vectors over every unknown on every rank (bonds per `bonds`)
   part        ///< its own particles and their neighbours, vectors over those only (ModelPart)
 };

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "core/huge_pages.hpp"
-#include "scene/geometry.hpp"
+#include "core/geometry.hpp"
 
 namespace peristat {
 
@@ -60,7 +60,7 @@ double distance_to_boundary(const Polygon& polygon, const Vec2& p) {
 /// Builder state shared by the steps of discretise().
 class Builder {
  public:
-  Builder(const Scene& scene, const FamilySelector& select)
+  Builder(const ModelDescription& scene, const FamilySelector& select)
       : m_scene(scene), m_select(select), m_dx(scene.discretization.spacing) {
     for (const Body& body : scene.bodies)
       m_model.bodies.push_back({body.name, scene.materials.at(body.material), body.shape});
@@ -102,7 +102,7 @@ class Builder {
   }
 
  private:
-  const Scene& m_scene;
+  const ModelDescription& m_scene;
   const FamilySelector& m_select;
   double m_dx;
   Model m_model;
@@ -551,11 +551,11 @@ bool inside_polygon(const Polygon& polygon, const Vec2& p) {
   return inside;
 }
 
-Model discretise(const Scene& scene) {
+Model discretise(const ModelDescription& scene) {
   return Builder(scene, FamilySelector{}).build();
 }
 
-Model discretise(const Scene& scene, const FamilySelector& select) {
+Model discretise(const ModelDescription& scene, const FamilySelector& select) {
   return Builder(scene, select).build();
 }
 

@@ -1,5 +1,6 @@
 // The discrete model: particles on a uniform lattice, bond families (CSR), prescribed
-// components. Built once from a Scene by discretise(); no physics here.
+// components. Built once by discretise() from a ModelDescription (a Scene is one); no
+// physics here.
 #pragma once
 
 #include <array>
@@ -7,9 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "core/description.hpp"
 #include "core/types.hpp"
 #include "discretisation/lattice_index.hpp"
-#include "scene/scene.hpp"
 
 namespace peristat {
 
@@ -18,7 +19,7 @@ namespace peristat {
 struct Particles {
   std::vector<Vec2> position;               ///< reference position X
   std::vector<double> volume;               ///< dx^2 * thickness [m^3]
-  std::vector<int> body;                    ///< index into Scene::bodies
+  std::vector<int> body;                    ///< index into ModelDescription::bodies
   std::vector<char> fictitious;             ///< 1 for fictitious boundary-layer particles
   std::vector<std::array<int, 2>> lattice;  ///< integer lattice coordinates
   Index size() const { return static_cast<Index>(position.size()); }
@@ -95,7 +96,7 @@ struct Model {
   double spacing = 0.0;
   double horizon = 0.0;
   Index n_cut_bonds = 0;         ///< bonds removed by pre-cracks (counted once per pair)
-  std::vector<BodyInfo> bodies;  ///< per body, in Scene::bodies order (particles' body index)
+  std::vector<BodyInfo> bodies;  ///< per body, in ModelDescription::bodies order (particles' body index)
   std::vector<Crack> cracks;     ///< the pre-crack segments
   LatticeIndex lattice_index;    ///< lattice point -> particle
   /// Per particle: 1 when its family is held. Empty: every family (one process, or a rank
@@ -123,7 +124,7 @@ struct Model {
 /// Builds the model. Throws InputError (with the condition's or body's location) when
 /// bodies overlap, a condition selects no particle, or two conditions prescribe the same
 /// component of one particle.
-Model discretise(const Scene& scene);
+Model discretise(const ModelDescription& scene);
 
 /// Chooses the families to hold (Model::family_held) from a model whose particles, constraints
 /// and stencil are built and whose bonds are not; an empty result holds every family.
@@ -131,7 +132,7 @@ using FamilySelector = std::function<std::vector<char>(const Model&)>;
 
 /// discretise() holding only the families `select` names: the bonds of the others are never
 /// built (the whole model's counts, n_bonds_whole and n_cut_bonds, are still those of every family).
-Model discretise(const Scene& scene, const FamilySelector& select);
+Model discretise(const ModelDescription& scene, const FamilySelector& select);
 
 /// The particles within the stencil of a particle in `seeds` (the seeds among them): a
 /// superset of the seeds and their bond neighbours, from lattice offsets alone.

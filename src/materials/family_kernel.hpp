@@ -9,8 +9,8 @@
 #include <memory>
 #include <span>
 
+#include "core/description.hpp"
 #include "core/types.hpp"
-#include "scene/scene.hpp"
 
 namespace peristat {
 

@@ -5,9 +5,9 @@
 
 #include <span>
 
+#include "core/description.hpp"
 #include "core/types.hpp"
 #include "materials/family_kernel.hpp"
-#include "scene/scene.hpp"
 
 namespace peristat {
 

@@ -11,7 +11,7 @@
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
-#include "scene/geometry.hpp"
+#include "core/geometry.hpp"
 #include "scene/overrides.hpp"
 #include "scene/yaml_schema.hpp"
 

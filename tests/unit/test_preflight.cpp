@@ -52,7 +52,7 @@ TEST(Preflight, HugeScenesAreEstimatedWithoutBuildingThem) {
                                   {parse_override("discretization.spacing=1e-7")});
   const SizeEstimate e = estimate_size(scene);
   EXPECT_NEAR(e.particles, 1e12, 1e10);  // (0.1 m / 1e-7 m)^2
-  EXPECT_THROW(preflight(scene, e), InputError);
+  EXPECT_THROW(preflight(scene, make_run_plan(scene, 1), e), InputError);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_LT(seconds, 1.0);
 }
@@ -113,7 +113,7 @@ TEST(Preflight, FactorisationThatCannotFitIsRefused) {
   ASSERT_GT(e.factor_bytes, 0.5 * e.memory_bytes) << "cholmod factorises the tangent";
   e.available_bytes = 1.5 * e.memory_bytes;
   try {
-    preflight(scene, e);
+    preflight(scene, make_run_plan(scene, 1), e);
     ADD_FAILURE() << "not refused";
   } catch (const InputError& error) {
     const std::string what = error.what();
@@ -121,7 +121,7 @@ TEST(Preflight, FactorisationThatCannotFitIsRefused) {
     EXPECT_NE(what.find("solver.linear=cg"), std::string::npos) << what;
   }
   e.available_bytes = 1.01 * (e.memory_bytes + e.factor_bytes);
-  EXPECT_NO_THROW(preflight(scene, e));
+  EXPECT_NO_THROW(preflight(scene, make_run_plan(scene, 1), e));
 }
 
 }  // namespace

@@ -1,4 +1,4 @@
-#include "scene/geometry.hpp"
+#include "core/geometry.hpp"
 
 #include <algorithm>
 #include <utility>

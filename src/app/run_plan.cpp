@@ -1,0 +1,170 @@
+#include "app/run_plan.hpp"
+
+#include <cstdio>
+
+#include "app/preflight.hpp"
+
+namespace peristat {
+
+namespace {
+
+/// Newton applies the tangent's action with matrix_free, and with belos on its matrix-free
+/// tangent (solver.belos.tangent); every other linear solver, and ADR, assembles it.
+TangentForm tangent_form(const Scene& scene, LinearSolverKind linear) {
+  const bool action = scene.solver.type == SolverKind::newton &&
+                      (linear == LinearSolverKind::matrix_free ||
+                       (linear == LinearSolverKind::belos &&
+                        scene.solver.linear.belos.tangent == BelosTangent::matrix_free));
+  return action ? TangentForm::matrix_free : TangentForm::assembled;
+}
+
+/// solver.krylov.preconditioner's `auto` as make_linear_solver() resolves it.
+PreconditionerKind resolved_preconditioner(PreconditionerKind asked, LinearSolverKind linear) {
+  if (asked != PreconditionerKind::automatic) return asked;
+  if (linear == LinearSolverKind::bicgstab) return PreconditionerKind::ilut;
+  return linear == LinearSolverKind::matrix_free ? PreconditionerKind::bond_amg : PreconditionerKind::bond;
+}
+
+ModelChoice part_model_choice(const Scene& scene, const RunPlan& plan) {
+  const BelosModel asked = scene.solver.linear.belos.model;
+  if (asked == BelosModel::whole) return {false, "solver.belos.model: whole"};
+  // It applies to Newton with belos, and to ADR under mpirun; in one process a run with
+  // another linear solver, or ADR, ignores it.
+  const bool belos = plan.newton() && plan.linear == LinearSolverKind::belos;
+  if (!belos && (plan.ranks <= 1 || plan.newton())) return {false, "solver.linear is not belos"};
+  if (asked == BelosModel::automatic && plan.ranks <= 1) return {false, "one process"};
+  if (asked == BelosModel::automatic && scene.contact.enabled)
+    return {false,
+            "contact: a part holds the pairs within its reach, which faces that slide far can exceed "
+            "(the run would then stop with exit 3); solver.belos.model=part runs it on the parts"};
+  return {true, asked == BelosModel::part
+                    ? "solver.belos.model: part"
+                    : "each rank holds its own particles and their neighbours, and vectors "
+                      "over their unknowns only"};
+}
+
+/// The families a rank's part holds (ModelChoice::part).
+BondsChoice part_bonds(const RunPlan& plan) {
+  const int rings = part_rings(plan);
+  return {true, rings,
+          rings == 1 ? "a rank's part holds the families of its particles and their neighbours"
+                     : "a rank's part holds the families of its particles and of two rings around them (an "
+                       "assembled tangent)"};
+}
+
+/// The families a rank holds of the whole model (solver.belos.bonds).
+BondsChoice partitioned_bonds(const Scene& scene, const RunPlan& plan) {
+  const BelosBonds asked = scene.solver.linear.belos.bonds;
+  if (plan.ranks <= 1 || asked == BelosBonds::whole)
+    return {false, 0, plan.ranks <= 1 ? "one process" : "solver.belos.bonds: whole"};
+  if (plan.linear == LinearSolverKind::belos && plan.matrix_free())
+    return {true, 1, "each rank holds the families of its rows and of their neighbours"};
+  return {true, 2,
+          std::string(
+              "each rank holds the families of its rows and of the particles within two horizons of them (") +
+              (plan.solver == SolverKind::adr ? "ADR's density reads" : "the assembled tangent reads") +
+              " columns two horizons from its rows)"};
+}
+
+/// `auto` shortens the bond preconditioner's radius of a matrix-free tangent on large models;
+/// returns what it says of it ("" when the radius stays).
+std::string shorten_bond_radius(RunPlan& plan, double unknowns) {
+  BondPreconditionerOptions& bond = plan.bond_preconditioner;
+  if (!plan.matrix_free() || bond.radius_given) return {};
+  // The bond matrix's preconditioner dominates memory on large plates; a shorter radius
+  // makes it sparser for a few more iterations (docs/performance.md, "Matrix-free": with the
+  // bond factor, 700 x 700 at 2.25 / 2.0 / 1.42: 112 / 91 / 93 s, 7.1 / 5.6 / 4.4 GB; with
+  // its MueLu V-cycle, 300 x 300 at 1.42 / 2.0 / 2.25 / 3.0: 3.8 / 3.6 / 4.2 / 5.3 s, and
+  // 1000 x 1000 needs 1.42 to stay under 8 GB; the contact cases differ by 10% at most).
+  const double radius = unknowns > kShortBondsAbove ? 1.42 : unknowns > kMediumBondsAbove ? 2.0 : bond.bond_radius;
+  if (radius == bond.bond_radius) return {};
+  char buf[120];
+  std::snprintf(buf, sizeof buf, "; bond preconditioner radius %.3g dx for this size", radius);
+  bond.bond_radius = radius;
+  return buf;
+}
+
+bool picks_linear_solver(const Scene& scene) {
+  return scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::automatic;
+}
+
+}  // namespace
+
+LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks) {
+  char buf[200];
+  if (ranks > 1) {
+    std::snprintf(buf, sizeof buf, "%d MPI ranks: only belos distributes the solves", ranks);
+    return {LinearSolverKind::belos, buf};
+  }
+  if (scene.contact.enabled && scene.contact.friction > 0.0)
+    return {LinearSolverKind::matrix_free,
+            "friction: slipping pairs make the tangent unsymmetric, where GMRES beats UMFPACK (case 4.3 at "
+            "5,000 unknowns: 1.0 s against 2.7 s), the tangent's action beats assembling it (case 4.1: 7.3 s "
+            "against 10.8 s) and a MueLu V-cycle of the bond matrix beats its factor (4.3 s against 6.4 s)"};
+  if (unknowns <= kDirectMaxUnknowns) {
+    std::snprintf(buf, sizeof buf, "about %.0f unknowns <= %.0f: a direct factor is as fast and needs no Krylov tolerance",
+                  unknowns, kDirectMaxUnknowns);
+    return {LinearSolverKind::cholmod, buf};
+  }
+  std::snprintf(buf, sizeof buf,
+                "about %.0f unknowns > %.0f: CG with the tangent's action, preconditioned by a MueLu V-cycle "
+                "of the bond matrix, is faster and smaller than a factor of the tangent or an assembled tangent",
+                unknowns, kDirectMaxUnknowns);
+  return {LinearSolverKind::matrix_free, buf};
+}
+
+int part_rings(const RunPlan& plan) {
+  // The matrix-free tangent reads the families one stencil around the rows; the assembled
+  // tangent's columns (Newton's, or ADR's for its density) reach two.
+  return plan.matrix_free() ? 1 : 2;
+}
+
+RunPlan plan_with_linear(const Scene& scene, int ranks, LinearSolverKind linear) {
+  RunPlan plan;
+  plan.ranks = ranks;
+  plan.solver = scene.solver.type;
+  plan.linear = linear;
+  plan.tangent = tangent_form(scene, linear);
+  plan.preconditioner = resolved_preconditioner(scene.solver.linear.preconditioner, linear);
+  plan.bond_preconditioner = scene.solver.bond_preconditioner;
+  plan.model = part_model_choice(scene, plan);
+  plan.bonds = plan.model.part ? part_bonds(plan) : partitioned_bonds(scene, plan);
+  return plan;
+}
+
+RunPlan scene_plan(const Scene& scene, int ranks) {
+  RunPlan plan = plan_with_linear(scene, ranks, scene.solver.linear.type);
+  plan.linear_auto = scene.solver.linear.auto_choice;  // of a scene resolved before
+  return plan;
+}
+
+RunPlan make_run_plan(const Scene& scene, int ranks, double unknowns) {
+  if (!picks_linear_solver(scene)) return scene_plan(scene, ranks);
+  const LinearChoice choice = choose_linear_solver(scene, unknowns, ranks);
+  RunPlan plan = plan_with_linear(scene, ranks, choice.kind);
+  plan.linear_auto =
+      std::string(to_string(choice.kind)) + ": " + choice.reason + shorten_bond_radius(plan, unknowns);
+  return plan;
+}
+
+RunPlan make_run_plan(const Scene& scene, int ranks) {
+  return make_run_plan(scene, ranks, picks_linear_solver(scene) ? estimated_unknowns(estimate_model(scene)) : 0.0);
+}
+
+RunPlan resolve_run_plan(Scene& scene, int ranks) {
+  const RunPlan plan = make_run_plan(scene, ranks);
+  if (picks_linear_solver(scene)) {
+    scene.solver.linear.type = plan.linear;
+    scene.solver.linear.auto_choice = plan.linear_auto;
+    scene.solver.bond_preconditioner = plan.bond_preconditioner;
+  }
+  return plan;
+}
+
+std::string resolve_linear_solver(Scene& scene, int ranks) {
+  const bool picks = picks_linear_solver(scene);
+  const RunPlan plan = resolve_run_plan(scene, ranks);
+  return picks ? plan.linear_auto : std::string();
+}
+
+}  // namespace peristat

@@ -1,0 +1,113 @@
+// The run plan: every choice a run makes from its scene and its ranks, resolved once
+// (solver.linear `auto`, the tangent's form, the preconditioner, the model a rank holds and the
+// rings of families around it). `run` and `check` make it first; the preflight, the model
+// builder and the setup (problem_options, make_step_solver) read it instead of deriving the
+// choices again.
+#pragma once
+
+#include <string>
+
+#include "scene/scene.hpp"
+
+namespace peristat {
+
+/// What `solver.linear: auto` picked, and why (printed by run and check, in summary.json).
+struct LinearChoice {
+  LinearSolverKind kind = LinearSolverKind::cg;
+  std::string reason;
+};
+
+/// Models with at most this many unknowns and no friction get a direct factor (CHOLMOD):
+/// whole runs of the tension plate, best of two, 2 cores: 1,249 unknowns 0.19 s against cg's
+/// 0.28 s, 3,196 0.48 against 0.41 s, 4,994 0.59 against 0.57 s, 19,970 3.2 against 2.2 s
+/// (docs/performance.md, "Fast by default"); below the crossover a factor is also exact.
+inline constexpr double kDirectMaxUnknowns = 2500.0;
+/// With matrix_free, `auto` shortens the bond preconditioner's radius (unless the scene sets
+/// solver.krylov.bond_radius) to 2.0 dx above kMediumBondsAbove unknowns and 1.42 dx (the 8
+/// nearest neighbours) above kShortBondsAbove: measured on the tension plate at 300 x 300
+/// and 700 x 700 and on the contact cases (docs/performance.md, "Matrix-free").
+inline constexpr double kMediumBondsAbove = 100000.0;
+inline constexpr double kShortBondsAbove = 500000.0;
+
+/// The linear solver `solver.linear: auto` stands for, from the number of unknowns (an
+/// estimate before discretising, or the model's), the scene's physics and the MPI ranks:
+/// belos under mpirun; else CHOLMOD for small models without friction; else matrix_free
+/// (CG on the bond factor, GMRES while pairs slip, with the tangent's action: faster and
+/// smaller than the assembled cg path on every case measured). docs/performance.md.
+LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks);
+
+/// Whether each rank holds only its part of the model (solver.belos.model), and why. A part
+/// runs Newton with belos (either tangent) and ADR under mpirun, with or without contact and
+/// failure (docs/guide/distributed.md, "Running on the parts"). `auto` picks the part under
+/// mpirun for a scene without contact, the whole model elsewhere; a one-process run with
+/// another linear solver, or ADR, ignores the key.
+struct ModelChoice {
+  bool part = false;
+  std::string reason;
+};
+
+/// The families a rank holds beyond its own. On a part: one ring of families around its
+/// particles for Newton's matrix-free tangent, two for an assembled tangent (belos's
+/// `assembled`, or ADR's for its density). On the whole model (solver.belos.bonds,
+/// docs/guide/distributed.md "Partitioned bonds"): whether each rank holds only the families
+/// it evaluates, with a failure criterion too (its decisions gathered over the ranks); the
+/// matrix-free tangent (Newton with belos, the default under mpirun) reads the families of a
+/// rank's particles and of their neighbours: one ring; an assembled tangent (belos's
+/// `assembled`, or ADR's for its density) reads a column's families two horizons from its
+/// rows: two rings. False in one process.
+struct BondsChoice {
+  bool partitioned = false;
+  int rings = 0;  ///< stencils around a rank's particles whose families it holds
+  std::string reason;
+};
+
+/// How Newton applies the tangent: assembled into a sparse matrix, or as its action
+/// (solver.linear matrix_free, or belos with solver.belos.tangent matrix_free; no pattern is
+/// built, ProblemOptions::matrix_free). ADR's tangent is assembled (its density reads it).
+enum class TangentForm { assembled, matrix_free };
+
+struct RunPlan {
+  int ranks = 1;  ///< MPI ranks of the run
+  SolverKind solver = SolverKind::newton;
+  /// Newton's linear solver, `auto` resolved by make_run_plan() (scene_plan() leaves it);
+  /// ADR's is the scene's, unused.
+  LinearSolverKind linear = LinearSolverKind::automatic;
+  std::string linear_auto;  ///< what `auto` picked and why; "" when the scene named one, or ADR
+  TangentForm tangent = TangentForm::assembled;
+  /// solver.krylov.preconditioner with `auto` resolved as make_linear_solver() does (bond with
+  /// cg, bond_amg with matrix_free, ilut with bicgstab).
+  PreconditionerKind preconditioner = PreconditionerKind::automatic;
+  /// The bond preconditioner's radius, shortened by `auto` on large matrix-free models.
+  BondPreconditionerOptions bond_preconditioner;
+  ModelChoice model;  ///< the rank's part of the model, or the whole model
+  BondsChoice bonds;  ///< the families it holds around its rows
+
+  bool newton() const { return solver == SolverKind::newton; }
+  bool matrix_free() const { return tangent == TangentForm::matrix_free; }
+};
+
+/// The plan of a run of `scene` on `ranks` ranks: `auto` picked for the unknowns estimated
+/// before discretising (estimate_model()). The scene is not changed.
+RunPlan make_run_plan(const Scene& scene, int ranks);
+/// The same with `auto` picked for `unknowns`.
+RunPlan make_run_plan(const Scene& scene, int ranks, double unknowns);
+/// The plan the scene states, `auto` left unresolved (an assembled tangent): for callers that
+/// build the objects from a scene without planning a run (tests, benchmarks).
+RunPlan scene_plan(const Scene& scene, int ranks);
+/// The plan the scene states with `linear` as Newton's linear solver (no `auto` reason).
+RunPlan plan_with_linear(const Scene& scene, int ranks, LinearSolverKind linear);
+
+/// The rings of families around its particles a rank's part holds under `plan`: one for
+/// Newton's matrix-free tangent, two for an assembled tangent (belos's `assembled`, or ADR's
+/// for its density).
+int part_rings(const RunPlan& plan);
+
+/// make_run_plan(), with its picks written into the scene (solver.linear.type, its
+/// auto_choice and the bond radius) so that the record states what ran: what `run` and
+/// `check` do first.
+RunPlan resolve_run_plan(Scene& scene, int ranks);
+/// resolve_run_plan()'s `auto` pick and reason, or "" when the scene named a solver (an
+/// explicit choice always wins) or runs ADR.
+std::string resolve_linear_solver(Scene& scene, int ranks);
+
+}  // namespace peristat
