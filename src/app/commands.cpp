@@ -27,7 +27,7 @@
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
 #include "solvers/newton.hpp"
-#include "solvers/trilinos/parallel.hpp"
+#include "parallel/mpi/mpi_ranks.hpp"
 
 namespace peristat {
 
@@ -114,39 +114,31 @@ struct ProcessModel {
 };
 
 /// The model the plan says this process holds (RunPlan::model, RunPlan::bonds).
-ProcessModel process_model(const Scene& scene, const RunPlan& plan) {
+ProcessModel process_model(const Scene& scene, const RunPlan& plan, const Ranks& ranks) {
   ProcessModel m;
-  const int ranks = plan.ranks;
   if (plan.model.part) {
-    m.part.emplace(part_model(scene, plan.bonds.rings, parallel::rank(), ranks));
+    m.part.emplace(part_model(scene, plan.bonds.rings, ranks.rank(), ranks.size()));
     return m;
   }
   if (plan.bonds.partitioned) {
     m.model = discretise(scene, [&](const Model& unbonded) {
-      m.rows = owned_rows(scene, unbonded, parallel::rank(), ranks);
+      m.rows = owned_rows(scene, unbonded, ranks.rank(), ranks.size());
       return families_to_hold(unbonded, m.rows, plan.bonds.rings);
     });
   } else {
     m.model = discretise(scene);
-    m.rows = owned_rows(scene, m.model, parallel::rank(), ranks);
+    m.rows = owned_rows(scene, m.model, ranks.rank(), ranks.size());
   }
   return m;
 }
 
-/// The problem's options for this process: under mpirun, the rank's own rows.
-ProblemOptions process_problem_options(const Scene& scene, const RunPlan& plan, const ProcessModel& m) {
-  if (m.part) return part_problem_options(scene, plan, *m.part, parallel::rank());
+/// The problem's options for this process: under mpirun, the rank's own rows (the problem
+/// shares forces and per-particle values by their owners when its bonds are partitioned).
+ProblemOptions process_problem_options(const Scene& scene, const RunPlan& plan, const ProcessModel& m,
+                                       const Ranks& ranks) {
+  if (m.part) return part_problem_options(scene, plan, *m.part, ranks.rank());
   ProblemOptions options = problem_options(scene, plan);
-  if (parallel::size() > 1) {
-    options.rows = m.rows;
-    options.max_over_ranks = parallel::max_over_ranks;
-    options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
-    if (plan.bonds.partitioned) {
-      options.share_forces = force_exchange(m.rows);
-      options.gather_over_ranks = parallel::gather_over_ranks;
-      options.share_particle_values = particle_exchange(m.rows);
-    }
-  }
+  if (!ranks.alone()) options.rows = m.rows;
   return options;
 }
 
@@ -165,7 +157,8 @@ std::string held_text(const RunPlan& plan) {
 /// prints.
 class Run {
  public:
-  explicit Run(const RunArguments& args) : m_args(args), m_root(parallel::rank() == 0) {}
+  explicit Run(const RunArguments& args)
+      : m_args(args), m_ranks(parallel::process_ranks()), m_root(m_ranks->root()) {}
 
   /// The scene with the --set overrides and --solver.
   void parse_scene() {
@@ -178,7 +171,7 @@ class Run {
   /// before the preflight estimates its memory; an explicit choice is kept), and the threads
   /// of each rank.
   void plan() {
-    const int ranks = parallel::size();
+    const int ranks = m_ranks->size();
     m_plan = resolve_run_plan(m_scene, ranks);
     if (!m_plan.linear_auto.empty() && !m_args.quiet && m_root)
       std::printf("peristat: solver.linear auto: %s\n", m_plan.linear_auto.c_str());
@@ -203,11 +196,12 @@ class Run {
   }
 
   /// This process's model: the whole model, or the rank's part of it.
-  void build_model() { m_model = process_model(m_scene, m_plan); }
+  void build_model() { m_model = process_model(m_scene, m_plan, *m_ranks); }
 
   /// The problem on it, and its size.
   void build_problem() {
-    m_problem = std::make_unique<QuasiStaticProblem>(m_model.held(), process_problem_options(m_scene, m_plan, m_model));
+    m_problem = std::make_unique<QuasiStaticProblem>(
+        m_model.held(), process_problem_options(m_scene, m_plan, m_model, *m_ranks), *m_ranks);
     if ((m_plan.ranks > 1 || m_model.part) && !m_args.quiet && m_root)
       std::printf("peristat: %s\n", held_text(m_plan).c_str());
     m_size = measure(m_model.held(), *m_problem, m_model.part_or_null());
@@ -217,7 +211,7 @@ class Run {
   /// rank 0 writes (gathered from the parts on a part).
   void make_solver() {
     m_solver = make_step_solver(m_scene, m_plan, *m_problem, m_linear, m_model.part_or_null());
-    m_view = std::make_unique<WholeView>(m_model.held(), m_model.part_or_null(), parallel::rank());
+    m_view = std::make_unique<WholeView>(m_model.held(), m_model.part_or_null(), *m_ranks);
     m_method = m_linear ? "Newton, linear solver " + m_linear->name() : std::string("ADR");
   }
 
@@ -277,6 +271,7 @@ class Run {
 
   // In the order they are built (and destroyed in reverse: the solvers before the problem).
   const RunArguments& m_args;
+  const std::unique_ptr<Ranks> m_ranks;  ///< this process's ranks: the one way to the others
   const bool m_root;
   Scene m_scene;
   RunPlan m_plan;
@@ -300,14 +295,15 @@ class Run {
 
 int check_command(const std::string& scene_path, const std::vector<std::string>& overrides) {
   Scene scene = parse_scene(scene_path, parse_overrides(overrides));
-  const RunPlan plan = resolve_run_plan(scene, parallel::size());
+  const std::unique_ptr<Ranks> ranks = parallel::process_ranks();
+  const RunPlan plan = resolve_run_plan(scene, ranks->size());
   const SizeEstimate estimate = estimate_size(scene, plan);
   for (const std::string& w : preflight(scene, plan, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
-  const ProcessModel pm = process_model(scene, plan);
+  const ProcessModel pm = process_model(scene, plan, *ranks);
   const Model& model = pm.held();
-  const QuasiStaticProblem problem(model, process_problem_options(scene, plan, pm));
+  const QuasiStaticProblem problem(model, process_problem_options(scene, plan, pm, *ranks), *ranks);
   const ModelSize size = measure(model, problem, pm.part_or_null());
-  if (parallel::rank() != 0) return exit_success;
+  if (!ranks->root()) return exit_success;
   std::printf("%s: scene '%s' is valid\n", scene_path.c_str(), scene.name.c_str());
   std::printf("  bodies         %zu, materials %zu, pre-cracks %zu, conditions %zu\n", scene.bodies.size(),
               scene.materials.size(), scene.cracks.size(), scene.boundary.size());
@@ -315,7 +311,7 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
               model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
   print_size(size);
   if (!plan.linear_auto.empty()) std::printf("  solver.linear  auto: %s\n", plan.linear_auto.c_str());
-  if (parallel::size() > 1 || pm.part) std::printf("  ranks          %s\n", held_text(plan).c_str());
+  if (ranks->size() > 1 || pm.part) std::printf("  ranks          %s\n", held_text(plan).c_str());
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
               estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,
               estimate.available_bytes / 1e6);

@@ -44,7 +44,7 @@ std::unique_ptr<LinearSolver> make_problem_linear_solver(const Scene& scene, Qua
   register_linear_solvers();
   LinearSetup setup;
   if (part) {
-    setup.layout = part_unknown_layout(*part, problem.owned_rows().rank);
+    setup.layout = part_unknown_layout(*part, problem.ranks());
   } else if (needs_unknown_layout(options)) {
     setup.layout = unknown_layout(problem.model(), problem.n_unknowns());
     setup.layout.owner = problem.owned_rows().owner;  // the ranks' rows, as the problem assembles them

@@ -13,7 +13,7 @@
 #include "discretisation/model.hpp"
 #include "core/geometry.hpp"
 #include "solvers/trilinos/belos_solver.hpp"
-#include "solvers/trilinos/parallel.hpp"
+#include "parallel/mpi/session.hpp"
 
 namespace peristat {
 
@@ -207,7 +207,7 @@ SizeEstimate estimate_size(const Scene& scene, const RunPlan& plan) {
   return e;
 }
 
-SizeEstimate estimate_size(const Scene& scene) { return estimate_size(scene, make_run_plan(scene, parallel::size())); }
+SizeEstimate estimate_size(const Scene& scene) { return estimate_size(scene, make_run_plan(scene, 1)); }
 
 double factor_fill(double particles, bool bond_preconditioner) {
   const double log_n = std::log2(std::max(particles, 2.0));

@@ -68,7 +68,7 @@ SizeEstimate estimate_model(const Scene& scene);
 /// The whole estimate of a run with `plan`: the model, what its solver adds (the tangent or
 /// not, the factorisation or preconditioner), per rank, and the memory available.
 SizeEstimate estimate_size(const Scene& scene, const RunPlan& plan);
-/// The same for the run the scene would make under this process's ranks (make_run_plan()).
+/// The same for the run the scene would make in one process (make_run_plan(scene, 1)).
 SizeEstimate estimate_size(const Scene& scene);
 
 /// The unknowns `solver.linear: auto` decides by before discretising: two per real particle

@@ -1,5 +1,6 @@
 #include "app/setup.hpp"
 
+#include <array>
 #include <memory>
 #include <stdexcept>
 
@@ -7,7 +8,8 @@
 #include "core/error.hpp"
 #include "solvers/adr.hpp"
 #include "solvers/newton.hpp"
-#include "solvers/trilinos/parallel.hpp"
+#include "app/unknown_share.hpp"
+#include "parallel/exchange.hpp"
 #include "solvers/trilinos/partition.hpp"
 
 namespace peristat {
@@ -58,22 +60,6 @@ std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows, in
   return held;
 }
 
-namespace {
-/// Each entry's owner's value to every rank; entries without an owner stay as computed.
-std::function<void(VectorXd&)> owned_entries_exchange(const std::vector<int>& owner) {
-  auto exchange = std::make_shared<parallel::OwnedExchange>(owner, true);
-  return [exchange](VectorXd& values) { exchange->share(values.data()); };
-}
-}  // namespace
-
-std::function<void(VectorXd&)> particle_exchange(const OwnedRows& rows) { return owned_entries_exchange(rows.owner); }
-
-std::function<void(VectorXd&)> force_exchange(const OwnedRows& rows) {
-  std::vector<int> owner(2 * rows.owner.size());
-  for (std::size_t p = 0; p < rows.owner.size(); ++p) owner[2 * p] = owner[2 * p + 1] = rows.owner[p];
-  return owned_entries_exchange(owner);
-}
-
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
   const std::vector<Index>& free = model.constraints.free_index;
   UnknownLayout layout;
@@ -87,14 +73,6 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
     layout.y.push_back(X.y());
   }
   return layout;
-}
-
-std::vector<int> unknown_owners(const Constraints& constraints, const std::vector<int>& particle_owner) {
-  std::vector<int> owner(static_cast<std::size_t>(constraints.n_free), -1);
-  const std::vector<Index>& free = constraints.free_index;
-  for (std::size_t c = 0; c < free.size(); ++c)
-    if (free[c] >= 0) owner[static_cast<std::size_t>(free[c])] = particle_owner[c / 2];
-  return owner;
 }
 
 ModelPart part_model(const Scene& scene, int rings, int rank, int ranks) {
@@ -112,69 +90,22 @@ ModelPart part_model(const Scene& scene, int rank, int ranks) {
   return part_model(scene, part_rings(make_run_plan(scene, ranks)), rank, ranks);
 }
 
-namespace {
-/// One value per particle of a part from its owner into the ranks that read it (collective to
-/// build and to call). Particles without an owner (no row, kept by every rank alike) keep their
-/// values.
-std::function<void(VectorXd&)> part_particle_exchange(const ModelPart& part) {
-  std::vector<std::size_t> exchanged;
-  std::vector<std::int64_t> ids;
-  std::vector<int> owner;
-  for (std::size_t p = 0; p < part.owner.size(); ++p)
-    if (part.owner[p] >= 0) {
-      exchanged.push_back(p);
-      ids.push_back(part.global_id[p]);
-      owner.push_back(part.owner[p]);
-    }
-  auto exchange =
-      std::make_shared<parallel::PartExchange>(ids, owner, static_cast<std::size_t>(part.n_owned));
-  auto scratch = std::make_shared<std::vector<double>>(exchanged.size());
-  return [exchange, scratch, exchanged](VectorXd& values) {
-    for (std::size_t k = 0; k < exchanged.size(); ++k)
-      (*scratch)[k] = values[static_cast<Index>(exchanged[k])];
-    exchange->share(scratch->data());
-    for (std::size_t k = 0; k < exchanged.size(); ++k)
-      values[static_cast<Index>(exchanged[k])] = (*scratch)[k];
-  };
-}
-}  // namespace
-
-ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, int rank) {
-  return part_problem_options(scene, scene_plan(scene, parallel::size()), part, rank);
+void set_part(ProblemOptions& options, const ModelPart& part, int rank) {
+  options.rows = OwnedRows{rank, part.owner};
+  options.owned_unknowns = part.n_owned_unknowns;
+  options.global_id = part.global_id;
+  options.global_unknown = part.global_unknown;
+  options.n_particles_whole = part.n_particles_whole;
 }
 
 ProblemOptions part_problem_options(const Scene& scene, const RunPlan& plan, const ModelPart& part, int rank) {
   ProblemOptions options = problem_options(scene, plan);
-  options.rows = OwnedRows{rank, part.owner};
-  options.sum_over_ranks = [](double v) { return parallel::sum_over_ranks(v); };
-  options.max_over_ranks = parallel::max_over_ranks;
-  options.share_forces = [](VectorXd&) {};  // a part's own rows read no other rank's forces
-  options.owned_unknowns = part.n_owned_unknowns;
-  auto ghosts = std::make_shared<parallel::PartExchange>(part.global_unknown,
-                                                         unknown_owners(part.model.constraints, part.owner),
-                                                         static_cast<std::size_t>(part.n_owned_unknowns));
-  options.import_ghosts = [ghosts](VectorXd& x) { ghosts->share(x.data()); };
-  options.sum_in_rank_order = parallel::sum_in_rank_order;
-  if (scene.failure.enabled) {
-    options.share_particle_values = part_particle_exchange(part);  // the damage, the pieces' labels
-    options.gather_over_ranks = parallel::gather_over_ranks;
-    options.global_id = part.global_id;
-    options.n_particles_whole = part.n_particles_whole;
-    options.gather_on_root = parallel::gather_rows_on_root;
-  }
-  if (scene.contact.enabled) {
-    ContactRanks& c = options.contact_ranks;
-    c.global_id = part.global_id;
-    c.counted.resize(part.owner.size());
-    for (std::size_t p = 0; p < part.owner.size(); ++p) c.counted[p] = counted_by(part.owner[p], rank);
-    c.n_particles_whole = part.n_particles_whole;
-    c.gather = parallel::gather_over_ranks;
-    c.gather_on_root = parallel::gather_rows_on_root;
-  }
+  set_part(options, part, rank);
   return options;
 }
 
-UnknownLayout part_unknown_layout(const ModelPart& part, int rank) {
+UnknownLayout part_unknown_layout(const ModelPart& part, const Ranks& ranks) {
+  const int rank = ranks.rank();
   const Model& m = part.model;
   UnknownLayout layout = unknown_layout(m, m.constraints.n_free);
   layout.owner = part.owner;
@@ -183,19 +114,17 @@ UnknownLayout part_unknown_layout(const ModelPart& part, int rank) {
   const auto is_node = [&](Index p) { return free[2 * p] >= 0 || free[2 * p + 1] >= 0; };
   std::int64_t owned_nodes = 0;
   for (Index p = 0; p < part.n_owned; ++p) owned_nodes += is_node(p);
-  layout.first_node = parallel::sum_over_lower_ranks(owned_nodes, &layout.global_nodes);
-  // Every entry a double for the exchange: node numbers below 2^53 are exact. Particles without
-  // an owner (no row, kept by every rank alike) are not exchanged: they hold no node.
-  VectorXd node = VectorXd::Constant(n, -1.0);
+  layout.first_node = ranks.sum_over_lower_ranks(owned_nodes, &layout.global_nodes);
+  // Each node's number from its owner. Particles without an owner (no row, kept by every rank
+  // alike) are not exchanged: they hold no node.
+  layout.global_node.assign(static_cast<std::size_t>(n), -1);
   std::int64_t next = layout.first_node;
   for (Index p = 0; p < part.n_owned; ++p)
-    if (is_node(p)) node[p] = static_cast<double>(next++);
-  part_particle_exchange(part)(node);
-  layout.global_node.assign(static_cast<std::size_t>(n), -1);
-  for (Index p = 0; p < n; ++p)
-    layout.global_node[static_cast<std::size_t>(p)] = static_cast<std::int64_t>(node[p]);
+    if (is_node(p)) layout.global_node[static_cast<std::size_t>(p)] = next++;
+  OwnedEntriesExchange(ranks, part.global_id, part.owner, static_cast<std::size_t>(part.n_owned))
+      .share(layout.global_node.data());
   // The whole model's centre: each particle counted by its owner (rank 0 those without one).
-  double sums[3] = {0.0, 0.0, 0.0};
+  std::array<double, 3> sums = {0.0, 0.0, 0.0};
   for (Index p = 0; p < n; ++p) {
     const int o = part.owner[static_cast<std::size_t>(p)];
     if (counted_by(o, rank)) {
@@ -204,53 +133,10 @@ UnknownLayout part_unknown_layout(const ModelPart& part, int rank) {
       sums[2] += 1.0;
     }
   }
-  parallel::sum_in_rank_order(sums, 3);
+  ranks.sum_in_rank_order(sums);
   layout.centre_x = sums[0] / sums[2];
   layout.centre_y = sums[1] / sums[2];
   return layout;
-}
-
-UnknownShare part_unknown_share(const QuasiStaticProblem& problem, const ModelPart& part) {
-  UnknownShare share;
-  share.owned.assign(static_cast<std::size_t>(part.model.constraints.n_free), 0);
-  std::fill_n(share.owned.begin(), part.n_owned_unknowns, char{1});
-  share.sum = parallel::sum_in_rank_order;
-  share.max = parallel::max_over_ranks;
-  // The ghost tail from the owners, for x at the end of a solve and the pseudo-velocity at
-  // each step, by the problem's own exchange (it imports x's tail at every evaluation).
-  share.share = share.share_reads = [&problem](VectorXd& x) { problem.import_ghosts(x); };
-  share.problem_imports_state = true;
-  return share;
-}
-
-UnknownShare unknown_share(const QuasiStaticProblem& problem) {
-  const OwnedRows& rows = problem.owned_rows();
-  UnknownShare share;
-  if (rows.all()) return share;
-  const std::vector<int> owner = unknown_owners(problem.model().constraints, rows.owner);
-  share.owned.resize(owner.size());
-  for (std::size_t f = 0; f < owner.size(); ++f) share.owned[f] = owner[f] == rows.rank;
-  share.sum = parallel::sum_in_rank_order;
-  share.max = parallel::max_over_ranks;
-  auto exchange = std::make_shared<parallel::OwnedExchange>(owner);  // throws for an unknown without owner
-  share.share = [exchange](VectorXd& x) { exchange->share(x.data()); };
-  // The ghosts, rebuilt (collectively: every rank sees the same contact version) when a
-  // partner search changed the pairs.
-  struct Ghosts {
-    std::uint64_t version = 0;
-    std::unique_ptr<parallel::GhostExchange> exchange;
-  };
-  auto ghosts = std::make_shared<Ghosts>();
-  share.share_reads = [ghosts, owner, &problem](VectorXd& x) {
-    if (!ghosts->exchange || ghosts->version != problem.structure_version()) {
-      const std::vector<Index> reads = problem.residual_reads();
-      ghosts->exchange = std::make_unique<parallel::GhostExchange>(
-          owner, std::vector<long long>(reads.begin(), reads.end()));
-      ghosts->version = problem.structure_version();
-    }
-    ghosts->exchange->share(x.data());
-  };
-  return share;
 }
 
 std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, const RunPlan& plan, QuasiStaticProblem& problem,
@@ -277,7 +163,7 @@ std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, QuasiStaticProb
     // The problem was built before the choice: with its tangent assembled, the same method on it.
     if (kind == LinearSolverKind::matrix_free && !problem.matrix_free()) kind = LinearSolverKind::cg;
   }
-  return make_step_solver(scene, plan_with_linear(scene, parallel::size(), kind), problem, linear, part);
+  return make_step_solver(scene, plan_with_linear(scene, problem.ranks().size(), kind), problem, linear, part);
 }
 
 }  // namespace peristat

@@ -9,7 +9,6 @@
 #include "assembly/quasi_static.hpp"
 #include "discretisation/model_part.hpp"
 #include "scene/scene.hpp"
-#include "solvers/distribution.hpp"
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/step_solver.hpp"
 
@@ -31,17 +30,8 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
 /// particle within `rings` stencils of them (Model::family_held, from lattice offsets).
 std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows, int rings);
 
-/// ProblemOptions::share_forces for a rank with `rows`: the forces of its particles, both
-/// components, to every rank (an MPI_Allgatherv); those without a row stay as computed.
-std::function<void(VectorXd&)> force_exchange(const OwnedRows& rows);
-/// ProblemOptions::share_particle_values for a rank with `rows`: one value per particle, its
-/// owner's to every rank; those without a row stay as computed.
-std::function<void(VectorXd&)> particle_exchange(const OwnedRows& rows);
-
 /// Each unknown's particle and direction, and the particles' positions (LinearSolver's hint).
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
-/// Per unknown (in the order of `constraints.free_index`), the owner of its particle.
-std::vector<int> unknown_owners(const Constraints& constraints, const std::vector<int>& particle_owner);
 
 /// This rank's part of the model (docs/guide/distributed.md, "The partitioned model"): the
 /// owners by solver.belos.partition (owned_rows(), every particle owned), the whole model
@@ -50,23 +40,15 @@ std::vector<int> unknown_owners(const Constraints& constraints, const std::vecto
 ModelPart part_model(const Scene& scene, int rings, int rank, int ranks);
 /// The same with the rings of the run the scene would make on `ranks` (make_run_plan()).
 ModelPart part_model(const Scene& scene, int rank, int ranks);
-/// ADR's share of the unknowns on a rank's part: the owned ones first, the ghost tail imported
-/// from the owners by the problem's exchange.
-UnknownShare part_unknown_share(const QuasiStaticProblem& problem, const ModelPart& part);
-/// The problem's options on that part, under mpirun: its rows, the sums and maxima over the
-/// ranks, the owned unknowns and the import of the ghost tail (collective: it builds a
-/// parallel::PartExchange over the unknowns).
+/// Puts rank `rank`'s part into the problem's options: its rows, owned unknowns and global
+/// ids (data only: the problem builds its exchanges from them on its Ranks).
+void set_part(ProblemOptions& options, const ModelPart& part, int rank);
+/// The problem's options on that part: problem_options() and set_part().
 ProblemOptions part_problem_options(const Scene& scene, const RunPlan& plan, const ModelPart& part, int rank);
-/// The same for the scene as it stands (scene_plan()).
-ProblemOptions part_problem_options(const Scene& scene, const ModelPart& part, int rank);
-/// The layout of a rank's part of the model (collective under mpirun): the nodes numbered rank
-/// by rank (each rank's own in the part's order, from the sum of the lower ranks' counts), its
-/// ghosts' numbers asked of their owners (parallel::PartExchange), and the whole model's centre.
-UnknownLayout part_unknown_layout(const ModelPart& part, int rank);
-
-/// Under mpirun (problem.owned_rows() a part): the unknowns of this rank's particles, and the
-/// MPI operations distributed ADR needs; empty in one process.
-UnknownShare unknown_share(const QuasiStaticProblem& problem);
+/// The layout of a rank's part of the model (collective): the nodes numbered rank by rank
+/// (each rank's own in the part's order, from the sum of the lower ranks' counts), its ghosts'
+/// numbers from their owners (OwnedEntriesExchange), and the whole model's centre.
+UnknownLayout part_unknown_layout(const ModelPart& part, const Ranks& ranks);
 
 /// The step solver the plan names (Newton or ADR); `linear` receives Newton's linear
 /// solver (it must outlive the step solver) and stays empty for ADR. With `part`, the problem

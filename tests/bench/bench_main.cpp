@@ -288,7 +288,7 @@ int part_newton(const std::string& path, const std::vector<Override>& overrides)
   const double t0 = wall_seconds();
   const ModelPart part = part_model(scene, rank, ranks);
   const double t_part = wall_seconds() - t0, rss_part = resident_mb();
-  QuasiStaticProblem problem(part.model, part_problem_options(scene, part, rank), *on);
+  QuasiStaticProblem problem(part.model, part_problem_options(scene, scene_plan(scene, ranks), part, rank), *on);
   std::unique_ptr<LinearSolver> linear;
   const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, &part);
   const double t_problem = wall_seconds() - t0 - t_part;

@@ -75,7 +75,7 @@ TEST(PartLayout, EveryNodeHasOneGlobalNumber) {
   for (const BelosPartition kind : {BelosPartition::strips, BelosPartition::rcb}) {
     SCOPED_TRACE(std::string(to_string(kind)));
     const Parted p = parted_plate(16, 40, kind);  // tall: RCB cuts across y, strips (by index) across x
-    const UnknownLayout layout = part_unknown_layout(p.part, ranks().rank());
+    const UnknownLayout layout = part_unknown_layout(p.part, ranks());
     const Constraints& wc = p.whole.constraints;
     std::int64_t nodes = 0;
     for (Index g = 0; g < p.whole.particles.size(); ++g)
@@ -143,7 +143,7 @@ TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
   lin.belos.rtol = 1e-12;
   register_linear_solvers();
   const std::unique_ptr<LinearSolver> solver =
-      make_linear_solver(lin, {part_unknown_layout(part, rank), false, nullptr});
+      make_linear_solver(lin, {part_unknown_layout(part, ranks()), false, nullptr});
   solver->analyzePattern(P);
   solver->factorize(P);
   VectorXd bl(n), xl = VectorXd::Zero(n);
@@ -270,7 +270,7 @@ TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
     Scene parted = scene;
     parted.solver.linear.belos.partition = kind;
     const ModelPart part = part_model(parted, rank, ranks().size());
-    const ProblemOptions options = part_problem_options(scene, part, rank);
+    const ProblemOptions options = part_problem_options(scene, scene_plan(scene, ranks().size()), part, rank);
     ASSERT_TRUE(options.matrix_free);
     QuasiStaticProblem problem(part.model, options, ranks());
     std::unique_ptr<LinearSolver> linear;

@@ -10,7 +10,7 @@
 #include "app/linear_solvers.hpp"
 #include "core/error.hpp"
 #include "core/version.hpp"
-#include "solvers/trilinos/parallel.hpp"
+#include "parallel/mpi/mpi_ranks.hpp"
 
 int main(int argc, char** argv) {
   using namespace peristat;
@@ -18,7 +18,7 @@ int main(int argc, char** argv) {
   // model; docs/guide/distributed.md).
   const parallel::Session mpi;
   register_linear_solvers();  // belos and the bond_amg V-cycle behind the linear-solver seam
-  if (parallel::rank() > 0) {
+  if (parallel::process_ranks()->rank() > 0) {
     std::FILE* out = std::freopen("/dev/null", "w", stdout);
     std::FILE* err = std::freopen("/dev/null", "w", stderr);
     (void)out;
