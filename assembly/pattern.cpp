@@ -45,17 +45,24 @@ void complete_owners(const Model& model, std::vector<int>& owner) {
     if (o < 0) o = 0;
 }
 
-TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double radius,
-                             const ContactSystem* contact, const OwnedRows& owned) {
-  const double radius2 = radius * radius * (1.0 + kBondRadiusMargin);
-  const Index n = model.particles.size();
-  const Bonds& bonds = model.bonds;
-  const Constraints& cons = model.constraints;
-  TangentPattern pat;
+namespace {
 
-  // Rows of column particle p: {p} + families of p and of each neighbour of p, those that
-  // `keep` accepts, ascending. `seen` is n zeros on entry and on return.
-  const auto collect = [&](Index p, std::vector<Index>& r, std::vector<char>& seen, auto keep) {
+/// The rows of a column particle's blocks (build_pattern()).
+class RowCollector {
+ public:
+  RowCollector(const Model& model, PatternReach reach_kind, double radius, const ContactSystem* contact)
+      : m_bonds(model.bonds),
+        m_cons(model.constraints),
+        m_reach_kind(reach_kind),
+        m_radius2(radius * radius * (1.0 + kBondRadiusMargin)),
+        m_contact(contact) {}
+
+  /// Rows of column particle p: {p} + families of p and of each neighbour of p, those that
+  /// `keep` accepts, ascending. `seen` is n zeros on entry and on return.
+  template <class Keep>
+  void collect(Index p, std::vector<Index>& r, std::vector<char>& seen, Keep keep) const {
+    const Bonds& bonds = m_bonds;
+    const Constraints& cons = m_cons;
     auto add = [&](Index q) {
       if (!seen[q] && keep(q)) {
         seen[q] = 1;
@@ -67,16 +74,16 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
     const auto reach_from = [&](Index c, auto take) {
       for (Index b = bonds.start[c]; b < bonds.start[c + 1]; ++b) {
         const Index i = bonds.neighbour[b];
-        if (reach_kind == PatternReach::bonds_within && bonds.xi[b].squaredNorm() > radius2) continue;
+        if (m_reach_kind == PatternReach::bonds_within && bonds.xi[b].squaredNorm() > m_radius2) continue;
         take(i);
-        if (reach_kind != PatternReach::two_horizons) continue;
+        if (m_reach_kind != PatternReach::two_horizons) continue;
         for (Index k = bonds.start[i]; k < bonds.start[i + 1]; ++k) take(bonds.neighbour[k]);
       }
     };
     add(p);
     reach_from(p, add);
-    if (contact)
-      for (auto e = contact->incident_begin(p); e != contact->incident_end(p); ++e) add(e->other);
+    if (m_contact)
+      for (auto e = m_contact->incident_begin(p); e != m_contact->incident_end(p); ++e) add(e->other);
     // Mirror ghosts of p: their columns are folded into p's (docs/theory/osb.md, section 7),
     // so p's rows also hold the free rows of each ghost's column.
     if (cons.has_images()) {
@@ -88,57 +95,60 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
     }
     std::sort(r.begin(), r.end());
     for (Index q : r) seen[q] = 0;
-  };
-  const auto every = [](Index) { return true; };
-  const auto mine = [&](Index q) { return owned.contains(q); };
-
-  std::vector<std::vector<Index>> rows(n);
-  pat.col_first = 0;
-  pat.col_end = n;
-  if (owned.all()) {
-#pragma omp parallel
-    {
-      std::vector<char> seen(n, 0);
-#pragma omp for schedule(dynamic, 256)
-      for (Index p = 0; p < n; ++p) collect(p, rows[p], seen, every);
-    }
-  } else {
-    // The owned columns first, whole: the pattern is structurally symmetric, so the particles
-    // they reach are exactly the columns that hold an owned row. Those are then collected with
-    // owned rows only, and the owned columns cut to their owned rows.
-    pat.partial = true;
-    std::vector<char> touched(n, 0);
-#pragma omp parallel
-    {
-      std::vector<char> seen(n, 0);
-#pragma omp for schedule(dynamic, 256)
-      for (Index p = 0; p < n; ++p)
-        if (mine(p)) collect(p, rows[p], seen, every);
-#pragma omp single
-      {
-        for (Index p = 0; p < n; ++p)
-          if (mine(p))
-            for (Index q : rows[p]) touched[q] = 1;
-        pat.col_first = n;
-        pat.col_end = 0;
-        for (Index p = 0; p < n; ++p)
-          if (touched[p]) {
-            pat.col_first = std::min(pat.col_first, p);
-            pat.col_end = p + 1;
-          }
-        if (pat.col_first > pat.col_end) pat.col_first = pat.col_end;
-      }
-#pragma omp for schedule(dynamic, 256)
-      for (Index p = pat.col_first; p < pat.col_end; ++p) {
-        if (!touched[p]) continue;
-        if (mine(p))
-          std::erase_if(rows[p], [&](Index q) { return !mine(q); });
-        else
-          collect(p, rows[p], seen, mine);
-      }
-    }
   }
 
+ private:
+  const Bonds& m_bonds;
+  const Constraints& m_cons;
+  PatternReach m_reach_kind;
+  double m_radius2;
+  const ContactSystem* m_contact;
+};
+
+/// With owned rows: the owned columns first, whole: the pattern is structurally symmetric, so
+/// the particles they reach are exactly the columns that hold an owned row. Those are then
+/// collected with owned rows only, and the owned columns cut to their owned rows.
+void collect_owned_rows(const RowCollector& collector, const OwnedRows& owned, Index n,
+                        std::vector<std::vector<Index>>& rows, TangentPattern& pat) {
+  const auto every = [](Index) { return true; };
+  const auto mine = [&](Index q) { return owned.contains(q); };
+  pat.partial = true;
+  std::vector<char> touched(n, 0);
+#pragma omp parallel
+  {
+    std::vector<char> seen(n, 0);
+#pragma omp for schedule(dynamic, 256)
+    for (Index p = 0; p < n; ++p)
+      if (mine(p)) collector.collect(p, rows[p], seen, every);
+#pragma omp single
+    {
+      for (Index p = 0; p < n; ++p)
+        if (mine(p))
+          for (Index q : rows[p]) touched[q] = 1;
+      pat.col_first = n;
+      pat.col_end = 0;
+      for (Index p = 0; p < n; ++p)
+        if (touched[p]) {
+          pat.col_first = std::min(pat.col_first, p);
+          pat.col_end = p + 1;
+        }
+      if (pat.col_first > pat.col_end) pat.col_first = pat.col_end;
+    }
+#pragma omp for schedule(dynamic, 256)
+    for (Index p = pat.col_first; p < pat.col_end; ++p) {
+      if (!touched[p]) continue;
+      if (mine(p))
+        std::erase_if(rows[p], [&](Index q) { return !mine(q); });
+      else
+        collector.collect(p, rows[p], seen, mine);
+    }
+  }
+}
+
+/// The columns' rows into the pattern's arrays (rows freed as they go), its reach and count.
+void pack_rows(const Model& model, std::vector<std::vector<Index>>& rows, TangentPattern& pat) {
+  const Index n = model.particles.size();
+  const Constraints& cons = model.constraints;
   auto n_free_of = [&](Index q) {
     return Index(cons.free_index[2 * q] >= 0) + Index(cons.free_index[2 * q + 1] >= 0);
   };
@@ -163,6 +173,30 @@ TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double
   }
   pat.lattice_reach = reach;
   for (Index p = 0; p < n; ++p) pat.nonzeros += static_cast<long long>(col_nnz[p]) * n_free_of(p);
+}
+
+}  // namespace
+
+TangentPattern build_pattern(const Model& model, PatternReach reach_kind, double radius,
+                             const ContactSystem* contact, const OwnedRows& owned) {
+  const Index n = model.particles.size();
+  const RowCollector collector(model, reach_kind, radius, contact);
+  TangentPattern pat;
+  std::vector<std::vector<Index>> rows(n);
+  pat.col_first = 0;
+  pat.col_end = n;
+  if (owned.all()) {
+    const auto every = [](Index) { return true; };
+#pragma omp parallel
+    {
+      std::vector<char> seen(n, 0);
+#pragma omp for schedule(dynamic, 256)
+      for (Index p = 0; p < n; ++p) collector.collect(p, rows[p], seen, every);
+    }
+  } else {
+    collect_owned_rows(collector, owned, n, rows, pat);
+  }
+  pack_rows(model, rows, pat);
   return pat;
 }
 

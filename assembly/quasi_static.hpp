@@ -3,7 +3,10 @@
 // tangent are its first and second derivatives, assembled in parallel by gathering per
 // particle (deterministic, no atomics). The assembler knows indices, not physics: the OSB
 // kernel (materials/osb.hpp), the bonds' failure state (materials/bond_failure.hpp) and the
-// contact pairs with their history (contact/contact.hpp) live in objects of their own.
+// contact pairs with their history (contact/contact.hpp) live in objects of their own, and so
+// do the energy ledger (energy_balance.hpp), the fragments (fragment_tracker.hpp), the damage
+// history (damage_history.hpp), the matrix-free action (tangent_action.hpp) and what a rank
+// computes (bookkeeping.hpp).
 #pragma once
 
 #include <functional>
@@ -11,9 +14,14 @@
 #include <vector>
 
 #include "assembly/bond_preconditioner.hpp"
+#include "assembly/bookkeeping.hpp"
+#include "assembly/damage_history.hpp"
+#include "assembly/energy_balance.hpp"
+#include "assembly/fragment_tracker.hpp"
 #include "assembly/pattern.hpp"
 #include "assembly/problem.hpp"
 #include "assembly/pseudo_velocity.hpp"
+#include "assembly/tangent_action.hpp"
 #include "contact/contact.hpp"
 #include "core/options.hpp"
 #include "discretisation/model.hpp"
@@ -23,24 +31,6 @@
 #include "materials/surface_correction.hpp"
 
 namespace peristat {
-
-/// The energy ledger of the accepted states (docs/theory/newton.md, "Energy balance"), summed
-/// over the increments between them by the trapezoid rule on the forces of the two states.
-/// external_work + residual_work = strain_energy + contact_work + released + quadrature holds
-/// exactly (up to round-off): `quadrature` is the trapezoid's error on the bonds' work over the
-/// increments without breaking. The check of each such increment compares the change of the
-/// stored energy with the work of the bond forces by a rule exact for the kernel's energy to
-/// round-off (trapezoid, linearised kinematics) or to high order (Simpson, finite kinematics).
-struct EnergyLedger {
-  double external_work = 0.0;  ///< work of the forces on the prescribed components [J]
-  double residual_work = 0.0;  ///< work of the residual forces on the unknowns (the solver's tolerance) [J]
-  double strain_energy = 0.0;  ///< Pi of the bonds at the last accepted state [J]
-  double contact_work = 0.0;   ///< work taken by the contact pairs: stored in them + dissipated by friction [J]
-  double released = 0.0;       ///< work the bonds took over increments that broke bonds and no longer store [J]
-  double quadrature = 0.0;     ///< accumulated (trapezoid work of the bond forces - change of Pi) [J]
-  double worst_relative = 0.0; ///< largest |change of Pi - rule's work| / energy scale of a checked increment
-  Index checked = 0;           ///< increments checked
-};
 
 /// What the problem models beyond the bonds: each part is built only when enabled.
 struct ProblemOptions {
@@ -99,15 +89,19 @@ struct ProblemOptions {
   ContactRanks contact_ranks;
 };
 
-/// apply_tangent()'s schedule: chunks of `chunk` consecutive particles (chunk c holds
-/// c * chunk ..), grouped by colour so that the families of two chunks of one colour never
-/// write the same row of the product. Depends on the particles alone: the same on every rank
-/// and for any number of threads. Throws std::logic_error if a bond is longer than the stencil.
-std::vector<std::vector<Index>> chunk_colours(const Model& model, Index chunk);
+/// The model is a rank's part (ProblemOptions::owned_unknowns).
+inline bool on_part(const ProblemOptions& options) { return options.owned_unknowns >= 0; }
+/// On a part, a sum of the ranks' values (collective); the value itself otherwise.
+inline double over_ranks(const ProblemOptions& options, double value) {
+  return on_part(options) ? options.sum_over_ranks(value) : value;
+}
 
 class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
  public:
   QuasiStaticProblem(const Model& model, const ProblemOptions& options);
+  /// Its parts hold references to its options: it stays where it was built.
+  QuasiStaticProblem(const QuasiStaticProblem&) = delete;
+  QuasiStaticProblem& operator=(const QuasiStaticProblem&) = delete;
 
   Index n_unknowns() const override { return m_model.constraints.n_free; }
   /// Also starts a trial of the exact-contact multipliers, predicted from the committed ones.
@@ -133,15 +127,15 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void apply_tangent(const VectorXd& v, VectorXd& y) override;
   /// Tests: apply_tangent()'s chunks of consecutive families (default: 1024, or a 128th of
   /// the particles when that is more).
-  void set_action_chunk(Index chunk);
+  void set_action_chunk(Index chunk) { m_action.set_chunk(chunk); }
   /// Distributed: the unknowns (ascending) whose entries of v the action of this rank's rows
   /// reads: the ghosts of its rows, two horizons deep, with contact partners and mirror
   /// sources. Changes with structure_version(). Every unknown in one process.
-  std::vector<Index> action_reads() const;
+  std::vector<Index> action_reads() const { return peristat::action_reads(m_model, m_options.rows, m_contact.get()); }
   /// Distributed: the unknowns (ascending) whose entries of x the own-rows residual
   /// (set_own_rows_only()) reads: the neighbours of every family it computes, every contact
   /// pair's two particles (the pairs are evaluated whole) and the sources of mirror ghosts
-  /// among them. Changes with structure_version().
+  /// among them. Changes with structure_version(). Distributed only (std::logic_error otherwise).
   std::vector<Index> residual_reads() const;
   /// The contact candidates' version: a partner search that adds pairs grows the pattern.
   std::uint64_t structure_version() const override { return m_contact ? m_contact->version() : 0; }
@@ -176,7 +170,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// Rejects a state in which a contact pair has crossed (docs/theory/contact.md, section 9),
   /// or whose faces slid further than a partner search covers (section 10).
   /// Also checks that no particle's damage decreased since the last accepted state, and the
-  /// energy balance of the bonds over the increment (EnergyLedger). On a rank's part with
+  /// energy balance of the bonds over the increment (EnergyBalance). On a rank's part with
   /// contact, throws ModelLimit (collectively) when the faces slid past what the parts hold
   /// (ContactSystem::partners_outside): the run stops with exit 3.
   std::string check_converged_state(const VectorXd& x) override;
@@ -220,32 +214,27 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// expects a fresh problem of the same model and the committed unknowns x.
   void save_state(StateArchive& archive) const;
   void restore_state(const StateArchive& archive, const VectorXd& x);
-  /// Fragments: particles whose piece of the body lost every bond to the prescribed
-  /// displacements by breaking (a piece the scene declared without support is not one).
-  /// They are held where they were and taken out of the system: zero residual, a diagonal
-  /// tangent; to the rest of the model a held particle is a fixed obstacle, its contact
-  /// pairs with free particles stay active (docs/theory/failure.md, "Fragments").
-  Index fragment_particles() const { return m_fragment_particles; }
-  Index fragments() const { return m_fragments; }
-  /// Contact pairs between a held fragment particle and a free one that carry a force at
-  /// the last evaluation, and the magnitude of the net force they put on the held fragments
-  /// [N]: the reaction of the support that holds them, which nothing in the model balances.
-  Index fragment_contacts() const;
-  double fragment_reaction() const { return m_fragment_reaction; }
+  /// Fragments (FragmentTracker): particles cut loose from the prescribed displacements by
+  /// breaking, held where they were (docs/theory/failure.md, "Fragments").
+  Index fragment_particles() const { return m_fragments.particles(); }
+  Index fragments() const { return m_fragments.count(); }
+  /// FragmentTracker::contacts() and reaction() at the last evaluation.
+  Index fragment_contacts() const { return m_fragments.contacts(m_contact.get()); }
+  double fragment_reaction() const { return m_fragments.reaction(); }
   /// The energy ledger up to the last accepted state.
-  const EnergyLedger& energy_ledger() const { return m_ledger; }
+  const EnergyLedger& energy_ledger() const { return m_balance.ledger(); }
   /// The contact candidates and their state, or null when the scene has no contact.
   const ContactSystem* contact() const { return m_contact.get(); }
   /// The bonds' failure state, or null when the scene models no failure.
   const BondFailure* failure() const { return m_failure.get(); }
   /// With failure: the damage of every particle at the last committed state.
-  const VectorXd& damage() const { return m_damage_accepted; }
+  const VectorXd& damage() const { return m_damage.accepted(); }
   /// The families' influence factors (docs/theory/osb.md, section 8).
   const SurfaceCorrection& surface_correction() const { return m_correction; }
   /// Wall time spent building the contact candidates, and evaluating the pairs (summed over
   /// every evaluate so far) [s].
-  double contact_setup_seconds() const { return m_contact_setup_seconds; }
-  double contact_seconds() const { return m_contact_seconds; }
+  double contact_setup_seconds() const { return m_timings.contact_setup; }
+  double contact_seconds() const { return m_timings.contact; }
   const TangentPattern& pattern() const { return m_pattern; }
   /// Bytes held by the problem's state, its pattern and its physics objects (not the model,
   /// not the matrices handed out).
@@ -262,14 +251,12 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// A rank of a distributed run: rows a part and a sum over the ranks given.
   bool distributed() const { return !m_options.rows.all() && m_options.sum_over_ranks != nullptr; }
   /// The model holds some families only (Model::family_held): every evaluation computes the
-  /// families m_family_needed names and shares the forces (ProblemOptions::share_forces).
+  /// families m_share names and shares the forces (ProblemOptions::share_forces).
   bool partitioned() const { return !m_model.holds_every_family(); }
-  /// The families and forces evaluated are those of m_family_needed and m_force_needed.
+  /// The families and forces evaluated are those m_share names.
   bool restricted() const { return m_own_rows_only || partitioned(); }
   /// The model is a rank's part (ProblemOptions::owned_unknowns).
-  bool part() const { return m_options.owned_unknowns >= 0; }
-  /// On a part, a sum of the ranks' values (collective); the value itself otherwise.
-  double over_ranks(double value) const { return part() ? m_options.sum_over_ranks(value) : value; }
+  bool part() const { return on_part(m_options); }
   /// m_u from the state x: on a part, x's ghost tail imported first (ProblemOptions::import_ghosts).
   void expand_state(const VectorXd& x);
   /// The families' forces (and with want_tangent their Hessians' factors) at m_u into
@@ -277,80 +264,48 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void bond_forces(bool want_tangent);
   /// Partitioned: refuses a problem that would read a family the model does not hold.
   void check_partition() const;
-  /// m_force_needed, m_family_needed and m_other_unknowns, once.
-  void build_own_masks();
   void gather_tangent(SparseMatrix& K) const;
   /// The particles holding a bond of `pairs` (their families change), into m_changed_families.
   void collect_changed_families(const std::vector<std::pair<Index, Index>>& pairs);
   /// Throws ModelLimit (after undoing the round) when a pair of the round has an end among a
   /// mirror condition's ghosts or their images: the reflection cannot follow broken bonds.
   void check_mirror_zone(const std::vector<std::pair<Index, Index>>& broken);
-  /// The increment of the ledger from the last accepted state to x, whose evaluate() was the
-  /// last (may evaluate the bonds at the midpoint, then x again). Returns why the energy
-  /// balance fails, or "" (failures are reported only when `check`).
+  /// The increment of the energy ledger from the last accepted state to x, whose evaluate()
+  /// was the last (may evaluate the bonds at the midpoint, then x again). Returns why the
+  /// energy balance fails, or "" (failures are reported only when `check`).
   std::string measure_increment(const VectorXd& x, bool check);
-  /// The fragments at the current bonds (after breaking, undoing or restoring).
-  void update_fragments();
-
-  /// Fragment unknowns of K: rows and columns zero, the diagonal the largest of K's.
-  void decouple_fragments(SparseMatrix& K) const;
-  /// Matrix-free: the largest diagonal entry of K over the unknowns (the fragments' diagonal),
-  /// from the factored Hessians (mirror ghosts' folds not included: it only sets a scale).
-  double tangent_diagonal_max() const;
-  /// matrix_free: turns m_kbond into the pairs' stiffnesses (V_i k_b + V_j k_r on both bonds),
-  /// so that apply_tangent() reads row i's bond terms from family i alone.
-  void pair_stiffness();
-  /// Why damage decreased at the state of the bonds' weights, or "".
-  std::string check_damage();
+  /// The families' factored Hessians of the last evaluate() with a tangent.
+  FamilyHessians hessians() { return {m_s, m_kbond, m_s_self, m_beta_volume}; }
 
   const Model& m_model;
   ProblemOptions m_options;
-  double m_contact_setup_seconds = 0.0;      ///< declared first: m_contact's initialiser sets it
+  Timings m_timings;                         ///< declared first: m_contact's initialiser sets it
   std::unique_ptr<ContactSystem> m_contact;  ///< null without contact: no candidates, no cost
   std::unique_ptr<BondFailure> m_failure;    ///< null without failure: no checks, no state
-  /// With partitioned bonds and failure: this rank's part of the bond graph (null otherwise).
-  std::unique_ptr<GraphParts> m_graph_parts;
   TangentPattern m_pattern;
   std::unique_ptr<BondPreconditioner> m_preconditioner;  ///< built on first request
   std::vector<std::unique_ptr<FamilyKernel>> m_kernels;  ///< per body: its material's kernel
+  bool m_small_kinematics;                               ///< every body linearised: the bond tangent is constant
   /// The kernel's bond weights (omega_b w_b, 0 once broken) and weighted volumes.
   SurfaceCorrection m_correction;
+  /// Distributed: what this rank computes with own rows only (built at construction).
+  RankShare m_share;
+  EnergyBalance m_balance;
+  DamageHistory m_damage;
+  FragmentTracker m_fragments;
+  TangentAction m_action;  ///< matrix_free: the product's schedule and what it keeps
   /// Particles whose families changed in the last round of breaking (scratch).
   std::vector<Index> m_changed_families;
   std::vector<char> m_mirror_zone;  ///< per particle, with failure and mirror conditions: ghost or image
-  bool m_small_kinematics = false;   ///< every body linearised: the bond tangent is constant
-  double m_contact_seconds = 0.0;
   double m_lambda = 0.0;
   double m_committed_lambda = 0.0;  ///< load factor of the last commit()
-
-  // The last accepted state for the energy ledger: full displacement, bond forces and
-  // contact forces (2N each), and the increment measured by the last check (pending until
-  // commit()).
-  EnergyLedger m_ledger, m_pending_ledger;
-  bool m_pending = false;
-  bool m_bonds_changed = false;  ///< bonds broke since the last accepted state
-  double m_energy_unit = 0.0;    ///< sum of V_i E_i [J]: the energy scale of round-off
-  VectorXd m_u_accepted, m_fbond_accepted, m_fcontact_accepted;
-  VectorXd m_u_next, m_fbond_next, m_fcontact_next, m_scratch;
-  VectorXd m_damage_accepted, m_damage_now;  ///< per particle, with failure
-  // Fragments (with failure): per particle, pieces without support before any bond broke,
-  // the fragments now, scratch; the fragments' unknowns.
-  std::vector<char> m_initially_unsupported, m_fragment, m_unsupported;
-  std::vector<Index> m_component, m_fragment_unknowns, m_fragment_components;
-  std::vector<char> m_fragment_unknown;  ///< per unknown, with failure: 1 for a fragment's
-  Index m_fragment_particles = 0, m_fragments = 0;
-  double m_fragment_reaction = 0.0;
-
-  // Own rows only (set_own_rows_only()): per particle, whether this rank computes its force
-  // and its family; the unknowns of other ranks (zero in the residual).
-  bool m_own_rows_only = false;
-  std::vector<char> m_force_needed, m_family_needed;
-  std::vector<Index> m_other_unknowns;
+  bool m_own_rows_only = false;     ///< set_own_rows_only()
 
   // State of the last evaluate.
   VectorXd m_u, m_force;
   VectorXd m_x_ghosts;  ///< on a part: the state with its ghost tail imported (expand_state)
   VectorXd m_velocity;  ///< full pseudo-velocity (velocity-sign friction only)
+  VectorXd m_scratch;   ///< the residual of the evaluations the ledger makes
   double m_force_scale = 0.0, m_energy = 0.0;
   std::vector<Vec2> m_eta;                    ///< per bond, with failure: for its criterion
   std::vector<Vec2> m_eta_scratch;            ///< per thread: one family's eta
@@ -358,20 +313,10 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   std::vector<Vec2> m_direction, m_s;         ///< per bond
   std::vector<double> m_t;                    ///< per bond
   /// per bond: the family's bond stiffness k_b; with matrix_free, after an evaluate() with a
-  /// tangent, the pair's V_i k_b + V_j k_r instead (pair_stiffness(), the same for b and r)
+  /// tangent, the pair's V_i k_b + V_j k_r instead (TangentAction::prepare(), the same for b and r)
   std::vector<Sym2> m_kbond;
   std::vector<Vec2> m_s_self;                 ///< per particle: -sum_b s_b
   std::vector<double> m_beta_volume;          ///< per particle: beta_i V_i
-  // Matrix-free products: scratch (allocated once) and the fragments' diagonal.
-  VectorXd m_v_free, m_v_full, m_y_full;
-  /// matrix_free: apply_tangent()'s schedule, chunks of m_chunk consecutive families by colour
-  /// (chunks of one colour write disjoint rows).
-  Index m_chunk = 0;
-  std::vector<std::vector<Index>> m_colours;
-  /// The contact pairs' Jacobians of the last evaluate() with a tangent: a residual-only
-  /// evaluate() recomputes the pairs without them, and the product must stay the tangent's.
-  std::vector<Mat2> m_pair_jacobian;
-  double m_fragment_diagonal = 0.0;
 };
 
 }  // namespace peristat

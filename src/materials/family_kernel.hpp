@@ -45,6 +45,9 @@ class FamilyKernel {
                                 bool want_tangent) const = 0;
   /// True when the tangent does not depend on the displacement (linearised kinematics).
   virtual bool constant_tangent() const = 0;
+  /// The material's stiffness scale [Pa] (Young's modulus): a family's volume times it is the
+  /// energy scale of its round-off (the energy balance's tolerance, assembly/energy_balance.hpp).
+  virtual double modulus() const = 0;
 };
 
 /// The kernel of a body's material (the registry: today every material is plane-stress OSB).

@@ -48,16 +48,19 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
 /// The OSB model behind the FamilyKernel seam (materials/family_kernel.hpp).
 class OsbKernel final : public FamilyKernel {
  public:
-  explicit OsbKernel(const Material& material) : m_constants(OsbConstants::from(material)) {}
+  explicit OsbKernel(const Material& material)
+      : m_constants(OsbConstants::from(material)), m_modulus(material.E) {}
   FamilyResult evaluate(double m, std::span<const Vec2> xi, std::span<const double> weight,
                         std::span<const Vec2> eta, const FamilyOutputs& out,
                         bool want_tangent) const override {
     return osb_family(m_constants, m, xi, weight, eta, out, want_tangent);
   }
   bool constant_tangent() const override { return m_constants.kinematics == Kinematics::small; }
+  double modulus() const override { return m_modulus; }
 
  private:
   OsbConstants m_constants;
+  double m_modulus;  ///< E
 };
 
 }  // namespace peristat

@@ -1,0 +1,113 @@
+#include "assembly/fragment_tracker.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <span>
+
+#include "assembly/quasi_static.hpp"
+
+namespace peristat {
+
+FragmentTracker::FragmentTracker(const Model& model, const BondFailure* failure, const ProblemOptions& options)
+    : m_model(model), m_failure(failure), m_options(options) {
+  if (!m_failure) return;
+  if (m_failure->partitioned())
+    m_graph_parts = std::make_unique<GraphParts>(
+        GraphParts{m_failure->ranks().proposes, m_options.gather_over_ranks, m_failure->ranks().global_id,
+                   m_failure->part() ? std::span<const int>(m_options.rows.owner) : std::span<const int>{},
+                   m_options.share_particle_values});
+  find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component, m_graph_parts.get());
+  m_fragment.assign(model.particles.size(), 0);
+}
+
+void FragmentTracker::update(ContactSystem* contact) {
+  if (!m_failure) return;
+  find_unsupported(m_model, m_failure->weights(), m_unsupported, m_component, m_graph_parts.get());
+  const Index n = m_model.particles.size();
+  const std::vector<Index>& free = m_model.constraints.free_index;
+  const bool part = on_part(m_options);
+  m_fragment_unknowns.clear();
+  m_fragment_unknown.assign(static_cast<std::size_t>(m_model.constraints.n_free), 0);
+  m_fragment_components.clear();
+  m_fragment_particles = 0;
+  std::vector<Index> roots;
+  for (Index i = 0; i < n; ++i) {
+    m_fragment[i] = m_unsupported[i] && !m_initially_unsupported[i];
+    if (!m_fragment[i]) continue;
+    if (!part || m_options.rows.counts(i)) {  // on a part, its own particles (summed below)
+      ++m_fragment_particles;
+      roots.push_back(m_component[i]);
+    }
+    for (int d = 0; d < 2; ++d) {
+      m_fragment_components.push_back(2 * i + d);
+      if (free[2 * i + d] >= 0) {
+        m_fragment_unknowns.push_back(free[2 * i + d]);
+        m_fragment_unknown[free[2 * i + d]] = 1;
+      }
+    }
+  }
+  std::sort(roots.begin(), roots.end());
+  roots.erase(std::unique(roots.begin(), roots.end()), roots.end());
+  if (part) {  // the components by global id: every rank's own particles' components, once
+    const std::vector<double> all =
+        m_options.gather_over_ranks(std::vector<double>(roots.begin(), roots.end()));
+    std::vector<double> every = all;
+    std::sort(every.begin(), every.end());
+    m_fragments = static_cast<Index>(std::unique(every.begin(), every.end()) - every.begin());
+    m_fragment_particles =
+        static_cast<Index>(std::llround(over_ranks(m_options, static_cast<double>(m_fragment_particles))));
+  } else {
+    m_fragments = static_cast<Index>(roots.size());
+  }
+  if (contact) contact->set_excluded(m_fragment_particles > 0 ? m_fragment : std::vector<char>{});
+}
+
+void FragmentTracker::hold(VectorXd& force) {
+  const bool part = on_part(m_options);
+  Vec2 reaction = Vec2::Zero();  // bonds inside a fragment cancel: what remains is contact
+  for (const Index c : m_fragment_components) {
+    if (!part || m_options.rows.counts(c / 2)) reaction[c % 2] += force[c];
+    force[c] = 0.0;
+  }
+  // On a part: the sum over the ranks' own particles (collective: every rank knows that
+  // fragments exist).
+  if (part && m_fragment_particles > 0) m_options.sum_in_rank_order(reaction.data(), 2);
+  m_fragment_reaction = reaction.norm();
+}
+
+Index FragmentTracker::contacts(const ContactSystem* contact) const {
+  if (!contact || m_fragment_particles == 0) return 0;
+  Index n = 0;
+  for (std::size_t c = 0; c < m_fragment_components.size(); c += 2) {
+    const Index i = m_fragment_components[c] / 2;
+    if (on_part(m_options) && !m_options.rows.counts(i)) continue;  // a part: its own particles, summed over the ranks
+    for (auto* e = contact->incident_begin(i); e != contact->incident_end(i); ++e)
+      if (!m_fragment[e->other] && contact->result(e->pair).status != PairStatus::open) ++n;
+  }
+  return static_cast<Index>(std::llround(over_ranks(m_options, static_cast<double>(n))));
+}
+
+void FragmentTracker::decouple(SparseMatrix& K) const {
+  if (m_fragment_unknowns.empty()) return;
+  // A rank's K holds its own rows only: the largest diagonal is the ranks' (the same number
+  // on every rank, as in one process).
+  double d = K.diagonal().cwiseAbs().maxCoeff();
+  if (m_options.max_over_ranks) d = m_options.max_over_ranks(d);
+  // The fragments' rows and columns zero, their diagonal d. Every stored entry is visited: a
+  // rank's K holds row f only in the columns of f's couplings, which column f (holding the
+  // rank's rows only) does not list.
+  const std::vector<char>& fragment = m_fragment_unknown;
+#pragma omp parallel for schedule(static)
+  for (Index col = 0; col < static_cast<Index>(K.outerSize()); ++col)
+    for (SparseMatrix::InnerIterator it(K, col); it; ++it)
+      if (fragment[col] || fragment[it.row()]) it.valueRef() = it.row() == col ? d : 0.0;
+}
+
+std::size_t FragmentTracker::memory_bytes() const {
+  return m_initially_unsupported.capacity() + m_fragment.capacity() + m_unsupported.capacity() +
+         m_fragment_unknown.capacity() +
+         (m_component.capacity() + m_fragment_unknowns.capacity() + m_fragment_components.capacity()) *
+             sizeof(Index);
+}
+
+}  // namespace peristat

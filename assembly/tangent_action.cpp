@@ -1,0 +1,249 @@
+#include "assembly/tangent_action.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace peristat {
+
+// Family i writes rows i and its neighbours, whose lattice points lie within the stencil's
+// reach of i's (checked here), so two chunks whose lattice boxes are more than two reaches
+// apart along x or y write disjoint rows. Greedy colouring in chunk order.
+std::vector<std::vector<Index>> chunk_colours(const Model& model, Index chunk) {
+  const Particles& part = model.particles;
+  const Bonds& bonds = model.bonds;
+  const int reach = model.stencil.reach;
+  const Index n = part.size();
+  for (Index i = 0; i < n; ++i)
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+      for (int d = 0; d < 2; ++d)
+        if (std::abs(part.lattice[bonds.neighbour[b]][d] - part.lattice[i][d]) > reach)
+          throw std::logic_error("chunk_colours: a bond longer than the stencil's reach");
+  const Index chunks = (n + chunk - 1) / chunk;
+  struct Box {
+    std::array<int, 2> lo{std::numeric_limits<int>::max(), std::numeric_limits<int>::max()};
+    std::array<int, 2> hi{std::numeric_limits<int>::min(), std::numeric_limits<int>::min()};
+  };
+  std::vector<Box> box(static_cast<std::size_t>(chunks));
+  for (Index i = 0; i < n; ++i) {
+    Box& x = box[static_cast<std::size_t>(i / chunk)];
+    for (int d = 0; d < 2; ++d) {
+      x.lo[d] = std::min(x.lo[d], part.lattice[i][d]);
+      x.hi[d] = std::max(x.hi[d], part.lattice[i][d]);
+    }
+  }
+  const auto apart = [&](const Box& a, const Box& b) {
+    for (int d = 0; d < 2; ++d)
+      if (a.lo[d] - b.hi[d] > 2 * reach || b.lo[d] - a.hi[d] > 2 * reach) return true;
+    return false;
+  };
+  std::vector<int> colour(static_cast<std::size_t>(chunks), -1);
+  std::vector<std::vector<Index>> colours;
+  std::vector<char> taken;
+  for (Index c = 0; c < chunks; ++c) {
+    taken.assign(colours.size() + 1, 0);
+    for (Index o = 0; o < c; ++o)
+      if (!apart(box[static_cast<std::size_t>(c)], box[static_cast<std::size_t>(o)]))
+        taken[static_cast<std::size_t>(colour[static_cast<std::size_t>(o)])] = 1;
+    const auto k = static_cast<std::size_t>(std::find(taken.begin(), taken.end(), 0) - taken.begin());
+    if (k == colours.size()) colours.emplace_back();
+    colours[k].push_back(c);
+    colour[static_cast<std::size_t>(c)] = static_cast<int>(k);
+  }
+  return colours;
+}
+std::vector<Index> action_reads(const Model& model, const OwnedRows& rows, const ContactSystem* contact) {
+  // The particles whose displacement the own rows' action reads: each own particle, its
+  // neighbours and theirs (the dilatation rates of its neighbours' families), and its contact
+  // partners; a mirror ghost among them reads its source.
+  const Bonds& bonds = model.bonds;
+  const Constraints& cons = model.constraints;
+  const Index n = model.particles.size();
+  std::vector<char> read(static_cast<std::size_t>(n), 0), near(read);
+  for (Index q = 0; q < n; ++q) {
+    if (!rows.contains(q)) continue;
+    near[static_cast<std::size_t>(q)] = 1;
+    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b)
+      near[static_cast<std::size_t>(bonds.neighbour[b])] = 1;
+    if (contact)
+      for (auto e = contact->incident_begin(q); e != contact->incident_end(q); ++e)
+        read[static_cast<std::size_t>(e->other)] = 1;
+  }
+  for (Index i = 0; i < n; ++i) {
+    if (!near[static_cast<std::size_t>(i)]) continue;
+    read[static_cast<std::size_t>(i)] = 1;
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+      read[static_cast<std::size_t>(bonds.neighbour[b])] = 1;
+  }
+  // (A plane mirror puts a read ghost's source within the same reach, by symmetry; the rule
+  // holds for any image.)
+  return read_unknowns(cons, read);
+}
+
+TangentAction::TangentAction(const Model& model, bool matrix_free) : m_model(model) {
+  // The chunks: at least 1024 particles, about 128 of them, a function of the particle count
+  // alone (the sums' order must not depend on the threads or ranks).
+  if (matrix_free) m_colours = chunk_colours(model, m_chunk = std::max<Index>(1024, model.particles.size() / 128));
+}
+
+void TangentAction::set_chunk(Index chunk) {
+  if (m_chunk == 0) throw std::logic_error("set_action_chunk: the problem is not matrix-free");
+  m_colours = chunk_colours(m_model, m_chunk = std::max<Index>(1, chunk));
+}
+
+void TangentAction::prepare(const FamilyHessians& h, const ContactSystem* contact, bool fragments) {
+  pair_stiffness(h);
+  if (contact) {
+    m_pair_jacobian.resize(static_cast<std::size_t>(contact->size()));
+    for (Index k = 0; k < contact->size(); ++k) m_pair_jacobian[k] = contact->jacobian(k);
+  }
+  m_fragment_diagonal = fragments ? tangent_diagonal_max(h, contact) : 0.0;
+}
+
+void TangentAction::apply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows,
+                          const RankShare* share, const std::vector<Index>& fragment_unknowns, const VectorXd& v,
+                          VectorXd& y) {
+  // K v = gather(H scatter(v)): H the Hessian over every component, its family blocks
+  // V_i sum_b B_b^T k_b B_b + beta_i V_i g_i g_i^T (g_i . w = s_self_i . w_i + sum_b s_b . w_j),
+  // plus J_e (w_q - w_other) for the contact pairs; scatter() puts sign * v on mirror ghosts
+  // (the assembled path's column folds), gather() keeps the unknowns' rows.
+  const Index n = m_model.particles.size();
+  if (m_colours.empty() && n > 0)
+    throw std::logic_error("apply_tangent: the problem was not built matrix-free");
+  m_v_free = v;
+  for (const Index f : fragment_unknowns) m_v_free[f] = 0.0;  // decoupled: no column
+  m_model.constraints.scatter(m_v_free, m_v_full);
+  m_y_full.setZero(2 * n);
+  // Distributed: this rank's rows only, from the families they read (as the own-rows residual).
+  multiply(h, contact, rows, share);
+  if (share)
+    for (Index q = 0; q < n; ++q)
+      if (!rows.contains(q)) m_y_full[2 * q] = m_y_full[2 * q + 1] = 0.0;
+  m_model.constraints.gather(m_y_full, y);
+  for (const Index f : fragment_unknowns) y[f] = m_fragment_diagonal * v[f];
+  if (share)
+    for (const Index f : share->other_unknowns()) y[f] = 0.0;
+}
+
+void TangentAction::multiply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows,
+                             const RankShare* share) {
+  const Index n = m_model.particles.size();
+  const bool own = share != nullptr;
+  // Raw pointers: the writes into y would otherwise make the compiler reload every vector's
+  // data pointer after each bond.
+  const Index* __restrict start = m_model.bonds.start.data();
+  const Index* __restrict nbr = m_model.bonds.neighbour.data();
+  const auto* __restrict s = reinterpret_cast<const double*>(h.s.data());  // Vec2: two packed doubles
+  const auto* __restrict k = reinterpret_cast<const double*>(h.kbond.data());
+  const auto* __restrict s_self = reinterpret_cast<const double*>(h.s_self.data());
+  const double* __restrict beta_volume = h.beta_volume.data();
+  const double* __restrict w = m_v_full.data();
+  double* __restrict yf = m_y_full.data();
+  static_assert(sizeof(Vec2) == 2 * sizeof(double) && sizeof(Sym2) == 3 * sizeof(double));
+  // One pass over the families, each family's bond data read once from memory and used while
+  // it is in cache: the dilatation rate G_i = beta_i V_i g_i . w, then G_i s_self_i into row i
+  // and G_i s_b into row j for each bond b = i -> j (the column form of beta_i V_i g_i g_i^T),
+  // and row i's pair stiffnesses k_b (w_i - w_j) (pair_stiffness()) and contact pairs.
+  const auto family = [&](Index i) {
+    const double wx = w[2 * i], wy = w[2 * i + 1];
+    const Index b0 = start[i], b1 = start[i + 1];
+    const bool needed = !own || share->family_needed(i);
+    const bool row = !own || rows.contains(i);  // else another rank's row, or one of no unknown
+    double G = 0.0;
+    if (needed) {
+      double g = s_self[2 * i] * wx + s_self[2 * i + 1] * wy;
+      for (Index b = b0; b < b1; ++b) g += s[2 * b] * w[2 * nbr[b]] + s[2 * b + 1] * w[2 * nbr[b] + 1];
+      G = beta_volume[i] * g;
+    }
+    double yx = G * s_self[2 * i], yy = G * s_self[2 * i + 1];
+    if (row) {
+      for (Index b = b0; b < b1; ++b) {
+        const Index j = nbr[b];
+        yf[2 * j] += G * s[2 * b];
+        yf[2 * j + 1] += G * s[2 * b + 1];
+        const double dx = wx - w[2 * j], dy = wy - w[2 * j + 1];
+        yx += k[3 * b] * dx + k[3 * b + 1] * dy;
+        yy += k[3 * b + 1] * dx + k[3 * b + 2] * dy;
+      }
+      if (contact)
+        for (auto e = contact->incident_begin(i); e != contact->incident_end(i); ++e)
+          if (e->pair < static_cast<Index>(m_pair_jacobian.size())) {  // pairs added since: none yet
+            const Vec2 f = m_pair_jacobian[e->pair] * Vec2(wx - w[2 * e->other], wy - w[2 * e->other + 1]);
+            yx += f.x();
+            yy += f.y();
+          }
+    } else if (needed) {
+      for (Index b = b0; b < b1; ++b) {
+        yf[2 * nbr[b]] += G * s[2 * b];
+        yf[2 * nbr[b] + 1] += G * s[2 * b + 1];
+      }
+    }
+    yf[2 * i] += yx;
+    yf[2 * i + 1] += yy;
+  };
+  // Chunks of a colour write disjoint rows (chunk_colours()): they run in parallel, colour by
+  // colour. Each row sums its terms in an order fixed by the particles alone.
+#pragma omp parallel
+  for (const std::vector<Index>& colour : m_colours) {
+    const auto count = static_cast<Index>(colour.size());
+#pragma omp for schedule(dynamic, 1)
+    for (Index c = 0; c < count; ++c) {
+      const Index begin = colour[static_cast<std::size_t>(c)] * m_chunk, end = std::min(begin + m_chunk, n);
+      for (Index i = begin; i < end; ++i) family(i);
+    }
+  }
+}
+
+void TangentAction::pair_stiffness(const FamilyHessians& h) const {
+  const Bonds& bonds = m_model.bonds;
+  const Particles& part = m_model.particles;
+  const Index n = part.size();
+  // Each pair {b, r} once, by the family of its lower bond index: no two iterations write
+  // the same bond.
+#pragma omp parallel for schedule(static)
+  for (Index q = 0; q < n; ++q)
+    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
+      const Index r = bonds.reverse[b];
+      if (r < b) continue;
+      const double Vq = part.volume[q], Vj = part.volume[bonds.neighbour[b]];
+      const Sym2 &kb = h.kbond[b], &kr = h.kbond[r];
+      const Sym2 k{Vq * kb[0] + Vj * kr[0], Vq * kb[1] + Vj * kr[1], Vq * kb[2] + Vj * kr[2]};
+      h.kbond[b] = h.kbond[r] = k;
+    }
+}
+
+double TangentAction::tangent_diagonal_max(const FamilyHessians& h, const ContactSystem* contact) const {
+  const Bonds& bonds = m_model.bonds;
+  const Particles& part = m_model.particles;
+  const std::vector<Index>& free = m_model.constraints.free_index;
+  double largest = 0.0;
+  for (Index q = 0; q < part.size(); ++q) {
+    Vec2 d(h.beta_volume[q] * h.s_self[q].x() * h.s_self[q].x(), h.beta_volume[q] * h.s_self[q].y() * h.s_self[q].y());
+    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {  // pair_stiffness()'s data
+      const Index r = bonds.reverse[b];  // -1: the neighbour's family is another rank's
+      const Vec2 sr = r >= 0 ? h.s[r] : Vec2::Zero();
+      const double bVj = h.beta_volume[bonds.neighbour[b]];
+      d.x() += h.kbond[b][0] + bVj * sr.x() * sr.x();
+      d.y() += h.kbond[b][2] + bVj * sr.y() * sr.y();
+    }
+    if (contact)
+      for (auto e = contact->incident_begin(q); e != contact->incident_end(q); ++e) {
+        d.x() += m_pair_jacobian[e->pair](0, 0);
+        d.y() += m_pair_jacobian[e->pair](1, 1);
+      }
+    for (int c = 0; c < 2; ++c)
+      if (free[2 * q + c] >= 0) largest = std::max(largest, std::abs(d[c]));
+  }
+  return largest;
+}
+
+std::size_t TangentAction::memory_bytes() const {
+  std::size_t colours = 0;
+  for (const std::vector<Index>& c : m_colours) colours += c.capacity() * sizeof(Index);
+  return colours + m_pair_jacobian.capacity() * sizeof(Mat2) +
+         static_cast<std::size_t>(m_v_free.size() + m_v_full.size() + m_y_full.size()) * sizeof(double);
+}
+
+}  // namespace peristat

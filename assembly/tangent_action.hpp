@@ -1,0 +1,84 @@
+// The matrix-free action of the tangent (solver.linear: matrix_free): y = K v from the
+// families' factored Hessians and the contact pairs' Jacobians without forming K
+// (docs/theory/newton.md, "Matrix-free"; docs/theory/osb.md, "Assembly").
+#pragma once
+
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "assembly/bookkeeping.hpp"
+#include "assembly/pattern.hpp"
+#include "contact/contact.hpp"
+#include "core/types.hpp"
+#include "discretisation/model.hpp"
+#include "materials/family_kernel.hpp"
+
+namespace peristat {
+
+/// apply_tangent()'s schedule: chunks of `chunk` consecutive particles (chunk c holds
+/// c * chunk ..), grouped by colour so that the families of two chunks of one colour never
+/// write the same row of the product. Depends on the particles alone: the same on every rank
+/// and for any number of threads. Throws std::logic_error if a bond is longer than the stencil.
+std::vector<std::vector<Index>> chunk_colours(const Model& model, Index chunk);
+
+/// Distributed: the unknowns (ascending) whose entries of v the action of this rank's rows
+/// reads: the ghosts of its rows, two horizons deep, with contact partners and mirror
+/// sources. Every unknown when `rows` is all().
+std::vector<Index> action_reads(const Model& model, const OwnedRows& rows, const ContactSystem* contact);
+
+/// The families' factored Hessians of the last evaluation with a tangent, as the assembler
+/// caches them (FamilyOutputs): per bond s_b and k_b, per particle s_self = -sum_b s_b and
+/// beta_i V_i.
+struct FamilyHessians {
+  std::span<const Vec2> s;
+  std::span<Sym2> kbond;
+  std::span<const Vec2> s_self;
+  std::span<const double> beta_volume;
+};
+
+/// The product's schedule and scratch, and what it keeps of the last evaluation with a tangent
+/// (the pairs' Jacobians, the fragments' diagonal). Empty unless built matrix-free.
+class TangentAction {
+ public:
+  /// matrix_free false: no schedule (apply() throws).
+  TangentAction(const Model& model, bool matrix_free);
+
+  /// Tests: chunks of consecutive families (default: 1024, or a 128th of the particles when
+  /// that is more).
+  void set_chunk(Index chunk);
+  /// After an evaluation with a tangent: turns h.kbond into the pairs' stiffnesses
+  /// (pair_stiffness()), keeps the contact pairs' Jacobians (a residual-only evaluation
+  /// recomputes the pairs without them, and the product must stay the tangent's) and, with
+  /// fragments, the largest diagonal entry of K over the unknowns (their diagonal).
+  void prepare(const FamilyHessians& h, const ContactSystem* contact, bool fragments);
+  /// y = K v with K the tangent prepare() saw; the fragments' unknowns decoupled (zero row
+  /// and column, the diagonal of prepare()). With `share` (distributed: rows a part), only
+  /// this rank's rows of y, bit for bit the whole product's; the other rows are zero.
+  void apply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows, const RankShare* share,
+             const std::vector<Index>& fragment_unknowns, const VectorXd& v, VectorXd& y);
+  std::size_t memory_bytes() const;
+
+ private:
+  /// m_y_full += H m_v_full over the families and contact pairs (with `share`, those of this
+  /// rank's rows), colour by colour.
+  void multiply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows, const RankShare* share);
+  /// Turns h.kbond into the pairs' stiffnesses (V_i k_b + V_j k_r on both bonds), so that
+  /// apply() reads row i's bond terms from family i alone.
+  void pair_stiffness(const FamilyHessians& h) const;
+  /// The largest diagonal entry of K over the unknowns (the fragments' diagonal), from the
+  /// factored Hessians (mirror ghosts' folds not included: it only sets a scale).
+  double tangent_diagonal_max(const FamilyHessians& h, const ContactSystem* contact) const;
+
+  const Model& m_model;
+  /// apply()'s schedule, chunks of m_chunk consecutive families by colour (chunks of one
+  /// colour write disjoint rows).
+  Index m_chunk = 0;
+  std::vector<std::vector<Index>> m_colours;
+  /// The contact pairs' Jacobians of the last evaluation with a tangent.
+  std::vector<Mat2> m_pair_jacobian;
+  double m_fragment_diagonal = 0.0;
+  VectorXd m_v_free, m_v_full, m_y_full;  ///< scratch (allocated once)
+};
+
+}  // namespace peristat
