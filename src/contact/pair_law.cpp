@@ -67,90 +67,106 @@ void close_if_touching(const ContactPair& pair, const Vec2& X, const Vec2& du, d
   out.status = stick ? PairStatus::stick : PairStatus::slip;  // frictionless closed pairs slide freely
 }
 
-PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, const PairHistory& history,
-                        const ContactLaw& law, bool want_jacobian) {
-  PairResult out;
-  const Vec2 Y = X + du;
-  const Vec2& n = pair.normal;
-  const double a = pair.gap0, C = pair.stiffness;
+namespace {
 
-  // Normal force F >= 0 and its gradient dF/dY.
+/// The normal force F >= 0 of a pair, its gradient dF/dY, its direction on j and its
+/// Jacobian dg/dY; F = 0 when the pair carries none.
+struct NormalForce {
   double F = 0.0;
   Vec2 dF = Vec2::Zero();
-  Vec2 along = n;  // direction of the normal force on j
+  Vec2 along = Vec2::Zero();  ///< direction of the normal force on j
   Mat2 Jn = Mat2::Zero();
-  if (law.exact) {
-    // Augmented Lagrangian along n (section 8): F = phi(|t.Y|) max(0, lambda + C s), for a
-    // pair whose cells face each other. No distance gate: a pair that has crossed (n.Y < 0,
-    // s > 1) is pushed back harder.
-    if (a > law.window * (1.0 + kLatticeRoundOff)) return out;
-    const Vec2 t = pair.tangent();
-    const double yt = t.dot(Y), offset = std::abs(yt);
-    if (offset >= law.window) return out;
-    const double s = 1.0 - n.dot(Y) / a;
-    const double Ca = history.boost * C;  // the pair's augmentation stiffness
-    const double q = history.multiplier + Ca * s;
-    if (q <= 0.0) return out;
-    double phi = 1.0;
-    Vec2 dphi = Vec2::Zero();
-    if (law.gate > 0.0) {
-      const double width = law.gate * law.window, rho = (law.window - offset) / width;
-      if (rho < 1.0) {
-        phi = rho;
-        dphi = -(yt > 0.0 ? 1.0 : -1.0) / width * t;
-      }
-    }
-    F = phi * q;
-    dF = -(phi * Ca / a) * n + q * dphi;
-    if (want_jacobian) Jn = -n * dF.transpose();
-  } else if (law.normal == NormalLaw::paper) {
-    // Eq 16: stretch of the virtual bond along the interface normal, compression positive.
-    // The gate distance is |Y| while the particles have not passed each other (the paper's
-    // rule) and |t.Y| once they have (n.Y < 0), so that a crossed pair is pushed back, not
-    // released (section 2).
-    const double yn = n.dot(Y);
-    const bool has_crossed = yn < 0.0;
-    const double r = has_crossed ? std::abs(pair.tangent().dot(Y)) : Y.norm();
-    const double rc = law.radius;
-    if (r >= rc) return out;
-    const double s = 1.0 - yn / a;
-    if (s <= 0.0) return out;
-    // Switch-on ramp h(r): 0 at delta_c, 1 from (1 - gate) delta_c inwards.
-    double h = 1.0;
-    Vec2 dh = Vec2::Zero();
-    if (law.gate > 0.0) {
-      const double width = law.gate * rc, rho = (rc - r) / width;
-      if (rho < 1.0) {
-        h = rho;
-        if (has_crossed) {
-          const Vec2 t = pair.tangent();
-          dh = -(t.dot(Y) > 0.0 ? 1.0 : -1.0) / width * t;
-        } else {
-          dh = -Y / (r * width);
-        }
-      }
-    }
-    F = C * s * h;
-    dF = C * (-h / a * n + s * dh);
-    if (want_jacobian) Jn = -n * dF.transpose();
-  } else {
-    // Pair law: along the current pair direction, zero at delta_c.
-    const double r = Y.norm();
-    const double rc = law.radius;
-    if (r >= rc) return out;
-    if (r <= std::numeric_limits<double>::min()) return out;
-    const Vec2 e = Y / r;
-    F = C * (rc - r) / rc;
-    dF = -C / rc * e;
-    along = e;
-    if (want_jacobian) Jn = (C / rc) * e * e.transpose() - (F / r) * (Mat2::Identity() - e * e.transpose());
-  }
-  if (F <= 0.0) return out;
-  out.normal_force = F;
-  out.g = -F * along;
-  if (want_jacobian) out.J = Jn;
+};
 
-  // Coulomb friction along t by a return map on w - w_p (eq 14).
+NormalForce exact_normal(const ContactPair& pair, const Vec2& Y, const PairHistory& history, const ContactLaw& law,
+                         bool want_jacobian) {
+  // Augmented Lagrangian along n (section 8): F = phi(|t.Y|) max(0, lambda + C s), for a
+  // pair whose cells face each other. No distance gate: a pair that has crossed (n.Y < 0,
+  // s > 1) is pushed back harder.
+  NormalForce f;
+  const Vec2& n = pair.normal;
+  const double a = pair.gap0, C = pair.stiffness;
+  if (a > law.window * (1.0 + kLatticeRoundOff)) return f;
+  const Vec2 t = pair.tangent();
+  const double yt = t.dot(Y), offset = std::abs(yt);
+  if (offset >= law.window) return f;
+  const double s = 1.0 - n.dot(Y) / a;
+  const double Ca = history.boost * C;  // the pair's augmentation stiffness
+  const double q = history.multiplier + Ca * s;
+  if (q <= 0.0) return f;
+  double phi = 1.0;
+  Vec2 dphi = Vec2::Zero();
+  if (law.gate > 0.0) {
+    const double width = law.gate * law.window, rho = (law.window - offset) / width;
+    if (rho < 1.0) {
+      phi = rho;
+      dphi = -(yt > 0.0 ? 1.0 : -1.0) / width * t;
+    }
+  }
+  f.F = phi * q;
+  f.dF = -(phi * Ca / a) * n + q * dphi;
+  f.along = n;
+  if (want_jacobian) f.Jn = -n * f.dF.transpose();
+  return f;
+}
+
+NormalForce paper_normal(const ContactPair& pair, const Vec2& Y, const ContactLaw& law, bool want_jacobian) {
+  // Eq 16: stretch of the virtual bond along the interface normal, compression positive.
+  // The gate distance is |Y| while the particles have not passed each other (the paper's
+  // rule) and |t.Y| once they have (n.Y < 0), so that a crossed pair is pushed back, not
+  // released (section 2).
+  NormalForce f;
+  const Vec2& n = pair.normal;
+  const double a = pair.gap0, C = pair.stiffness;
+  const double yn = n.dot(Y);
+  const bool has_crossed = yn < 0.0;
+  const double r = has_crossed ? std::abs(pair.tangent().dot(Y)) : Y.norm();
+  const double rc = law.radius;
+  if (r >= rc) return f;
+  const double s = 1.0 - yn / a;
+  if (s <= 0.0) return f;
+  // Switch-on ramp h(r): 0 at delta_c, 1 from (1 - gate) delta_c inwards.
+  double h = 1.0;
+  Vec2 dh = Vec2::Zero();
+  if (law.gate > 0.0) {
+    const double width = law.gate * rc, rho = (rc - r) / width;
+    if (rho < 1.0) {
+      h = rho;
+      if (has_crossed) {
+        const Vec2 t = pair.tangent();
+        dh = -(t.dot(Y) > 0.0 ? 1.0 : -1.0) / width * t;
+      } else {
+        dh = -Y / (r * width);
+      }
+    }
+  }
+  f.F = C * s * h;
+  f.dF = C * (-h / a * n + s * dh);
+  f.along = n;
+  if (want_jacobian) f.Jn = -n * f.dF.transpose();
+  return f;
+}
+
+NormalForce pair_law_normal(const ContactPair& pair, const Vec2& Y, const ContactLaw& law, bool want_jacobian) {
+  // Pair law: along the current pair direction, zero at delta_c.
+  NormalForce f;
+  const double C = pair.stiffness;
+  const double r = Y.norm();
+  const double rc = law.radius;
+  if (r >= rc) return f;
+  if (r <= std::numeric_limits<double>::min()) return f;
+  const Vec2 e = Y / r;
+  f.F = C * (rc - r) / rc;
+  f.dF = -C / rc * e;
+  f.along = e;
+  if (want_jacobian) f.Jn = (C / rc) * e * e.transpose() - (f.F / r) * (Mat2::Identity() - e * e.transpose());
+  return f;
+}
+
+/// Coulomb friction along t of a pair carrying the normal force F with gradient dF: its
+/// status, tangential force and their share of g and J.
+void add_friction(const ContactPair& pair, const Vec2& du, double F, const Vec2& dF, const PairHistory& history,
+                  const ContactLaw& law, bool want_jacobian, PairResult& out) {
   out.status = PairStatus::slip;  // frictionless pairs slide freely
   if (law.friction > 0.0 && law.velocity_sign) {
     // Eq 13: f_c F_n opposing the relative tangential velocity; none while it is zero.
@@ -162,8 +178,9 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
     if (want_jacobian) out.J += (sign * law.friction) * t * dF.transpose();
     out.g += out.tangential * t;
   } else if (law.friction > 0.0) {
+    // A return map on w - w_p (eq 14).
     const Vec2 t = pair.tangent();
-    const double kt = law.tangential_factor * C / a;
+    const double kt = law.tangential_factor * pair.stiffness / pair.gap0;
     const double trial = kt * (t.dot(du) - history.slip);
     const double limit = law.friction * F;
     if (std::abs(trial) <= limit) {
@@ -177,6 +194,24 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
     }
     out.g += out.tangential * t;
   }
+}
+
+}  // namespace
+
+PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, const PairHistory& history,
+                        const ContactLaw& law, bool want_jacobian) {
+  PairResult out;
+  const Vec2 Y = X + du;
+  // Normal force F >= 0 and its gradient dF/dY.
+  const NormalForce f = law.exact                       ? exact_normal(pair, Y, history, law, want_jacobian)
+                        : law.normal == NormalLaw::paper ? paper_normal(pair, Y, law, want_jacobian)
+                                                         : pair_law_normal(pair, Y, law, want_jacobian);
+  if (f.F <= 0.0) return out;
+  out.normal_force = f.F;
+  out.g = -f.F * f.along;
+  if (want_jacobian) out.J = f.Jn;
+  // Coulomb friction along t by a return map on w - w_p (eq 14), or eq 13.
+  add_friction(pair, du, f.F, f.dF, history, law, want_jacobian, out);
   return out;
 }
 
