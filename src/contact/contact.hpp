@@ -1,94 +1,26 @@
 // Contact between particles that hold no bond: the faces of pre-cracks and declared body
-// interfaces (paper section 3, eqs 12-17; docs/theory/contact.md). A pair kernel computes the
-// normal force (paper law or a smooth pair law), Coulomb friction by a return map on the
-// tangential slip since the last converged step (eq 14), and the consistent Jacobian of
-// both. ContactSystem owns the candidate pairs, their committed slip and the state of the
-// last evaluation. Derivations: docs/theory/contact.md.
+// interfaces (paper section 3, eqs 12-17; docs/theory/contact.md). ContactSystem is the facade
+// the assembler uses: it evaluates every candidate pair with the pair law
+// (contact/pair_law.hpp), keeps the results of the last evaluation, the counts, signature and
+// checks, and holds the rooms it draws on: the candidate search (contact/candidate_search.hpp),
+// the pairs' state (slip, multipliers, boosts: contact/contact_state.hpp) and the part's
+// numbering (contact/contact_ids.hpp). Derivations: docs/theory/contact.md.
 #pragma once
 
-#include <array>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
-#include <functional>
 #include <vector>
 
+#include "contact/candidate_search.hpp"
+#include "contact/contact_ids.hpp"
+#include "contact/contact_state.hpp"
+#include "contact/pair_law.hpp"
 #include "core/options.hpp"
-#include "core/partition.hpp"
 #include "core/state_archive.hpp"
 #include "core/types.hpp"
 #include "discretisation/model.hpp"
 
 namespace peristat {
-
-/// State of a pair: open (no force), stick (tangential penalty) or slip (f_c F_n). Pairs of a
-/// frictionless scene are open or slip.
-enum class PairStatus : std::uint8_t { open = 0, stick = 1, slip = 2 };
-
-/// A candidate pair i < j, fixed for the run (small-sliding assumption: partners are found
-/// in the reference configuration, within one horizon).
-struct ContactPair {
-  Index i = 0, j = 0;
-  Vec2 normal = Vec2::Zero();  ///< unit interface normal, oriented so that normal . (X_j - X_i) > 0
-  double gap0 = 0.0;           ///< a = normal . (X_j - X_i) > 0, reference normal distance [m]
-  double stiffness = 0.0;      ///< C = 3 E_c V_i V_j / (delta^3 t_h) [N], force at unit stretch
-  /// The unit tangent t = (-n_y, n_x) of the friction law (eq 14).
-  Vec2 tangent() const { return {-normal.y(), normal.x()}; }
-};
-
-/// The pair law's parameters, shared by all pairs.
-struct ContactLaw {
-  NormalLaw normal = NormalLaw::paper;
-  double radius = 0.0;             ///< delta_c [m]
-  double gate = 0.0;               ///< switch-on ramp width as a fraction of delta_c
-  double friction = 0.0;           ///< f_c
-  double tangential_factor = 1.0;  ///< k_t = tangential_factor * C / a
-  /// The paper's eq 13: friction f_c F_n against the sign of the relative tangential
-  /// pseudo-velocity (ADR only) instead of the return map.
-  bool velocity_sign = false;
-  /// Exact enforcement (augmented Lagrangian, docs/theory/contact.md section 8): the normal
-  /// force is phi(|t.Y|) max(0, lambda + b C s) (b = PairHistory::boost) for pairs whose reference normal distance is
-  /// at most `window`, where phi is 1 while the tangential offset |t.Y| is below
-  /// (1 - gate) window and falls linearly to 0 at `window` (the two cells stop overlapping).
-  bool exact = false;
-  double window = 0.0;  ///< one lattice spacing [m]
-};
-
-/// What a pair remembers between evaluations.
-struct PairHistory {
-  double slip = 0.0;                 ///< committed plastic slip w_p (return-map friction)
-  double multiplier = 0.0;           ///< lambda [N], exact enforcement only
-  double tangential_velocity = 0.0;  ///< t . (v_j - v_i), velocity-sign friction only
-  double boost = 1.0;                ///< augmentation stiffness / C, exact enforcement only
-};
-
-/// Output of the pair kernel. g is the pair's internal force dPi/d(u_j - u_i): the force on
-/// particle j is -g, on particle i it is +g. J = dg/d(u_j - u_i) (not symmetric in slip).
-struct PairResult {
-  PairStatus status = PairStatus::open;
-  double normal_force = 0.0;  ///< F_n >= 0 [N]
-  double tangential = 0.0;    ///< tau [N] along t = (-n_y, n_x): force on j is -tau t
-  Vec2 g = Vec2::Zero();
-  Mat2 J = Mat2::Zero();
-};
-
-/// The pair kernel, a pure function. `X` = X_j - X_i, `du` = u_j - u_i.
-PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, const PairHistory& history,
-                        const ContactLaw& law, bool want_jacobian);
-
-/// The signed normal distance n.Y of a pair and its tangential offset t.Y, Y = X + du.
-struct PairGap {
-  double normal = 0.0, tangential = 0.0;
-};
-inline PairGap pair_gap(const ContactPair& pair, const Vec2& X, const Vec2& du) {
-  const Vec2 Y = X + du;
-  return {pair.normal.dot(Y), pair.tangent().dot(Y)};
-}
-/// A pair has crossed when its particles have passed each other along the normal while
-/// facing each other: n.Y < 0 with |t.Y| below one spacing (their cells overlap).
-inline bool crossed(const PairGap& g, double spacing) {
-  return g.normal < 0.0 && std::abs(g.tangential) < spacing;
-}
 
 /// Outcome of ContactSystem::update_multipliers().
 struct MultiplierUpdate {
@@ -112,23 +44,6 @@ struct ContactCounts {
   Index active() const { return stick + slip; }
 };
 
-/// A rank's share of the pairs when its model is its part of the whole (ModelPart;
-/// docs/guide/distributed.md, "The partitioned model"). A part holds every pair that touches
-/// one of its own particles (both ends are in the part: a partner lies within a horizon), with
-/// i the end of the smaller global id, in the whole model's order; the pair is owned by the
-/// rank that counts i. Counts, signature and checks are reduced over the ranks, so every rank
-/// takes the same decisions. Empty (no global ids): the model is whole.
-struct ContactRanks {
-  std::vector<std::int64_t> global_id;  ///< per particle of the part: its index in the whole model
-  std::vector<char> counted;  ///< per particle: this rank's own (the forces it adds, the pairs it owns)
-  std::int64_t n_particles_whole = 0;
-  GatherOverRanks gather;  ///< every rank's values in rank order, on every rank (collective)
-  /// Rows by global id to rank 0 (parallel::gather_rows_on_root: collective; empty elsewhere).
-  std::function<std::vector<double>(const std::vector<std::int64_t>& ids, const std::vector<double>& values,
-                                    int width, std::int64_t n_rows)>
-      gather_on_root;
-};
-
 /// A pair that has crossed: its ends by global id (the particle index in one process) and
 /// reference positions, and n.Y [m].
 struct CrossedPair {
@@ -145,10 +60,13 @@ class ContactSystem {
   /// a declared interface has no common boundary. With `ranks` (a rank's part of the model)
   /// the part's share, and the constructor is collective.
   ContactSystem(const Model& model, const ContactOptions& options, ContactRanks ranks = {});
+  /// Its rooms refer to its members: neither copied nor moved.
+  ContactSystem(const ContactSystem&) = delete;
+  ContactSystem& operator=(const ContactSystem&) = delete;
 
-  const std::vector<ContactPair>& pairs() const { return m_pairs; }
+  const std::vector<ContactPair>& pairs() const { return m_state.pairs(); }
   const ContactLaw& law() const { return m_law; }
-  Index size() const { return static_cast<Index>(m_pairs.size()); }
+  Index size() const { return m_state.size(); }
 
   /// Evaluates every pair at the full displacement u (2N, interleaved).
   void evaluate(const VectorXd& u, bool want_jacobian);
@@ -197,15 +115,15 @@ class ContactSystem {
   /// go on on the parts. 0 on a whole model.
   std::int64_t partners_outside(const VectorXd& u) const;
   /// A rank's part of the model (ContactRanks given).
-  bool partitioned() const { return !m_ranks.global_id.empty(); }
+  bool partitioned() const { return m_ids.partitioned(); }
   /// Largest normal closure a - n.Y [m] over the pairs that carried a force in the last
   /// evaluation (0 when none did).
   double max_closure() const { return m_max_closure; }
   /// Exact enforcement: true when contact.stiffness exceeded the augmentation cap (10 x the
   /// eq 17 modulus) and the cap was used instead.
-  bool augmentation_capped() const { return m_augmentation_capped; }
+  bool augmentation_capped() const { return m_state.augmentation_capped(); }
   /// The multiplier of pair k [N] (exact enforcement; 0 under penalty).
-  double multiplier(Index k) const { return m_multiplier.empty() ? 0.0 : m_multiplier[k]; }
+  double multiplier(Index k) const { return m_state.multiplier(k); }
   const PairResult& result(Index k) const { return m_result[k]; }
   /// Velocity-sign law only: the full pseudo-velocity (2N) that the next evaluations use.
   void set_velocity(const VectorXd& v);
@@ -213,7 +131,7 @@ class ContactSystem {
   /// Coulomb friction with a slip history (friction > 0, not the velocity-sign law): every
   /// pair, those added later included, has an entry in the slip state, even when the run
   /// starts with no candidate (a scene whose contact pairs are all broken bonds).
-  bool tracks_slip() const { return m_law.friction > 0.0 && !m_law.velocity_sign; }
+  bool tracks_slip() const { return m_law.tracks_slip(); }
 
   /// Pairs touching particle p: (pair index, +1 if p is j, -1 if p is i), from the CSR
   /// `pairs_of(p)`: entries m_incident[m_incident_start[p] .. m_incident_start[p+1]).
@@ -269,71 +187,37 @@ class ContactSystem {
   /// Changes whenever the candidate set grows by a search.
   std::uint64_t version() const { return m_version; }
   /// Searches done so far.
-  int searches() const { return m_searches; }
+  int searches() const { return m_search.searches(); }
   /// The slide after which a search misses a partner that could already face a particle:
   /// the search radius less the window's reach (sqrt 2 dx) and the trigger (section 10).
-  double max_slide_between_searches() const { return m_search_radius - std::sqrt(2.0) * m_model.spacing - m_search_slide; }
-
-  /// A straight piece of interface with the unit normal pointing from body A into body B.
-  struct Segment {
-    Vec2 a, b, normal;
-  };
+  double max_slide_between_searches() const { return m_search.max_slide_between_searches(); }
 
  private:
-  /// The two faces of a pre-crack or a declared interface, for partner searches.
-  struct Surface {
-    std::vector<Index> side_a, side_b;  ///< real particles within the band, one list per side
-    bool crack = false;                 ///< faces of one body: pairs within a horizon are bonded
-    std::vector<Segment> segments;      ///< the crack, or the interface's shared segments
-  };
-  /// Appends pair (i, j) with the given interface normal (oriented here) and the state of an
-  /// open pair at u; false when it is nearly parallel to the interface (skipped).
-  bool add_candidate(Index i, Index j, const Vec2& normal, const VectorXd& u);
-  /// The per-pair state vectors of a new pair c: open, no stored tangential force.
-  void append_state(const ContactPair& c, const VectorXd& u);
-  /// Slip history of every pair at the committed state u (return-map friction).
-  void update_slip(const VectorXd& u);
-  /// C of the pair: from contact.stiffness (eq 17 modulus when 0) under penalty, from eq 17
-  /// under exact enforcement (where contact.stiffness sets the augmentation's start).
-  double pair_stiffness(Index i, Index j);
-  double pair_stiffness(Index i, Index j, double modulus_override) const;
-  /// Exact enforcement: the largest boost of a pair, kMaxAugmentationModulus x its eq 17 C / C.
-  double boost_limit(const ContactPair& c) const;
-  /// Exact enforcement: the boost a new pair starts with (the cap by default).
-  double initial_boost(const ContactPair& c);
+  /// The constructor's steps: the pair law from the options; the candidates found in the
+  /// reference configuration with their starting state; their count over the ranks.
+  static ContactLaw law_of(const ContactOptions& options, double spacing);
+  void start_candidates(const ContactOptions& options);
+  void count_candidates();
+  /// Appends pair c in the state of an open pair at u.
+  void add_pair(const ContactPair& c, const VectorXd& u);
   void build_incidence();
   /// On a part: the counts, signature, symmetry and distances of the last evaluation over
   /// every rank's own pairs (collective).
   void reduce_over_ranks(bool want_jacobian);
   /// The pair's end of the smaller global id first.
-  std::int64_t gid(Index i) const {
-    return partitioned() ? m_ranks.global_id[static_cast<std::size_t>(i)] : i;
-  }
-  bool counted(Index i) const { return !partitioned() || m_ranks.counted[static_cast<std::size_t>(i)]; }
-  /// The particle of the part with global id g, or -1.
-  Index local_of(std::int64_t g) const;
-  /// The largest of a value over the ranks (itself on a whole model; collective on a part).
-  double max_over_ranks(double value) const;
+  std::int64_t gid(Index i) const { return m_ids.gid(i); }
+  bool counted(Index i) const { return m_ids.counted(i); }
+  /// A pair of two held particles (set_excluded).
+  bool excluded(const ContactPair& c) const { return !m_excluded.empty() && m_excluded[c.i] && m_excluded[c.j]; }
 
   const Model& m_model;
-  ContactRanks m_ranks;
-  std::vector<std::pair<std::int64_t, Index>> m_by_global;  ///< on a part: (global id, particle), sorted
+  ContactIds m_ids;
   ContactLaw m_law;
+  PairStiffness m_stiffness;
+  CandidateSearch m_search;
+  ContactState m_state;  ///< the pairs, their slip, multipliers and boosts
   double m_closure_tolerance = 0.0;
   int m_max_multiplier_updates = 0;
-  int m_multiplier_updates = 0;     ///< in the current trial
-  double m_modulus_override = 0.0;  ///< contact.stiffness (0: eq 17)
-  bool m_augmentation_capped = false;
-  double m_delta3 = 0.0;
-  std::vector<ContactPair> m_pairs;
-  Index m_round_start = 0;                    ///< first pair of the last add_broken_bonds() round
-  std::vector<double> m_slip;                 ///< committed w_p per pair (empty without friction)
-  std::vector<double> m_tangential_velocity;  ///< per pair, velocity-sign law only
-  std::vector<double> m_multiplier;            ///< per pair, trial lambda (exact enforcement only)
-  std::vector<double> m_multiplier_committed;  ///< per pair, lambda of the last converged state
-  std::vector<double> m_boost;                 ///< per pair, augmentation stiffness / C (exact)
-  std::vector<double> m_last_violation;        ///< per pair, violation at the previous update (exact)
-  std::vector<double> m_boost_limit;           ///< per pair, largest boost (exact)
   std::vector<PairResult> m_result;
   std::vector<Index> m_incident_start;
   std::vector<Incidence> m_incident;
@@ -343,13 +227,8 @@ class ContactSystem {
   bool m_touching_closed = false;  ///< set_touching_closed()
   double m_min_distance = 0.0;
   double m_max_closure = 0.0;
-  std::vector<Surface> m_surfaces;
-  VectorXd m_u_search;  ///< displacement (2N) at the last partner search
-  double m_search_radius = 0.0, m_search_slide = 0.0;
   std::uint64_t m_version = 0;
-  int m_searches = 0;
   std::vector<char> m_excluded;  ///< per particle, or empty: none excluded
-  bool excluded(const ContactPair& c) const { return !m_excluded.empty() && m_excluded[c.i] && m_excluded[c.j]; }
 };
 
 }  // namespace peristat
