@@ -13,8 +13,9 @@ namespace {
 constexpr double kDamageRoundOff = 1e-12;
 }  // namespace
 
-DamageHistory::DamageHistory(const Model& model, const BondFailure* failure, const ProblemOptions& options)
-    : m_model(model), m_failure(failure), m_options(options) {
+DamageHistory::DamageHistory(const Model& model, const BondFailure* failure, const ProblemOptions& options,
+                             const Ranks& ranks)
+    : m_model(model), m_failure(failure), m_options(options), m_ranks(ranks) {
   if (m_failure) m_damage_accepted = VectorXd::Zero(model.particles.size());
 }
 
@@ -23,29 +24,31 @@ std::string DamageHistory::check() {
   m_failure->damage(m_damage_now);
   // The first particle whose damage decreased: (its whole model's index, position, before,
   // after); on a part, each rank's own particles, the smallest index over the ranks.
+  struct Healed {
+    std::int64_t id;
+    double x, y, before, after;
+  };
   const bool part = on_part(m_options);
-  std::vector<double> found;
+  std::vector<Healed> found;
   for (Index i = 0; i < m_damage_now.size(); ++i) {
     if (part && !m_options.rows.counts(i)) continue;
     if (m_damage_now[i] >= m_damage_accepted[i] - kDamageRoundOff) continue;
     const Vec2& X = m_model.particles.position[i];
-    found = {static_cast<double>(m_failure->global(i)), X.x(), X.y(), m_damage_accepted[i], m_damage_now[i]};
+    found = {{m_failure->global(i), X.x(), X.y(), m_damage_accepted[i], m_damage_now[i]}};
     break;
   }
   if (part) {
-    const std::vector<double> all = m_options.gather_over_ranks(found);
+    const std::vector<Healed> all = m_ranks.all_gather(found);
     found.clear();
-    for (std::size_t at = 0; at < all.size(); at += 5)
-      if (found.empty() || all[at] < found[0])
-        found.assign(all.begin() + static_cast<std::ptrdiff_t>(at),
-                     all.begin() + static_cast<std::ptrdiff_t>(at + 5));
+    for (const Healed& h : all)
+      if (found.empty() || h.id < found[0].id) found = {h};
   }
   if (found.empty()) return {};
+  const Healed& h = found[0];
   char buf[320];
-  std::snprintf(
-      buf, sizeof buf,
-      "the damage of particle %ld at (%.6g, %.6g) m decreased from %.6g to %.6g: broken bonds healed",
-      static_cast<long>(found[0]), found[1], found[2], found[3], found[4]);
+  std::snprintf(buf, sizeof buf,
+                "the damage of particle %lld at (%.6g, %.6g) m decreased from %.6g to %.6g: broken bonds healed",
+                static_cast<long long>(h.id), h.x, h.y, h.before, h.after);
   return buf;
 }
 

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "core/types.hpp"
+#include "parallel/ranks.hpp"
 #include "discretisation/model.hpp"
 #include "materials/bond_failure.hpp"
 
@@ -18,7 +19,7 @@ class DamageHistory {
   /// Without failure (null): no damage, every check passes. The accepted damage starts at
   /// zero. `options` (the problem's, which must outlive this) gives the rows and the gather
   /// of a distributed run.
-  DamageHistory(const Model& model, const BondFailure* failure, const ProblemOptions& options);
+  DamageHistory(const Model& model, const BondFailure* failure, const ProblemOptions& options, const Ranks& ranks);
   DamageHistory(const DamageHistory&) = delete;
   DamageHistory& operator=(const DamageHistory&) = delete;
 
@@ -38,6 +39,7 @@ class DamageHistory {
   const Model& m_model;
   const BondFailure* m_failure;
   const ProblemOptions& m_options;
+  const Ranks& m_ranks;
   VectorXd m_damage_accepted, m_damage_now;  ///< per particle
 };
 

@@ -46,7 +46,7 @@ class EnergyBalance {
   /// with E the modulus of each body's kernel. `options` (the problem's, which must outlive
   /// this) gives the rows and the collectives of a distributed run.
   EnergyBalance(const Model& model, std::span<const std::unique_ptr<FamilyKernel>> kernels, bool contact,
-                bool small_kinematics, const ProblemOptions& options);
+                bool small_kinematics, const ProblemOptions& options, const Ranks& ranks);
   EnergyBalance(const EnergyBalance&) = delete;
   EnergyBalance& operator=(const EnergyBalance&) = delete;
 
@@ -84,6 +84,7 @@ class EnergyBalance {
  private:
   const Model& m_model;
   const ProblemOptions& m_options;
+  const Ranks& m_ranks;
   bool m_contact;  ///< the contact forces are kept apart
   bool m_small_kinematics;
   double m_energy_unit = 0.0;  ///< sum of V_i E_i [J]: the energy scale of round-off

@@ -8,14 +8,15 @@
 
 namespace peristat {
 
-FragmentTracker::FragmentTracker(const Model& model, const BondFailure* failure, const ProblemOptions& options)
-    : m_model(model), m_failure(failure), m_options(options) {
+FragmentTracker::FragmentTracker(const Model& model, const BondFailure* failure, const ProblemOptions& options,
+                                 const Ranks& ranks, ValueExchange* particle_values)
+    : m_model(model), m_failure(failure), m_options(options), m_ranks(ranks) {
   if (!m_failure) return;
   if (m_failure->partitioned())
     m_graph_parts = std::make_unique<GraphParts>(
-        GraphParts{m_failure->ranks().proposes, m_options.gather_over_ranks, m_failure->ranks().global_id,
+        GraphParts{ranks, m_failure->share().proposes, m_failure->share().global_id,
                    m_failure->part() ? std::span<const int>(m_options.rows.owner) : std::span<const int>{},
-                   m_options.share_particle_values});
+                   particle_values});
   find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component, m_graph_parts.get());
   m_fragment.assign(model.particles.size(), 0);
 }
@@ -49,13 +50,10 @@ void FragmentTracker::update(ContactSystem* contact) {
   std::sort(roots.begin(), roots.end());
   roots.erase(std::unique(roots.begin(), roots.end()), roots.end());
   if (part) {  // the components by global id: every rank's own particles' components, once
-    const std::vector<double> all =
-        m_options.gather_over_ranks(std::vector<double>(roots.begin(), roots.end()));
-    std::vector<double> every = all;
+    std::vector<Index> every = m_ranks.all_gather(roots);
     std::sort(every.begin(), every.end());
     m_fragments = static_cast<Index>(std::unique(every.begin(), every.end()) - every.begin());
-    m_fragment_particles =
-        static_cast<Index>(std::llround(over_ranks(m_options, static_cast<double>(m_fragment_particles))));
+    m_fragment_particles = static_cast<Index>(m_ranks.sum(std::int64_t{m_fragment_particles}));
   } else {
     m_fragments = static_cast<Index>(roots.size());
   }
@@ -71,7 +69,7 @@ void FragmentTracker::hold(VectorXd& force) {
   }
   // On a part: the sum over the ranks' own particles (collective: every rank knows that
   // fragments exist).
-  if (part && m_fragment_particles > 0) m_options.sum_in_rank_order(reaction.data(), 2);
+  if (part && m_fragment_particles > 0) m_ranks.sum_in_rank_order(std::span<double>(reaction.data(), 2));
   m_fragment_reaction = reaction.norm();
 }
 
@@ -84,7 +82,7 @@ Index FragmentTracker::contacts(const ContactSystem* contact) const {
     for (auto* e = contact->incident_begin(i); e != contact->incident_end(i); ++e)
       if (!m_fragment[e->other] && contact->result(e->pair).status != PairStatus::open) ++n;
   }
-  return static_cast<Index>(std::llround(over_ranks(m_options, static_cast<double>(n))));
+  return on_part(m_options) ? static_cast<Index>(m_ranks.sum(std::int64_t{n})) : n;
 }
 
 void FragmentTracker::decouple(SparseMatrix& K) const {
@@ -92,7 +90,7 @@ void FragmentTracker::decouple(SparseMatrix& K) const {
   // A rank's K holds its own rows only: the largest diagonal is the ranks' (the same number
   // on every rank, as in one process).
   double d = K.diagonal().cwiseAbs().maxCoeff();
-  if (m_options.max_over_ranks) d = m_options.max_over_ranks(d);
+  d = m_ranks.max(d);
   // The fragments' rows and columns zero, their diagonal d. Every stored entry is visited: a
   // rank's K holds row f only in the columns of f's couplings, which column f (holding the
   // rank's rows only) does not list.

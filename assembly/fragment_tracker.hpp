@@ -25,7 +25,10 @@ class FragmentTracker {
  public:
   /// Without failure (null) there are never fragments. `options` (the problem's, which must
   /// outlive this) gives the rows and the collectives of a distributed run.
-  FragmentTracker(const Model& model, const BondFailure* failure, const ProblemOptions& options);
+  /// `particle_values`: with partitioned bonds, the exchange of one value per particle
+  /// (RankExchanges::particle_values(), the problem's).
+  FragmentTracker(const Model& model, const BondFailure* failure, const ProblemOptions& options, const Ranks& ranks,
+                  ValueExchange* particle_values);
   FragmentTracker(const FragmentTracker&) = delete;
   FragmentTracker& operator=(const FragmentTracker&) = delete;
 
@@ -56,6 +59,7 @@ class FragmentTracker {
   const Model& m_model;
   const BondFailure* m_failure;
   const ProblemOptions& m_options;
+  const Ranks& m_ranks;
   /// With partitioned bonds and failure: this rank's part of the bond graph (null otherwise).
   std::unique_ptr<GraphParts> m_graph_parts;
   // Per particle: pieces without support before any bond broke, the fragments now, scratch;

@@ -1,6 +1,7 @@
 #include "assembly/quasi_static.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -18,11 +19,20 @@
 namespace peristat {
 
 namespace {
-std::unique_ptr<ContactSystem> make_contact(const Model& model, const ContactOptions& options,
-                                            const ContactRanks& ranks, double& seconds) {
-  if (!options.enabled) return nullptr;
+std::unique_ptr<ContactSystem> make_contact(const Model& model, const ProblemOptions& options, const Ranks& ranks,
+                                            double& seconds) {
+  if (!options.contact.enabled) return nullptr;
+  // On a part, its share of the pairs: the pairs that touch its own particles, by global id.
+  ContactRanks share;
+  if (!options.global_id.empty()) {
+    share.global_id = options.global_id;
+    share.counted.resize(options.rows.owner.size());
+    for (std::size_t p = 0; p < share.counted.size(); ++p)
+      share.counted[p] = counted_by(options.rows.owner[p], options.rows.rank);
+    share.n_particles_whole = options.n_particles_whole;
+  }
   const double t0 = wall_seconds();
-  auto contact = std::make_unique<ContactSystem>(model, options, ranks);
+  auto contact = std::make_unique<ContactSystem>(model, options.contact, ranks, std::move(share));
   seconds = wall_seconds() - t0;
   return contact;
 }
@@ -38,14 +48,10 @@ std::vector<char> counted_families(const Model& model, const OwnedRows& rows) {
 
 /// With partitioned bonds, the rank's share of the failure decisions: it proposes the pairs
 /// of the families it counts (its own; rank 0's also those without a row).
-FailureRanks failure_ranks(const Model& model, const ProblemOptions& options) {
+FailureRanks failure_ranks(const Model& model, const ProblemOptions& options, const RankExchanges& exchanges) {
   if (model.holds_every_family()) return {};
-  return {counted_families(model, options.rows),
-          options.gather_over_ranks,
-          options.share_particle_values,
-          options.owned_unknowns >= 0 ? options.global_id : std::vector<std::int64_t>{},
-          options.n_particles_whole,
-          options.gather_on_root};
+  return {counted_families(model, options.rows), exchanges.particle_values(),
+          options.owned_unknowns >= 0 ? options.global_id : std::vector<std::int64_t>{}, options.n_particles_whole};
 }
 
 /// Per body, its material's kernel.
@@ -64,22 +70,26 @@ bool constant_tangents(const std::vector<std::unique_ptr<FamilyKernel>>& kernels
 
 }  // namespace
 
-QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions& options)
+QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions& options, const Ranks& ranks)
     : m_model(model),
       m_options(options),
-      m_contact(make_contact(model, options.contact, options.contact_ranks, m_timings.contact_setup)),
-      m_failure(options.failure.enabled
-                    ? std::make_unique<BondFailure>(model, options.failure, failure_ranks(model, options))
-                    : nullptr),
+      m_ranks(ranks),
+      m_exchanges(model,
+                  RankLayout{m_options.rows, m_options.owned_unknowns, m_options.global_id, m_options.global_unknown},
+                  options.failure.enabled, ranks),
+      m_contact(make_contact(model, options, ranks, m_timings.contact_setup)),
+      m_failure(options.failure.enabled ? std::make_unique<BondFailure>(model, options.failure, ranks,
+                                                                        failure_ranks(model, options, m_exchanges))
+                                        : nullptr),
       m_pattern(options.matrix_free
                     ? TangentPattern{}
                     : build_pattern(model, PatternReach::two_horizons, 0.0, m_contact.get(), options.rows)),
       m_kernels(make_kernels(model)),
       m_small_kinematics(constant_tangents(m_kernels)),
       m_correction(model, options.surface_correction, counted_families(model, options.rows)),
-      m_balance(model, m_kernels, m_contact != nullptr, m_small_kinematics, m_options),
-      m_damage(model, m_failure.get(), m_options),
-      m_fragments(model, m_failure.get(), m_options),
+      m_balance(model, m_kernels, m_contact != nullptr, m_small_kinematics, m_options, ranks),
+      m_damage(model, m_failure.get(), m_options, ranks),
+      m_fragments(model, m_failure.get(), m_options, ranks, m_exchanges.particle_values()),
       m_action(model, options.matrix_free) {
   const Index n = model.particles.size();
   const Bonds& bonds = model.bonds;
@@ -113,11 +123,8 @@ void QuasiStaticProblem::check_partition() const {
   // matrix-free action read the families of the rank's particles and their neighbours; an assembled tangent
   // (and ADR's density from it) reads a column's families two horizons from its rows, so then the neighbours
   // of those are held too.
-  if (!distributed() || !m_options.share_forces ||
-      (m_failure && (!m_options.gather_over_ranks || !m_options.share_particle_values)))
-    throw std::logic_error(
-        "QuasiStaticProblem: partitioned bonds need a distributed problem and a force exchange (and, with "
-        "failure, a gather and a particle exchange)");
+  if (!distributed())
+    throw std::logic_error("QuasiStaticProblem: partitioned bonds need a distributed problem (its rows)");
   const Bonds& bonds = m_model.bonds;
   const std::vector<char>& held = m_model.family_held;
   for (std::size_t i = 0; i < held.size(); ++i) {
@@ -145,8 +152,8 @@ Vec2 QuasiStaticProblem::reaction(std::size_t k) const {
   const OwnedRows& rows = m_options.rows;
   for (const Index d : m_model.constraints.condition_dofs.at(k))
     if (rows.counts(d / 2)) f[d % 2] += m_force[d];
-  double sums[2] = {f.x(), f.y()};
-  m_options.sum_in_rank_order(sums, 2);
+  std::array<double, 2> sums = {f.x(), f.y()};
+  m_ranks.sum_in_rank_order(sums);
   return Vec2(sums[0], sums[1]);
 }
 
@@ -404,7 +411,7 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
   // (Those without a row count on rank 0, inside the sum: every rank gets the same bits, whatever
   // its thread count, so that the energy check decides alike on every rank.)
   if (split)
-    m_energy = m_options.sum_over_ranks(own_energy + (rank == 0 ? unowned_energy : 0.0));
+    m_energy = m_ranks.sum(own_energy + (rank == 0 ? unowned_energy : 0.0));
   else
     m_energy = m_own_rows_only ? std::numeric_limits<double>::quiet_NaN() : energy;
 }
@@ -412,7 +419,7 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
 void QuasiStaticProblem::bond_forces(bool want_tangent) {
   compute_families(want_tangent);
   gather_forces();
-  if (partitioned() && !m_own_rows_only) m_options.share_forces(m_force);
+  if (m_exchanges.forces() && !m_own_rows_only) m_exchanges.forces()->share(m_force.data());
 }
 
 void QuasiStaticProblem::gather_forces() {
@@ -439,20 +446,20 @@ void QuasiStaticProblem::gather_forces() {
 }
 
 void QuasiStaticProblem::expand_state(const VectorXd& x) {
-  if (!m_options.import_ghosts) return expand(x, m_u);
+  if (!m_exchanges.ghosts()) return expand(x, m_u);
   m_x_ghosts = x;  // the same size every time: the storage stays
-  m_options.import_ghosts(m_x_ghosts);
+  m_exchanges.ghosts()->share(m_x_ghosts.data());
   expand(m_x_ghosts, m_u);
 }
 
 double QuasiStaticProblem::norm(const VectorXd& v) const {
   if (!part()) return v.norm();
-  return std::sqrt(m_options.sum_over_ranks(v.head(m_options.owned_unknowns).squaredNorm()));
+  return std::sqrt(m_ranks.sum(v.head(m_options.owned_unknowns).squaredNorm()));
 }
 
 bool QuasiStaticProblem::all_finite(const VectorXd& v) const {
   if (!part()) return v.allFinite();
-  return m_options.max_over_ranks(v.head(m_options.owned_unknowns).allFinite() ? 0.0 : 1.0) == 0.0;
+  return !m_ranks.any(!v.head(m_options.owned_unknowns).allFinite());
 }
 
 double QuasiStaticProblem::force_norm() const {
@@ -470,7 +477,7 @@ double QuasiStaticProblem::force_norm() const {
     else if (owner < 0)
       unowned += f2;
   }
-  return std::sqrt(m_options.sum_over_ranks(own) + unowned);
+  return std::sqrt(m_ranks.sum(own) + unowned);
 }
 
 bool QuasiStaticProblem::set_own_rows_only(bool on) {
@@ -611,7 +618,7 @@ void QuasiStaticProblem::check_mirror_zone(const std::vector<std::pair<Index, In
   }
   // On a part, each rank sees the pairs it holds: the first rank's bond that found one.
   if (part()) {
-    const std::vector<double> all = m_options.gather_over_ranks(found);
+    const std::vector<double> all = m_ranks.all_gather(found);  // the ends' positions
     found.assign(all.begin(),
                  all.begin() + std::min<std::ptrdiff_t>(4, static_cast<std::ptrdiff_t>(all.size())));
   }

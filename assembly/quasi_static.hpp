@@ -9,7 +9,6 @@
 // computes (bookkeeping.hpp).
 #pragma once
 
-#include <functional>
 #include <memory>
 #include <vector>
 
@@ -21,6 +20,7 @@
 #include "assembly/pattern.hpp"
 #include "assembly/problem.hpp"
 #include "assembly/pseudo_velocity.hpp"
+#include "assembly/rank_exchanges.hpp"
 #include "assembly/tangent_action.hpp"
 #include "contact/contact.hpp"
 #include "core/options.hpp"
@@ -29,6 +29,7 @@
 #include "materials/family_kernel.hpp"
 #include "materials/fragments.hpp"
 #include "materials/surface_correction.hpp"
+#include "parallel/ranks.hpp"
 
 namespace peristat {
 
@@ -43,62 +44,36 @@ struct ProblemOptions {
   /// of writing K (ADR needs the assembled tangent and never sets this).
   bool matrix_free = false;
   /// The rows this process assembles: a rank of a distributed run (solver.linear: belos
-  /// under mpirun) holds and writes only its strip's rows of the tangent and of the bond
-  /// preconditioner (docs/guide/distributed.md). Every row by default.
+  /// under mpirun) holds and writes only its rows of the tangent and of the bond
+  /// preconditioner (docs/guide/distributed.md). Every row by default. With the rows split,
+  /// the problem's Ranks combine what the rows' evaluations need (sums, maxima, gathers).
   OwnedRows rows;
-  /// With `rows` a strip: the largest of a number over the ranks (every rank calls it at the
-  /// same point), so that the matrices' values are those of one process.
-  std::function<double(double)> max_over_ranks;
-  /// With `rows` a part: the sum of a number over the ranks, the same on every rank (for the
-  /// force scale of an evaluation of the own rows only, set_own_rows_only()).
-  std::function<double(double)> sum_over_ranks;
-  /// With partitioned bonds (the model holds some families only, Model::family_held): copies
-  /// each rank's own particles' forces (both components, in place) into every rank's vector of
-  /// 2N forces. Every evaluate() computes the forces of the rank's particles and of those
-  /// without a row, then shares them, so that the residual is whole on every rank.
-  std::function<void(VectorXd& force)> share_forces;
-  /// With partitioned bonds and failure: every rank's values in rank order, on every rank
-  /// (the candidates of a round of breaking, the pieces of the bond graph), and a vector of
-  /// one value per particle with each owner's entries copied to every rank (the damage).
-  /// On a part (owned_unknowns), also with failure: the exchange copies each owner's entry
-  /// into the ranks that read the particle.
-  GatherOverRanks gather_over_ranks;
-  std::function<void(VectorXd& per_particle)> share_particle_values;
-  /// On a part with failure: per particle of the part its whole model's index, the whole
-  /// model's particle count, and rows by global id to rank 0 (FailureRanks: the checkpoint's
-  /// reference bonds).
+  /// On a rank's part of the model (ModelPart, docs/guide/distributed.md "The partitioned
+  /// model"): per particle of the part its whole model's index (the failure decisions, the
+  /// contact pairs, the checkpoint's rows), and the whole model's particle count. Empty: the
+  /// particles are the whole model's.
   std::vector<std::int64_t> global_id;
   std::int64_t n_particles_whole = 0;
-  std::function<std::vector<double>(const std::vector<std::int64_t>& ids, const std::vector<double>& values,
-                                    int width, std::int64_t n_rows)>
-      gather_on_root;
-  /// On a rank's part of the model (ModelPart, docs/guide/distributed.md "The partitioned
-  /// model"): the unknowns this rank owns, the first ones of every vector over the unknowns
-  /// (-1: the model is whole here). With it, sum_over_ranks and max_over_ranks, and rows the
-  /// part's owners; share_forces is then not needed (a part's own rows read no other rank's
-  /// forces).
+  /// On a part: the unknowns this rank owns, the first ones of every vector over the
+  /// unknowns (-1: the model is whole here), and per unknown its whole model's index. Every
+  /// evaluation of a state x imports x's ghost tail from the owners first (RankExchanges), so
+  /// a solver need only keep the owned entries right.
   Index owned_unknowns = -1;
-  /// With owned_unknowns: fills the ghost tail of a vector over the part's unknowns from the
-  /// owners (parallel::PartExchange). Every evaluation of a state x imports x's tail first, so a
-  /// solver need only keep the owned entries right.
-  std::function<void(VectorXd& x)> import_ghosts;
-  /// With owned_unknowns: sums n numbers over the ranks in place, in rank order (reaction()).
-  std::function<void(double* values, int n)> sum_in_rank_order;
-  /// With owned_unknowns and contact: the part's share of the pairs (global ids, own particles,
-  /// the gathers; ContactRanks).
-  ContactRanks contact_ranks;
+  std::vector<std::int64_t> global_unknown;
 };
 
 /// The model is a rank's part (ProblemOptions::owned_unknowns).
 inline bool on_part(const ProblemOptions& options) { return options.owned_unknowns >= 0; }
 /// On a part, a sum of the ranks' values (collective); the value itself otherwise.
-inline double over_ranks(const ProblemOptions& options, double value) {
-  return on_part(options) ? options.sum_over_ranks(value) : value;
+inline double over_ranks(const ProblemOptions& options, const Ranks& ranks, double value) {
+  return on_part(options) ? ranks.sum(value) : value;
 }
 
 class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
  public:
-  QuasiStaticProblem(const Model& model, const ProblemOptions& options);
+  /// `ranks`: the ranks of the run, the one way to the others (a distributed run's collectives
+  /// and exchanges; one process by default).
+  QuasiStaticProblem(const Model& model, const ProblemOptions& options, const Ranks& ranks = serial_ranks());
   /// Its parts hold references to its options: it stays where it was built.
   QuasiStaticProblem(const QuasiStaticProblem&) = delete;
   QuasiStaticProblem& operator=(const QuasiStaticProblem&) = delete;
@@ -121,7 +96,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// families' factored Hessians (bond stiffnesses and dilatation vectors, docs/theory/osb.md
   /// "Assembly") and the contact pairs' Jacobians without forming K: O(bonds) per product,
   /// the same K the assembled path writes (tests MatrixFree.ActionEqualsTheAssembledTangent*).
-  /// Distributed (rows a part, with sum_over_ranks): only this rank's rows of y, bit for bit
+  /// Distributed (its rows some of the model's): only this rank's rows of y, bit for bit
   /// the whole product's, reading v only at action_reads(); the other rows are zero
   /// (solver.belos.tangent: matrix_free reads its own rows only).
   void apply_tangent(const VectorXd& v, VectorXd& y) override;
@@ -207,8 +182,10 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// The rows this process assembles (ProblemOptions::rows).
   const OwnedRows& owned_rows() const { return m_options.rows; }
   /// On a part: fills the ghost tail of a vector over the unknowns from the owners
-  /// (ProblemOptions::import_ghosts; collective).
-  void import_ghosts(VectorXd& v) const { m_options.import_ghosts(v); }
+  /// (RankExchanges::ghosts(); collective).
+  void import_ghosts(VectorXd& v) const { m_exchanges.ghosts()->share(v.data()); }
+  /// The ranks of the run (one process: SerialRanks).
+  const Ranks& ranks() const { return m_ranks; }
   /// The committed state into / from a checkpoint (peristat run --resume): load factor,
   /// energy ledger, broken bonds, contact candidates and their history. restore_state()
   /// expects a fresh problem of the same model and the committed unknowns x.
@@ -248,16 +225,17 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void gather_forces();
   /// The norm of m_force over every component; with own rows only, summed over the ranks.
   double force_norm() const;
-  /// A rank of a distributed run: rows a part and a sum over the ranks given.
-  bool distributed() const { return !m_options.rows.all() && m_options.sum_over_ranks != nullptr; }
+  /// A rank of a distributed run: its rows are some of the model's.
+  bool distributed() const { return !m_options.rows.all(); }
   /// The model holds some families only (Model::family_held): every evaluation computes the
-  /// families m_share names and shares the forces (ProblemOptions::share_forces).
+  /// families m_share names and, on a whole particle table, shares the forces
+  /// (RankExchanges::forces()).
   bool partitioned() const { return !m_model.holds_every_family(); }
   /// The families and forces evaluated are those m_share names.
   bool restricted() const { return m_own_rows_only || partitioned(); }
   /// The model is a rank's part (ProblemOptions::owned_unknowns).
   bool part() const { return on_part(m_options); }
-  /// m_u from the state x: on a part, x's ghost tail imported first (ProblemOptions::import_ghosts).
+  /// m_u from the state x: on a part, x's ghost tail imported first (RankExchanges::ghosts()).
   void expand_state(const VectorXd& x);
   /// The families' forces (and with want_tangent their Hessians' factors) at m_u into
   /// m_force and m_energy; partitioned: the rank's, then shared and summed over the ranks.
@@ -279,6 +257,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
 
   const Model& m_model;
   ProblemOptions m_options;
+  const Ranks& m_ranks;
+  RankExchanges m_exchanges;  ///< before the physics objects: they read the exchanges
   Timings m_timings;                         ///< declared first: m_contact's initialiser sets it
   std::unique_ptr<ContactSystem> m_contact;  ///< null without contact: no candidates, no cost
   std::unique_ptr<BondFailure> m_failure;    ///< null without failure: no checks, no state

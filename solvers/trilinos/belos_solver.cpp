@@ -21,7 +21,7 @@
 #include "core/error.hpp"
 #include "solvers/linear/preconditioner_reuse.hpp"
 #include "solvers/trilinos/belos_preconditioner.hpp"
-#include "solvers/trilinos/parallel.hpp"
+#include "solvers/trilinos/tpetra_start.hpp"
 #include "solvers/trilinos/tpetra_adapter.hpp"
 
 namespace peristat {

@@ -10,7 +10,7 @@
 #include <Teuchos_DefaultMpiComm.hpp>
 
 #include "solvers/trilinos/belos_solver.hpp"
-#include "solvers/trilinos/parallel.hpp"
+#include "solvers/trilinos/tpetra_start.hpp"
 #include "solvers/trilinos/threaded_cycle.hpp"
 #include "solvers/trilinos/tpetra_adapter.hpp"
 

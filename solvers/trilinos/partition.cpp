@@ -9,7 +9,7 @@
 #include <Zoltan2_BasicVectorAdapter.hpp>
 #include <Zoltan2_PartitioningProblem.hpp>
 
-#include "solvers/trilinos/parallel.hpp"
+#include "solvers/trilinos/tpetra_start.hpp"
 
 namespace peristat {
 

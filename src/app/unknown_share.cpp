@@ -53,13 +53,6 @@ class WholeUnknowns final : public UnknownExchange {
 
 }  // namespace
 
-std::vector<int> unknown_owners(const Constraints& constraints, const std::vector<int>& particle_owner) {
-  std::vector<int> owner(static_cast<std::size_t>(constraints.n_free), -1);
-  const std::vector<Index>& free = constraints.free_index;
-  for (std::size_t c = 0; c < free.size(); ++c)
-    if (free[c] >= 0) owner[static_cast<std::size_t>(free[c])] = particle_owner[c / 2];
-  return owner;
-}
 
 UnknownShare part_unknown_share(QuasiStaticProblem& problem, const ModelPart& part) {
   UnknownShare share;

@@ -14,7 +14,4 @@ UnknownShare part_unknown_share(QuasiStaticProblem& problem, const ModelPart& pa
 /// The whole model on the ranks (the problem's owned rows); one process: nothing shared.
 UnknownShare unknown_share(QuasiStaticProblem& problem);
 
-/// Per unknown of `constraints`: the owner of its particle (particle_owner), -1 for none.
-std::vector<int> unknown_owners(const Constraints& constraints, const std::vector<int>& particle_owner);
-
 }  // namespace peristat

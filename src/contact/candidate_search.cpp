@@ -271,40 +271,39 @@ double CandidateSearch::max_slide_between_searches() const {
 std::int64_t CandidateSearch::partners_outside(const VectorXd& u) const {
   if (!m_ids.partitioned() || m_surfaces.empty()) return 0;
   // Every rank's own face particles: (surface, side, global id, current x, y).
-  std::vector<double> mine;
+  struct Face {
+    std::int64_t surface, side, gid;
+    double x, y;
+  };
+  std::vector<Face> mine;
   for (std::size_t s = 0; s < m_surfaces.size(); ++s)
     for (int side = 0; side < 2; ++side)
       for (const Index q : side == 0 ? m_surfaces[s].side_a : m_surfaces[s].side_b)
         if (m_ids.counted(q)) {
           const Vec2 x = current(q, u);
-          mine.insert(mine.end(), {static_cast<double>(s), static_cast<double>(side),
-                                   static_cast<double>(m_ids.gid(q)), x.x(), x.y()});
+          mine.push_back({static_cast<std::int64_t>(s), side, m_ids.gid(q), x.x(), x.y()});
         }
-  const std::vector<double> all = m_ids.gather(mine);
+  const std::vector<Face> all = m_ids.gather(mine);
   const double R = m_search_radius;
   std::int64_t outside = 0;
   for (std::size_t s = 0; s < m_surfaces.size(); ++s)
     for (int side = 0; side < 2; ++side) {
       // The other side's particles, every rank's, in cells R wide.
       std::unordered_map<std::uint64_t, std::vector<std::size_t>> grid;
-      for (std::size_t at = 0; at + 5 <= all.size(); at += 5)
-        if (all[at] == static_cast<double>(s) && all[at + 1] != static_cast<double>(side)) {
-          const auto [cx, cy] = grid_cell(Vec2(all[at + 3], all[at + 4]), R);
+      for (std::size_t at = 0; at < all.size(); ++at)
+        if (all[at].surface == static_cast<std::int64_t>(s) && all[at].side != side) {
+          const auto [cx, cy] = grid_cell(Vec2(all[at].x, all[at].y), R);
           grid[cell_key(cx, cy)].push_back(at);
         }
       for (const Index q : side == 0 ? m_surfaces[s].side_a : m_surfaces[s].side_b) {
         if (!m_ids.counted(q)) continue;
         const Vec2 x = current(q, u);
         visit_near(grid, x, R, [&](std::size_t at) {
-          if ((Vec2(all[at + 3], all[at + 4]) - x).norm() < R &&
-              m_ids.local_of(static_cast<std::int64_t>(all[at + 2])) < 0)
-            ++outside;
+          if ((Vec2(all[at].x, all[at].y) - x).norm() < R && m_ids.local_of(all[at].gid) < 0) ++outside;
         });
       }
     }
-  std::int64_t total = 0;
-  for (const double v : m_ids.gather({static_cast<double>(outside)})) total += static_cast<std::int64_t>(v);
-  return total;
+  return m_ids.sum_over_ranks(outside);
 }
 
 void CandidateSearch::save(StateArchive& archive) const {

@@ -23,9 +23,9 @@ ContactLaw ContactSystem::law_of(const ContactOptions& o, double spacing) {
   return law;
 }
 
-ContactSystem::ContactSystem(const Model& model, const ContactOptions& o, ContactRanks ranks)
+ContactSystem::ContactSystem(const Model& model, const ContactOptions& o, const Ranks& ranks, ContactRanks share)
     : m_model(model),
-      m_ids(std::move(ranks), model.particles.size()),
+      m_ids(std::move(share), model.particles.size(), ranks),
       m_law(law_of(o, model.spacing)),
       m_stiffness(model, o.stiffness, m_law.exact),
       m_search(model, m_law, m_ids, m_stiffness),
@@ -46,8 +46,7 @@ void ContactSystem::count_candidates() {
   // Every rank's own pairs (every pair of a whole model).
   Index own = 0;
   for (const ContactPair& c : pairs()) own += counted(c.i);
-  m_counts.candidates = 0;
-  for (const double v : m_ids.gather({static_cast<double>(own)})) m_counts.candidates += static_cast<Index>(v);
+  m_counts.candidates = static_cast<Index>(m_ids.sum_over_ranks(own));
   m_counts.open = m_counts.candidates;
   if (m_law.exact) m_state.reduce_augmentation_capped(m_ids);
 }
@@ -153,34 +152,34 @@ void ContactSystem::reduce_over_ranks(bool want_jacobian) {
   // Each rank's figures of its own pairs; every rank combines them in rank order alike.
   Index own = 0;
   for (const ContactPair& c : pairs()) own += counted(c.i);
-  const std::uint64_t h = m_signature;
-  const std::vector<double> mine = {static_cast<double>(own),
-                                    static_cast<double>(m_counts.open),
-                                    static_cast<double>(m_counts.stick),
-                                    static_cast<double>(m_counts.slip),
-                                    own > 0 ? m_min_distance : std::numeric_limits<double>::infinity(),
-                                    m_max_closure,
-                                    m_symmetric ? 1.0 : 0.0,
-                                    static_cast<double>(h & 0xffff),
-                                    static_cast<double>((h >> 16) & 0xffff),
-                                    static_cast<double>((h >> 32) & 0xffff),
-                                    static_cast<double>(h >> 48)};
-  constexpr std::size_t width = 11;
-  const std::vector<double> all = m_ids.gather(mine);
+  struct Figures {
+    std::int64_t candidates, open, stick, slip;
+    double min_distance, max_closure;
+    std::int64_t symmetric;
+    std::uint64_t signature;
+  };
+  const Figures mine{own,
+                     m_counts.open,
+                     m_counts.stick,
+                     m_counts.slip,
+                     own > 0 ? m_min_distance : std::numeric_limits<double>::infinity(),
+                     m_max_closure,
+                     m_symmetric ? 1 : 0,
+                     m_signature};
   ContactCounts counts;
   std::uint64_t hash = 1469598103934665603ull;
   double dmin = std::numeric_limits<double>::infinity(), closure = 0.0;
   bool symmetric = true;
-  for (std::size_t at = 0; at + width <= all.size(); at += width) {
-    counts.candidates += static_cast<Index>(all[at]);
-    counts.open += static_cast<Index>(all[at + 1]);
-    counts.stick += static_cast<Index>(all[at + 2]);
-    counts.slip += static_cast<Index>(all[at + 3]);
-    dmin = std::min(dmin, all[at + 4]);
-    closure = std::max(closure, all[at + 5]);
-    symmetric = symmetric && all[at + 6] != 0.0;
-    for (std::size_t q = 0; q < 4; ++q)
-      hash = (hash ^ static_cast<std::uint64_t>(all[at + 7 + q])) * 1099511628211ull;
+  for (const Figures& f : m_ids.gather(std::vector<Figures>{mine})) {
+    counts.candidates += static_cast<Index>(f.candidates);
+    counts.open += static_cast<Index>(f.open);
+    counts.stick += static_cast<Index>(f.stick);
+    counts.slip += static_cast<Index>(f.slip);
+    dmin = std::min(dmin, f.min_distance);
+    closure = std::max(closure, f.max_closure);
+    symmetric = symmetric && f.symmetric != 0;
+    // FNV-1a over each rank's signature, 16 bits at a time.
+    for (int q = 0; q < 4; ++q) hash = (hash ^ ((f.signature >> (16 * q)) & 0xffff)) * 1099511628211ull;
   }
   m_counts = counts;
   m_signature = hash;
@@ -272,17 +271,18 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
   }
   if (partitioned()) {  // the largest over every rank's own pairs; of equals, the first in the whole model's
                         // order
-    const std::vector<double> all = m_ids.gather(
-        {m.violation, m.opening, static_cast<double>(m.pair_i), static_cast<double>(m.pair_j)});
+    struct Worst {
+      double violation, opening;
+      std::int64_t i, j;
+    };
     MultiplierUpdate best;
-    for (std::size_t at = 0; at + 4 <= all.size(); at += 4) {
-      best.opening = std::max(best.opening, all[at + 1]);
-      const auto i = static_cast<std::int64_t>(all[at + 2]), j = static_cast<std::int64_t>(all[at + 3]);
-      if (all[at] > best.violation || (i >= 0 && all[at] == best.violation && best.pair_i >= 0 &&
-                                       std::pair(i, j) < std::pair(best.pair_i, best.pair_j))) {
-        best.violation = all[at];
-        best.pair_i = i;
-        best.pair_j = j;
+    for (const Worst& w : m_ids.gather(std::vector<Worst>{{m.violation, m.opening, m.pair_i, m.pair_j}})) {
+      best.opening = std::max(best.opening, w.opening);
+      if (w.violation > best.violation || (w.i >= 0 && w.violation == best.violation && best.pair_i >= 0 &&
+                                           std::pair(w.i, w.j) < std::pair(best.pair_i, best.pair_j))) {
+        best.violation = w.violation;
+        best.pair_i = w.i;
+        best.pair_j = w.j;
       }
     }
     m.violation = best.violation;
@@ -313,14 +313,15 @@ CrossedPair ContactSystem::first_crossed_pair(const VectorXd& u) const {
   }
   if (!partitioned()) return out;
   // Every rank's first own crossed pair; the first of those in the whole model's order.
-  const std::vector<double> all =
-      m_ids.gather({static_cast<double>(out.i), static_cast<double>(out.j), out.Xi.x(), out.Xi.y(),
-                      out.Xj.x(), out.Xj.y(), out.normal});
+  struct Crossed {
+    std::int64_t i, j;
+    double xi, yi, xj, yj, normal;
+  };
   CrossedPair first;
-  for (std::size_t at = 0; at + 7 <= all.size(); at += 7) {
-    const auto i = static_cast<std::int64_t>(all[at]), j = static_cast<std::int64_t>(all[at + 1]);
-    if (i < 0 || (first.any() && std::pair(first.i, first.j) < std::pair(i, j))) continue;
-    first = {i, j, Vec2(all[at + 2], all[at + 3]), Vec2(all[at + 4], all[at + 5]), all[at + 6]};
+  for (const Crossed& c : m_ids.gather(
+           std::vector<Crossed>{{out.i, out.j, out.Xi.x(), out.Xi.y(), out.Xj.x(), out.Xj.y(), out.normal}})) {
+    if (c.i < 0 || (first.any() && std::pair(first.i, first.j) < std::pair(c.i, c.j))) continue;
+    first = {c.i, c.j, Vec2(c.xi, c.yi), Vec2(c.xj, c.yj), c.normal};
   }
   return first;
 }

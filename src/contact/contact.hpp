@@ -57,9 +57,10 @@ class ContactSystem {
  public:
   /// Builds the candidate pairs the options ask for (the faces of the model's pre-cracks if
   /// options.cracks, declared interfaces between the model's bodies). Throws InputError when
-  /// a declared interface has no common boundary. With `ranks` (a rank's part of the model)
-  /// the part's share, and the constructor is collective.
-  ContactSystem(const Model& model, const ContactOptions& options, ContactRanks ranks = {});
+  /// a declared interface has no common boundary. With `share` (a rank's part of the model)
+  /// the part's share, and the constructor is collective over `ranks`.
+  ContactSystem(const Model& model, const ContactOptions& options, const Ranks& ranks = serial_ranks(),
+                ContactRanks share = {});
   /// Its rooms refer to its members: neither copied nor moved.
   ContactSystem(const ContactSystem&) = delete;
   ContactSystem& operator=(const ContactSystem&) = delete;

@@ -184,28 +184,32 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
   // gap0, stiffness, then slip (friction), then the committed multiplier, boost and boost
   // limit (exact enforcement).
   const bool friction = m_law.tracks_slip();
-  const std::size_t width = 6 + (friction ? 1 : 0) + (m_law.exact ? 3 : 0);
-  std::vector<double> mine;
-  mine.reserve(width * m_pairs.size());
+  struct Saved {
+    std::int64_t i, j;
+    double nx, ny, gap0, stiffness, slip, multiplier, boost, boost_limit;
+  };
+  std::vector<Saved> mine;
+  mine.reserve(m_pairs.size());
   for (std::size_t k = 0; k < m_pairs.size(); ++k) {
     const ContactPair& c = m_pairs[k];
     if (!ids.counted(c.i)) continue;  // on a part: another rank's pair
-    mine.insert(mine.end(), {static_cast<double>(ids.gid(c.i)), static_cast<double>(ids.gid(c.j)), c.normal.x(),
-                             c.normal.y(), c.gap0, c.stiffness});
-    if (friction) mine.push_back(m_slip[k]);
-    if (m_law.exact) mine.insert(mine.end(), {m_multiplier_committed[k], m_boost[k], m_boost_limit[k]});
+    mine.push_back({ids.gid(c.i), ids.gid(c.j), c.normal.x(), c.normal.y(), c.gap0, c.stiffness,
+                    friction ? m_slip[k] : 0.0, m_law.exact ? m_multiplier_committed[k] : 0.0,
+                    m_law.exact ? m_boost[k] : 0.0, m_law.exact ? m_boost_limit[k] : 0.0});
   }
-  const std::vector<double> all = ids.gather(mine);
-  std::vector<double> pairs, slip, multiplier, boost, boost_limit;
-  for (const std::size_t r : ids.rows_in_whole_order(all, width)) {
-    pairs.insert(pairs.end(), all.begin() + static_cast<std::ptrdiff_t>(r),
-                 all.begin() + static_cast<std::ptrdiff_t>(r + 6));
-    std::size_t at = r + 6;
-    if (friction) slip.push_back(all[at++]);
+  std::vector<Saved> all = ids.gather(mine);
+  // A whole model's pairs are in its order already; the parts' (in rank order) by global ids.
+  if (ids.partitioned())
+    std::sort(all.begin(), all.end(),
+              [](const Saved& a, const Saved& b) { return std::pair(a.i, a.j) < std::pair(b.i, b.j); });
+  std::vector<double> pairs, slip, multiplier, boost, boost_limit;  // the file holds doubles
+  for (const Saved& x : all) {
+    pairs.insert(pairs.end(), {static_cast<double>(x.i), static_cast<double>(x.j), x.nx, x.ny, x.gap0, x.stiffness});
+    if (friction) slip.push_back(x.slip);
     if (m_law.exact) {
-      multiplier.push_back(all[at]);
-      boost.push_back(all[at + 1]);
-      boost_limit.push_back(all[at + 2]);
+      multiplier.push_back(x.multiplier);
+      boost.push_back(x.boost);
+      boost_limit.push_back(x.boost_limit);
     }
   }
   archive.put("contact/pairs", std::move(pairs));

@@ -4,7 +4,6 @@
 #pragma once
 
 #include <cstdint>
-#include <functional>
 #include <vector>
 
 namespace peristat {
@@ -14,11 +13,5 @@ namespace peristat {
 inline std::int64_t strip_start(std::int64_t nodes, int rank, int ranks) {
   return nodes * rank / ranks;
 }
-
-/// Every rank's `mine` concatenated in rank order, the same on every rank (a collective
-/// operation: every rank calls it at the same point; MPI_Allgatherv in a run under mpirun).
-/// The decisions that read the whole model while each rank holds a part of it (bond failure
-/// with partitioned bonds) gather each rank's share this way.
-using GatherOverRanks = std::function<std::vector<double>(const std::vector<double>& mine)>;
 
 }  // namespace peristat

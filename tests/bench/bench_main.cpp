@@ -249,6 +249,7 @@ int parts(const std::string& path, int ranks, const std::vector<Override>& overr
       extract_seconds = std::max(extract_seconds, wall_seconds() - t0);
       ProblemOptions part_options = options;
       part_options.rows = OwnedRows{rank, part.owner};  // one rank's part, measured alone
+      part_options.global_id = part.global_id;
       const QuasiStaticProblem problem(part.model, part_options);
       const double bytes = measure(part.model, problem).memory_bytes +
                            static_cast<double>(part.memory_bytes() - part.model.memory_bytes());

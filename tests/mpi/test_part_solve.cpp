@@ -128,6 +128,7 @@ TEST(PartSolve, BelosOnThePartsSolvesTheWholeBondMatrix) {
   }
   ProblemOptions part_options = options;
   part_options.rows = OwnedRows{rank, part.owner};
+  part_options.global_id = part.global_id;  // a part's own rows read no other rank's forces
   QuasiStaticProblem problem(part.model, part_options, ranks());
   problem.set_load_factor(1.0);
   const Index n = part.model.constraints.n_free;

@@ -13,7 +13,7 @@
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
 #include "parallel/thread_ranks.hpp"
-#include "support/emulated_ranks.hpp"
+#include "support/owners.hpp"
 #include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
 #include "support/solve.hpp"

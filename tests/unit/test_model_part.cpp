@@ -14,7 +14,7 @@
 #include "assembly/quasi_static.hpp"
 #include "parallel/thread_ranks.hpp"
 #include "discretisation/model_part.hpp"
-#include "support/emulated_ranks.hpp"
+#include "support/owners.hpp"
 #include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
 

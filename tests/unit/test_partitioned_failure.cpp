@@ -25,7 +25,7 @@
 #include "materials/osb.hpp"
 #include "parallel/exchange.hpp"
 #include "parallel/thread_ranks.hpp"
-#include "support/emulated_ranks.hpp"
+#include "support/owners.hpp"
 #include "support/scenes.hpp"
 
 namespace peristat {
