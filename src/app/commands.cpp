@@ -234,7 +234,7 @@ class Run {
 
   /// The header, and the results record (HDF5, XDMF, summary.json) with the warnings.
   void open_record() {
-    m_progress = std::make_unique<ProgressPrinter>(verbose(), m_scene.solver.type, *m_problem);
+    m_progress = std::make_unique<ProgressPrinter>(verbose(), m_plan.solver, *m_problem);
     m_progress->header(m_scene, m_size, wall_seconds() - m_t_start, m_method);
     m_recorder = std::make_unique<StepRecorder>(m_out, m_scene, *m_problem, *m_view, m_size,
                                                 m_linear ? m_linear->name() : "", omp_get_max_threads(),
