@@ -177,4 +177,12 @@ std::size_t OwnedEntriesExchange::memory_bytes() const {
   return bytes_of(m_entries) + bytes_of(m_scratch) + bytes_of(m_scratch_ids) + m_exchange->memory_bytes();
 }
 
+// The element types the headers' share() overloads use.
+template void Halo::share_as(double*, std::vector<double>&, std::vector<double>&);
+template void Halo::share_as(std::int64_t*, std::vector<std::int64_t>&, std::vector<std::int64_t>&);
+template void OwnedExchange::share_as(double*, std::vector<double>&, std::vector<double>&);
+template void OwnedExchange::share_as(std::int64_t*, std::vector<std::int64_t>&, std::vector<std::int64_t>&);
+template void OwnedEntriesExchange::share_as(double*, std::vector<double>&);
+template void OwnedEntriesExchange::share_as(std::int64_t*, std::vector<std::int64_t>&);
+
 }  // namespace peristat
