@@ -7,7 +7,6 @@
 // numbering (contact/contact_ids.hpp). Derivations: docs/theory/contact.md.
 #pragma once
 
-#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -205,7 +204,7 @@ class ContactSystem {
   /// On a part: the counts, signature, symmetry and distances of the last evaluation over
   /// every rank's own pairs (collective).
   void reduce_over_ranks(bool want_jacobian);
-  /// The pair's end of the smaller global id first.
+  /// The particle's global id, and whether this rank counts it (ContactIds).
   std::int64_t gid(Index i) const { return m_ids.gid(i); }
   bool counted(Index i) const { return m_ids.counted(i); }
   /// A pair of two held particles (set_excluded).
