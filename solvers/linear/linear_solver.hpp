@@ -1,6 +1,7 @@
 // The linear-solver seam. Method names follow Eigen (analyzePattern, factorize, solve,
-// info) so Eigen's and SuiteSparse's solvers fit behind it; Trilinos's (solvers/trilinos/)
-// are registered makers (register_linear_solver), so that nothing here knows Trilinos.
+// info) so Eigen's and SuiteSparse's solvers fit behind it. The solvers of heavier libraries
+// (belos, the bond_amg V-cycle) are makers that the program registers (register_linear_solver,
+// register_preconditioner): nothing here includes or links them.
 // Nothing here knows about physics.
 #pragma once
 
