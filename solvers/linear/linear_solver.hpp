@@ -44,7 +44,8 @@ struct UnknownLayout {
 /// What the problem lends a linear solver besides the matrices passed to analyzePattern() and
 /// factorize(): the system matrix's action (MFEM's Operator::Mult) and a second matrix P to
 /// precondition with (PETSc's Pmat), assembled on demand. Implemented above the seam
-/// (src/app/linear_solvers.cpp, over the quasi-static problem); it must outlive the solver.
+/// (src/app/linear_solvers.cpp, over the quasi-static problem); the solver holds it
+/// (LinearSetup::system), and the problem behind it must outlive the solver.
 class LinearSystem {
  public:
   virtual ~LinearSystem() = default;
