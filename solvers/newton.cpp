@@ -190,13 +190,11 @@ double NewtonSolver::residual_tolerance(double force_scale) const {
   return std::max(m_options.rtol * force_scale, m_options.atol);
 }
 
-SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report) {
-  // Iteration 1 uses the factor of the last converged state when there is one.
-  bool use_existing = m_have_factor;
-  const NewtonOptions& o = m_options;
-  auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kTiny); };
-  auto converged = [&](double norm) { return norm <= residual_tolerance(m_problem.force_scale()); };
+double NewtonSolver::relative(double norm) const { return norm / std::max(m_problem.force_scale(), kTiny); }
 
+bool NewtonSolver::converged(double norm) const { return norm <= residual_tolerance(m_problem.force_scale()); }
+
+double NewtonSolver::evaluate_first(const VectorXd& x, bool& use_existing, SolveReport& report) {
   double t0 = wall_seconds();
   const bool assemble0 = !(reuse_factor() || use_existing);
   m_problem.evaluate(x, m_r, assemble0 ? &m_K : nullptr);
@@ -212,7 +210,40 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
     report.seconds_evaluate += wall_seconds() - t0;
     use_existing = false;
   }
-  double norm = m_problem.norm(m_r);
+  return m_problem.norm(m_r);
+}
+
+bool NewtonSolver::line_search(const VectorXd& x, double& norm, double& alpha, SolveReport& report) {
+  // Backtracking: accept alpha when ||r(x + alpha dx)|| <= (1 - kArmijo alpha) ||r(x)||.
+  const NewtonOptions& o = m_options;
+  alpha = 1.0;
+  for (int ls = 0;; ++ls) {
+    m_trial = x + alpha * m_dx;
+    const double t0 = wall_seconds();
+    m_problem.evaluate(m_trial, m_trial_r, reuse_factor() ? nullptr : &m_K);
+    if (!reuse_factor()) m_K_symmetric = m_problem.tangent_symmetric();
+    report.seconds_evaluate += wall_seconds() - t0;
+    const double trial_norm = m_problem.norm(m_trial_r);
+    const bool accept =
+        !o.line_search || converged(trial_norm) || trial_norm <= (1.0 - kArmijo * alpha) * norm;
+    if (accept && std::isfinite(trial_norm)) {
+      norm = trial_norm;
+      return true;
+    }
+    if (ls >= o.line_search_max) {
+      report.reason = "line search failed to reduce the residual (relative " +
+                      std::to_string(relative(trial_norm)) + ")";
+      return false;
+    }
+    alpha *= kBacktrack;
+  }
+}
+
+SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report) {
+  // Iteration 1 uses the factor of the last converged state when there is one.
+  bool use_existing = m_have_factor;
+  const NewtonOptions& o = m_options;
+  double norm = evaluate_first(x, use_existing, report);
   report.residuals.push_back(relative(norm));
   if (monitor) monitor(0, report.residuals.back(), 0.0, 0);
   // Discrete states (contact active set) of the accepted iterates, to count changes and
@@ -248,7 +279,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
         return report;
       }
     }
-    t0 = wall_seconds();
+    const double t0 = wall_seconds();
     m_dx.setZero(m_r.size());
     LinearSolver& lin = m_factored ? *m_factored : m_linear;
     const bool iterative = lin.traits().iterative;
@@ -263,29 +294,9 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
       return report;
     }
 
-    // Backtracking: accept alpha when ||r(x + alpha dx)|| <= (1 - kArmijo alpha) ||r(x)||.
     const double norm_before = norm;
     double alpha = 1.0;
-    for (int ls = 0;; ++ls) {
-      m_trial = x + alpha * m_dx;
-      t0 = wall_seconds();
-      m_problem.evaluate(m_trial, m_trial_r, reuse_factor() ? nullptr : &m_K);
-      if (!reuse_factor()) m_K_symmetric = m_problem.tangent_symmetric();
-      report.seconds_evaluate += wall_seconds() - t0;
-      const double trial_norm = m_problem.norm(m_trial_r);
-      const bool accept =
-          !o.line_search || converged(trial_norm) || trial_norm <= (1.0 - kArmijo * alpha) * norm;
-      if (accept && std::isfinite(trial_norm)) {
-        norm = trial_norm;
-        break;
-      }
-      if (ls >= o.line_search_max) {
-        report.reason = "line search failed to reduce the residual (relative " +
-                        std::to_string(relative(trial_norm)) + ")";
-        return report;
-      }
-      alpha *= kBacktrack;
-    }
+    if (!line_search(x, norm, alpha, report)) return report;
     x.swap(m_trial);
     m_r.swap(m_trial_r);
     previous_norm = norm_before;

@@ -47,6 +47,14 @@ class NewtonSolver final : public StepSolver {
 
  private:
   SolveReport solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report);
+  /// The residual at x, with the tangent unless the first iteration keeps the factor it has
+  /// (`use_existing`, cleared when the predictor changed the active set); returns its norm.
+  double evaluate_first(const VectorXd& x, bool& use_existing, SolveReport& report);
+  /// Backtracking along m_dx from x: the accepted trial in m_trial, m_trial_r, its residual's
+  /// norm in `norm` and its step length in `alpha`; false (with the reason) when none is.
+  bool line_search(const VectorXd& x, double& norm, double& alpha, SolveReport& report);
+  double relative(double norm) const;  ///< a residual norm relative to the force scale
+  bool converged(double norm) const;   ///< whether a residual norm meets the tolerance
   /// The relative residual the Krylov solve of iteration `it` stops at, from the residual
   /// norms of this and the previous iterate and the previous forcing term.
   double forcing_term(int it, double norm, double previous_norm, double previous_eta) const;

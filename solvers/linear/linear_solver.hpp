@@ -1,6 +1,7 @@
 // The linear-solver seam. Method names follow Eigen (analyzePattern, factorize, solve,
-// info) so Eigen's and SuiteSparse's solvers fit behind it; Trilinos's (solvers/trilinos/)
-// are registered makers (register_linear_solver), so that nothing here knows Trilinos.
+// info) so Eigen's and SuiteSparse's solvers fit behind it. The solvers of heavier libraries
+// (belos, the bond_amg V-cycle) are makers that the program registers (register_linear_solver,
+// register_preconditioner): nothing here includes or links them.
 // Nothing here knows about physics.
 #pragma once
 
@@ -43,7 +44,8 @@ struct UnknownLayout {
 /// What the problem lends a linear solver besides the matrices passed to analyzePattern() and
 /// factorize(): the system matrix's action (MFEM's Operator::Mult) and a second matrix P to
 /// precondition with (PETSc's Pmat), assembled on demand. Implemented above the seam
-/// (src/app/linear_solvers.cpp, over the quasi-static problem); it must outlive the solver.
+/// (src/app/linear_solvers.cpp, over the quasi-static problem); the solver holds it
+/// (LinearSetup::system), and the problem behind it must outlive the solver.
 class LinearSystem {
  public:
   virtual ~LinearSystem() = default;
