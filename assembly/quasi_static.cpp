@@ -220,15 +220,22 @@ std::string QuasiStaticProblem::check_converged_state(const VectorXd& x) {
       return buf;
     }
     // On a part: every partner a search could find must be held by the part of the rank that
-    // owns the face particle. No smaller increment helps once the faces slid that far.
-    if (const std::int64_t outside = m_contact->partners_outside(m_u); outside > 0) {
-      std::snprintf(
-          buf, sizeof buf,
-          "the contact faces slid past the ranks' parts of the model: %ld face particles have a partner "
-          "within the search radius that their rank does not hold; solver.belos.model=whole runs this "
-          "scene",
-          static_cast<long>(outside));
-      throw ModelLimit(buf);
+    // owns the face particle. No smaller increment helps once the faces slid that far: the
+    // parts must grow (PartsOutgrown carries, per rank, the particles within two search radii,
+    // so that the grown parts follow the faces for a while).
+    const double radius = m_contact->search_radius();
+    if (const std::int64_t outside =
+            m_contact->partitioned()
+                ? m_ranks.sum(static_cast<std::int64_t>(m_contact->partners_not_held(m_u, radius).size()))
+                : 0;
+        outside > 0) {
+      std::vector<std::int64_t> grow = m_contact->partners_not_held(m_u, 2.0 * radius);
+      const std::int64_t total = m_ranks.sum(static_cast<std::int64_t>(grow.size()));
+      std::snprintf(buf, sizeof buf,
+                    "the contact faces slid past the ranks' parts of the model: %ld face particles have a "
+                    "partner within the search radius that their rank does not hold",
+                    static_cast<long>(outside));
+      throw PartsOutgrown(buf, std::move(grow), total);
     }
   }
   if (std::string why = m_damage.check(); !why.empty()) return why;

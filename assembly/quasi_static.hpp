@@ -146,8 +146,8 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   /// or whose faces slid further than a partner search covers (section 10).
   /// Also checks that no particle's damage decreased since the last accepted state, and the
   /// energy balance of the bonds over the increment (EnergyBalance). On a rank's part with
-  /// contact, throws ModelLimit (collectively) when the faces slid past what the parts hold
-  /// (ContactSystem::partners_outside): the run stops with exit 3.
+  /// contact, throws PartsOutgrown (collectively) when the faces slid past what the parts hold
+  /// (ContactSystem::partners_not_held()): `peristat run` grows the parts.
   std::string check_converged_state(const VectorXd& x) override;
   std::vector<std::string> state_checks() const override;
 

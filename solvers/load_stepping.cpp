@@ -181,7 +181,8 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
     double increment = target - lambda;
     int halvings = 0;  // current depth below the nominal increment
     // A ModelLimit (the model cannot follow the state: Problem::check_converged_state) stops the
-    // run at the last converged state x.
+    // run at the last converged state x; PartsOutgrown goes to the caller, which can grow the
+    // parts and solve this step again from its last checkpoint.
     try {
       while (lambda < target - kReachedTarget * nominal) {
         if (!solver.prepared()) solver.prepare(x);  // tangent of the converged state
@@ -240,6 +241,9 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
         increment *= 0.5;
         if (cb.on_cutback) cb.on_cutback(r.reason, increment);
       }
+    } catch (const PartsOutgrown&) {  // the caller re-cuts the parts and solves the step again
+      problem.set_load_factor(lambda);
+      throw;
     } catch (const ModelLimit& limit) {  // a check of a solve or re-solve: no smaller increment helps
       problem.set_load_factor(lambda);
       run.message = "load step " + std::to_string(k) + "/" + std::to_string(n) + ": " + limit.what();

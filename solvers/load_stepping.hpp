@@ -65,7 +65,8 @@ struct LoadSteppingCallbacks {
 
 /// Runs the load steps from the committed state x (normally zero at load factor 0): nominal
 /// steps steps_done + 1 .. loading.steps, the problem's load factor being that of step
-/// steps_done (a resumed run).
+/// steps_done (a resumed run). Throws PartsOutgrown (core/error.hpp) when a converged state
+/// shows that the ranks' parts must grow; x and the problem are then in the middle of a step.
 RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, const Loading& loading,
                          const LoadSteppingCallbacks& callbacks, int steps_done = 0);
 

@@ -113,11 +113,13 @@ struct ProcessModel {
   const ModelPart* part_or_null() const { return part ? &*part : nullptr; }
 };
 
-/// The model the plan says this process holds (RunPlan::model, RunPlan::bonds).
-ProcessModel process_model(const Scene& scene, const RunPlan& plan, const Ranks& ranks) {
+/// The model the plan says this process holds (RunPlan::model, RunPlan::bonds); a part keeps
+/// the `extra` particles too (global ids: the partners of faces that slid towards it).
+ProcessModel process_model(const Scene& scene, const RunPlan& plan, const Ranks& ranks,
+                           const std::vector<std::int64_t>& extra = {}) {
   ProcessModel m;
   if (plan.model.part) {
-    m.part.emplace(part_model(scene, plan.bonds.rings, ranks.rank(), ranks.size()));
+    m.part.emplace(part_model(scene, plan.bonds.rings, ranks.rank(), ranks.size(), extra));
     return m;
   }
   if (plan.bonds.partitioned) {
@@ -195,8 +197,9 @@ class Run {
     for (const std::string& w : m_warnings) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
   }
 
-  /// This process's model: the whole model, or the rank's part of it.
-  void build_model() { m_model = process_model(m_scene, m_plan, *m_ranks); }
+  /// This process's model: the whole model, or the rank's part of it (with the particles the
+  /// parts took in as the contact faces slid: grow_parts()).
+  void build_model() { m_model = process_model(m_scene, m_plan, *m_ranks, m_extra); }
 
   /// The problem on it, and its size.
   void build_problem() {
@@ -220,16 +223,58 @@ class Run {
   void resume_or_start() {
     m_out = m_args.out.empty() ? "results/" + m_scene.name : m_args.out;
     m_checkpoint_path = m_out + "/" + m_scene.name + ".checkpoint.h5";
+    m_checkpointed = m_args.resume;
+    start_from_checkpoint(true);
+  }
+
+  /// The state of the checkpoint's last converged step when there is one (m_checkpointed;
+  /// with `check_run`, refused unless it is this scene's with these options), else the
+  /// unloaded state.
+  void start_from_checkpoint(bool check_run) {
     m_x = VectorXd::Zero(m_problem->n_unknowns());
-    if (!m_args.resume) {
+    m_steps_done = 0;
+    if (!m_checkpointed) {
       m_problem->set_load_factor(0.0);
       return;
     }
     const StateArchive checkpoint = read_checkpoint(m_checkpoint_path);
-    check_same_run(checkpoint, m_checkpoint_path, m_scene, m_args);
+    if (check_run) check_same_run(checkpoint, m_checkpoint_path, m_scene, m_args);
     m_x = m_view->unknowns_from(checkpoint.get("state/x", m_size.unknowns));  // the whole model's unknowns
     m_steps_done = static_cast<int>(checkpoint.scalar("state/steps_done"));
     m_problem->restore_state(checkpoint, m_x);
+  }
+
+  /// The contact faces slid past the parts (PartsOutgrown, thrown alike on every rank): each
+  /// rank's part takes in the particles it named, the model, problem and solver are built
+  /// again, and the run goes on from the last checkpoint, as a resumed run would (the
+  /// checkpoint is by global id, so it restores on any parts).
+  void grow_parts(const PartsOutgrown& grown) {
+    ++m_regrowths;
+    if (verbose())
+      std::printf("peristat: %s; the parts take in %lld more particles and go on from %s\n", grown.what(),
+                  static_cast<long long>(grown.total()),
+                  m_checkpointed ? "the last checkpoint" : "the unloaded state");
+    std::vector<std::int64_t> extra = m_extra;
+    extra.insert(extra.end(), grown.particles().begin(), grown.particles().end());
+    std::sort(extra.begin(), extra.end());
+    extra.erase(std::unique(extra.begin(), extra.end()), extra.end());
+    m_extra = std::move(extra);
+    (void)m_ranks->any(false);  // a barrier: rank 0's checkpoint is on disk before the others read it
+    m_solver.reset();  // in reverse order of construction
+    m_linear.reset();
+    m_view.reset();
+    m_problem.reset();
+    m_model = ProcessModel{};
+    build_model();
+    m_problem = std::make_unique<QuasiStaticProblem>(
+        m_model.held(), process_problem_options(m_scene, m_plan, m_model, *m_ranks), *m_ranks);
+    m_size = measure(m_model.held(), *m_problem, m_model.part_or_null());
+    make_solver();
+    start_from_checkpoint(false);
+    m_progress = std::make_unique<ProgressPrinter>(verbose(), m_plan.solver, *m_problem);
+    m_recorder->rebind(*m_problem, *m_view);
+    m_recorder->set_run_value("part_regrowths", m_regrowths);
+    m_recorder->set_run_value("largest_rank_particles", m_size.largest_rank_particles);
   }
 
   /// The header, and the results record (HDF5, XDMF, summary.json) with the warnings.
@@ -245,13 +290,14 @@ class Run {
                   m_scene.loading.steps, m_problem->load_factor(), m_checkpoint_path.c_str());
   }
 
-  /// The load steps, each recorded and checkpointed; the exit code of how they ended.
+  /// The load steps, each recorded and checkpointed; the exit code of how they ended. When the
+  /// contact faces slide past the ranks' parts, the parts grow and the run goes on
+  /// (grow_parts()).
   int run_load_steps_and_finish() {
     // Every nominal step: the results, then the checkpoint (a stop between the two repeats the step).
     StateArchive checkpoint;
     checkpoint.texts = {{"scene", m_scene.text}, {"overrides", joined(m_args.overrides)}, {"solver", m_args.solver}};
-    LoadSteppingCallbacks callbacks = m_progress->callbacks();
-    callbacks.on_step = [&](const StepReport& step, const VectorXd& state) {
+    const auto on_step = [&](const StepReport& step, const VectorXd& state) {
       m_recorder->record(step, state);
       if (m_recorder->due(step.step)) m_progress->step_done(step);
       checkpoint.arrays.clear();
@@ -259,10 +305,21 @@ class Run {
       checkpoint.put("state/steps_done", step.step);
       m_problem->save_state(checkpoint);
       if (m_root) write_checkpoint(m_checkpoint_path, checkpoint);
+      m_checkpointed = true;
     };
     return finish_run(
         *m_recorder,
-        [&] { return run_load_steps(*m_problem, *m_solver, m_x, m_scene.loading, callbacks, m_steps_done); },
+        [&] {
+          for (;;) {
+            LoadSteppingCallbacks callbacks = m_progress->callbacks();
+            callbacks.on_step = on_step;
+            try {
+              return run_load_steps(*m_problem, *m_solver, m_x, m_scene.loading, callbacks, m_steps_done);
+            } catch (const PartsOutgrown& grown) {
+              grow_parts(grown);
+            }
+          }
+        },
         verbose(), m_t_start);
   }
 
@@ -287,6 +344,9 @@ class Run {
   std::string m_out, m_checkpoint_path;
   VectorXd m_x;
   int m_steps_done = 0;
+  bool m_checkpointed = false;         ///< the checkpoint file holds a converged step of this run
+  std::vector<std::int64_t> m_extra;   ///< particles the part took in as the faces slid (global ids)
+  int m_regrowths = 0;                 ///< times the parts grew (grow_parts())
   std::unique_ptr<ProgressPrinter> m_progress;
   std::unique_ptr<StepRecorder> m_recorder;
 };

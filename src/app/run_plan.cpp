@@ -33,12 +33,11 @@ ModelChoice part_model_choice(const Scene& scene, const RunPlan& plan) {
   const bool belos = plan.newton() && plan.linear == LinearSolverKind::belos;
   if (!belos && (plan.ranks <= 1 || plan.newton())) return {false, "solver.linear is not belos"};
   if (asked == BelosModel::automatic && plan.ranks <= 1) return {false, "one process"};
-  if (asked == BelosModel::automatic && scene.contact.enabled)
-    return {false,
-            "contact: a part holds the pairs within its reach, which faces that slide far can exceed "
-            "(the run would then stop with exit 3); solver.belos.model=part runs it on the parts"};
   return {true, asked == BelosModel::part
                     ? "solver.belos.model: part"
+                : scene.contact.enabled
+                    ? "each rank holds its own particles and their neighbours, and vectors over their unknowns "
+                      "only; the parts grow when the contact faces slide past them"
                     : "each rank holds its own particles and their neighbours, and vectors "
                       "over their unknowns only"};
 }

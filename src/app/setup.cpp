@@ -75,7 +75,7 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
   return layout;
 }
 
-ModelPart part_model(const Scene& scene, int rings, int rank, int ranks) {
+ModelPart part_model(const Scene& scene, int rings, int rank, int ranks, const std::vector<std::int64_t>& extra) {
   OwnedRows rows;
   const Model whole = discretise(scene, [&](const Model& unbonded) {
     rows = owned_rows(scene, unbonded, rank, ranks);
@@ -83,7 +83,7 @@ ModelPart part_model(const Scene& scene, int rings, int rank, int ranks) {
       rows = OwnedRows{0, std::vector<int>(static_cast<std::size_t>(unbonded.particles.size()), 0)};
     return families_to_hold(unbonded, rows, rings);
   });
-  return extract_part(whole, rows.owner, rank, whole.family_held);
+  return extract_part(whole, rows.owner, rank, whole.family_held, extra);
 }
 
 ModelPart part_model(const Scene& scene, int rank, int ranks) {

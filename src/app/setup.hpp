@@ -36,8 +36,9 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
 /// This rank's part of the model (docs/guide/distributed.md, "The partitioned model"): the
 /// owners by solver.belos.partition (owned_rows(), every particle owned), the whole model
 /// discretised with only the families the part holds (`rings` of them around its particles:
-/// part_rings()), the part extracted from it and the whole model freed.
-ModelPart part_model(const Scene& scene, int rings, int rank, int ranks);
+/// part_rings()), the part extracted from it with the `extra` particles (global ids:
+/// PartsOutgrown's) and the whole model freed.
+ModelPart part_model(const Scene& scene, int rings, int rank, int ranks, const std::vector<std::int64_t>& extra = {});
 /// The same with the rings of the run the scene would make on `ranks` (make_run_plan()).
 ModelPart part_model(const Scene& scene, int rank, int ranks);
 /// Puts rank `rank`'s part into the problem's options: its rows, owned unknowns and global

@@ -96,7 +96,7 @@ std::string compliance_warning(const QuasiStaticProblem& problem, const StepRepo
 StepRecorder::StepRecorder(const std::string& dir, const Scene& scene, const QuasiStaticProblem& problem,
                            const WholeView& view, const ModelSize& size, const std::string& linear,
                            int threads, int resume_after, bool writes)
-    : m_scene(scene), m_problem(problem), m_view(view) {
+    : m_scene(scene), m_problem(&problem), m_view(&view) {
   if (resume_after >= 0) {
     if (writes)
       m_writer = std::make_unique<ResultsWriter>(
@@ -112,16 +112,22 @@ StepRecorder::StepRecorder(const std::string& dir, const Scene& scene, const Qua
                                         run_info_json(scene, size, linear, threads, problem.state_checks()));
 }
 
+void StepRecorder::rebind(const QuasiStaticProblem& problem, const WholeView& view) {
+  m_problem = &problem;
+  m_view = &view;
+  m_contact_seconds_before = 0.0;  // the new problem's timings start at zero
+}
+
 void StepRecorder::gather_contact_fields(const ContactSystem& contact) {
   contact.contact_force(m_contact_force);
   contact.particle_states(m_contact_state);
-  if (!m_view.gathers()) return;
+  if (!m_view->gathers()) return;
   // A part's own particles' values, the whole model's on rank 0 (the states exact in doubles).
   VectorXd mine = m_contact_force, whole;
-  m_view.particle_values(mine, 2, m_contact_force);
+  m_view->particle_values(mine, 2, m_contact_force);
   mine.resize(static_cast<Index>(m_contact_state.size()));
   for (std::size_t q = 0; q < m_contact_state.size(); ++q) mine[static_cast<Index>(q)] = m_contact_state[q];
-  m_view.particle_values(mine, 1, whole);
+  m_view->particle_values(mine, 1, whole);
   m_contact_state.assign(whole.data(), whole.data() + whole.size());
 }
 
@@ -130,25 +136,25 @@ bool StepRecorder::due(int step) const {
 }
 
 void StepRecorder::add_step_warnings(const StepReport& s) {
-  if (std::string warning = compliance_warning(m_problem, s); !warning.empty()) m_writer->add_warning(warning);
-  if (m_problem.fragment_particles() > m_fragment_particles) {
+  if (std::string warning = compliance_warning(*m_problem, s); !warning.empty()) m_writer->add_warning(warning);
+  if (m_problem->fragment_particles() > m_fragment_particles) {
     char buf[320];
     std::snprintf(buf, sizeof buf,
                   "step %d: %ld particles in %ld fragments have lost every bond to the prescribed displacements: "
                   "held where they were and taken out of the system (to the rest of the model they are fixed "
                   "obstacles)",
-                  s.step, static_cast<long>(m_problem.fragment_particles()), static_cast<long>(m_problem.fragments()));
+                  s.step, static_cast<long>(m_problem->fragment_particles()), static_cast<long>(m_problem->fragments()));
     std::fprintf(stderr, "WARNING: %s\n", buf);
     m_writer->add_warning(buf);
-    m_fragment_particles = m_problem.fragment_particles();
+    m_fragment_particles = m_problem->fragment_particles();
   }
-  if (!m_fragment_contact_warned && m_problem.fragment_particles() > 0 && m_fragment_contacts > 0) {
+  if (!m_fragment_contact_warned && m_problem->fragment_particles() > 0 && m_fragment_contacts > 0) {
     char buf[320];
     std::snprintf(
         buf, sizeof buf,
         "step %d: %ld contact pairs press on held fragments, which act as fixed obstacles: their net "
         "reaction of %.3g N is not balanced by the model (counts fragment_contacts, fragment_reaction)",
-        s.step, static_cast<long>(m_fragment_contacts), m_problem.fragment_reaction());
+        s.step, static_cast<long>(m_fragment_contacts), m_problem->fragment_reaction());
     std::fprintf(stderr, "WARNING: %s\n", buf);
     m_writer->add_warning(buf);
     m_fragment_contact_warned = true;
@@ -156,29 +162,29 @@ void StepRecorder::add_step_warnings(const StepReport& s) {
 }
 
 void StepRecorder::record(const StepReport& s, const VectorXd& x) {
-  if (!m_writer && !m_view.gathers()) return;
+  if (!m_writer && !m_view->gathers()) return;
   double step_contact_seconds = 0.0;  // since the previous step (recorded or not)
   // Collective on the parts: every rank counts, rank 0 writes.
-  if (m_problem.failure() && m_problem.contact()) m_fragment_contacts = m_problem.fragment_contacts();
+  if (m_problem->failure() && m_problem->contact()) m_fragment_contacts = m_problem->fragment_contacts();
   if (m_writer) {
-    step_contact_seconds = m_problem.contact_seconds() - m_contact_seconds_before;
-    m_contact_seconds_before = m_problem.contact_seconds();
+    step_contact_seconds = m_problem->contact_seconds() - m_contact_seconds_before;
+    m_contact_seconds_before = m_problem->contact_seconds();
     add_step_warnings(s);
   }
   if (!due(s.step)) return;
   // The fields and the reactions, the whole model's: collective on the parts, so every rank
   // computes them; rank 0 alone writes.
-  m_problem.expand(x, m_u);
-  if (m_view.gathers()) m_view.particle_values(m_u, 2, m_u_whole);
+  m_problem->expand(x, m_u);
+  if (m_view->gathers()) m_view->particle_values(m_u, 2, m_u_whole);
   m_reactions.clear();
-  for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) m_reactions.push_back(m_problem.reaction(k));
-  const ContactSystem* contact = m_problem.contact();
+  for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) m_reactions.push_back(m_problem->reaction(k));
+  const ContactSystem* contact = m_problem->contact();
   if (contact) gather_contact_fields(*contact);  // the commit evaluated the pairs at this state
-  if (m_problem.failure()) {                     // the committed state's
-    m_damage = m_problem.damage();
-    if (m_view.gathers()) {
+  if (m_problem->failure()) {                     // the committed state's
+    m_damage = m_problem->damage();
+    if (m_view->gathers()) {
       const VectorXd mine = m_damage;
-      m_view.particle_values(mine, 1, m_damage);
+      m_view->particle_values(mine, 1, m_damage);
     }
   }
   if (!m_writer) return;
@@ -189,7 +195,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   rec.active_set_iterations = s.active_set_changes;
   rec.residual_norm = s.final_residual;
   rec.wall_seconds = s.wall_seconds;
-  rec.displacement = m_view.gathers() ? &m_u_whole : &m_u;
+  rec.displacement = m_view->gathers() ? &m_u_whole : &m_u;
   rec.residual_history = s.residuals;
   rec.counts = {{"substeps", s.substeps},
                 {"cutbacks", s.cutbacks},
@@ -203,7 +209,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     rec.counts["reaction_" + std::to_string(k) + "_y"] = f.y();
   }
   // The energy ledger up to this state (docs/guide/results.md).
-  const EnergyLedger& e = m_problem.energy_ledger();
+  const EnergyLedger& e = m_problem->energy_ledger();
   rec.counts["energy_external_work"] = e.external_work;
   rec.counts["energy_strain"] = e.strain_energy;
   rec.counts["energy_contact_work"] = e.contact_work;
@@ -211,7 +217,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   rec.counts["energy_released"] = e.released;
   rec.counts["energy_quadrature"] = e.quadrature;
   rec.counts["energy_worst_relative"] = e.worst_relative;
-  if (const BondFailure* failure = m_problem.failure()) {
+  if (const BondFailure* failure = m_problem->failure()) {
     rec.damage = &m_damage;
     rec.counts["bonds_broken"] = s.bonds_broken;
     rec.counts["broken_bonds_total"] = failure->broken();
@@ -220,11 +226,11 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     // The intact pair closest to breaking at the step's final state (docs/guide/results.md).
     const BondFailure::Peak peak = failure->peak();
     rec.counts["criterion_peak"] = peak.ratio;
-    rec.counts["fragments"] = m_problem.fragments();
-    rec.counts["fragment_particles"] = m_problem.fragment_particles();
-    if (m_problem.contact()) {
+    rec.counts["fragments"] = m_problem->fragments();
+    rec.counts["fragment_particles"] = m_problem->fragment_particles();
+    if (m_problem->contact()) {
       rec.counts["fragment_contacts"] = m_fragment_contacts;
-      rec.counts["fragment_reaction"] = m_problem.fragment_reaction();
+      rec.counts["fragment_reaction"] = m_problem->fragment_reaction();
     }
     if (peak.i >= 0) {
       rec.counts["criterion_peak_x"] = peak.at.x();
@@ -249,7 +255,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   }
   rec.timings = {
       {"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};
-  if (m_problem.contact()) rec.timings["contact"] = step_contact_seconds;
+  if (m_problem->contact()) rec.timings["contact"] = step_contact_seconds;
   const WriteGuard guard;
   m_writer->write_step(rec);
 }

@@ -45,6 +45,13 @@ class StepRecorder {
     if (m_writer) m_writer->add_warning(text);
   }
   std::string h5_path() const { return m_writer ? m_writer->h5_path() : std::string(); }
+  /// Sets run.<key> in summary.json (ResultsWriter::set_run_value; rank 0 only).
+  void set_run_value(const std::string& key, long long value) {
+    if (m_writer) m_writer->set_run_value(key, value);
+  }
+  /// Records from `problem` and `view` from now on: the run re-cut its parts (PartsOutgrown)
+  /// and rebuilt them; the whole model, and so the files, are the same.
+  void rebind(const QuasiStaticProblem& problem, const WholeView& view);
 
  private:
   /// The warnings a converged step deserves (compliance, fragments), into the record (rank 0).
@@ -54,8 +61,8 @@ class StepRecorder {
   void gather_contact_fields(const ContactSystem& contact);
 
   const Scene& m_scene;
-  const QuasiStaticProblem& m_problem;
-  const WholeView& m_view;
+  const QuasiStaticProblem* m_problem;  ///< never null (rebind())
+  const WholeView* m_view;
   std::unique_ptr<ResultsWriter> m_writer;
   double m_contact_seconds_before = 0.0;  ///< contact evaluation time up to the previous step
   Index m_fragment_particles = 0;         ///< fragment particles already warned about

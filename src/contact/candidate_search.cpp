@@ -268,8 +268,8 @@ double CandidateSearch::max_slide_between_searches() const {
   return m_search_radius - std::sqrt(2.0) * m_model.spacing - m_search_slide;
 }
 
-std::int64_t CandidateSearch::partners_outside(const VectorXd& u) const {
-  if (!m_ids.partitioned() || m_surfaces.empty()) return 0;
+std::vector<std::int64_t> CandidateSearch::partners_not_held(const VectorXd& u, double reach) const {
+  if (!m_ids.partitioned() || m_surfaces.empty()) return {};
   // Every rank's own face particles: (surface, side, global id, current x, y).
   struct Face {
     std::int64_t surface, side, gid;
@@ -284,26 +284,28 @@ std::int64_t CandidateSearch::partners_outside(const VectorXd& u) const {
           mine.push_back({static_cast<std::int64_t>(s), side, m_ids.gid(q), x.x(), x.y()});
         }
   const std::vector<Face> all = m_ids.gather(mine);
-  const double R = m_search_radius;
-  std::int64_t outside = 0;
+  std::vector<std::int64_t> missing;
   for (std::size_t s = 0; s < m_surfaces.size(); ++s)
     for (int side = 0; side < 2; ++side) {
-      // The other side's particles, every rank's, in cells R wide.
+      // The other side's particles, every rank's, in cells `reach` wide.
       std::unordered_map<std::uint64_t, std::vector<std::size_t>> grid;
       for (std::size_t at = 0; at < all.size(); ++at)
         if (all[at].surface == static_cast<std::int64_t>(s) && all[at].side != side) {
-          const auto [cx, cy] = grid_cell(Vec2(all[at].x, all[at].y), R);
+          const auto [cx, cy] = grid_cell(Vec2(all[at].x, all[at].y), reach);
           grid[cell_key(cx, cy)].push_back(at);
         }
       for (const Index q : side == 0 ? m_surfaces[s].side_a : m_surfaces[s].side_b) {
         if (!m_ids.counted(q)) continue;
         const Vec2 x = current(q, u);
-        visit_near(grid, x, R, [&](std::size_t at) {
-          if ((Vec2(all[at].x, all[at].y) - x).norm() < R && m_ids.local_of(all[at].gid) < 0) ++outside;
+        visit_near(grid, x, reach, [&](std::size_t at) {
+          if ((Vec2(all[at].x, all[at].y) - x).norm() < reach && m_ids.local_of(all[at].gid) < 0)
+            missing.push_back(all[at].gid);
         });
       }
     }
-  return m_ids.sum_over_ranks(outside);
+  std::sort(missing.begin(), missing.end());
+  missing.erase(std::unique(missing.begin(), missing.end()), missing.end());
+  return missing;
 }
 
 void CandidateSearch::save(StateArchive& archive) const {

@@ -50,10 +50,12 @@ class CandidateSearch {
   /// The slide after which a search misses a partner that could already face a particle:
   /// the search radius less the window's reach (sqrt 2 dx) and the trigger (section 10).
   double max_slide_between_searches() const;
-  /// On a part: the particles of a face, within the search radius of another rank's or this
-  /// rank's own particle of the other face at u, that this part does not hold, summed over the
-  /// ranks (collective). 0 on a whole model.
-  std::int64_t partners_outside(const VectorXd& u) const;
+  /// On a part: the particles of a face (global ids, ascending) within `reach` of one of this
+  /// rank's own particles of the other face at u, that this part does not hold (collective:
+  /// every rank gathers the ranks' own face particles). Empty on a whole model.
+  std::vector<std::int64_t> partners_not_held(const VectorXd& u, double reach) const;
+  /// The radius of a partner search (a horizon plus a spacing) [m].
+  double search_radius() const { return m_search_radius; }
   /// Searches done so far.
   int searches() const { return m_searches; }
 

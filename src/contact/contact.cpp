@@ -326,7 +326,6 @@ CrossedPair ContactSystem::first_crossed_pair(const VectorXd& u) const {
   return first;
 }
 
-std::int64_t ContactSystem::partners_outside(const VectorXd& u) const { return m_search.partners_outside(u); }
 
 Index ContactSystem::first_crossed(const VectorXd& u) const {
   const Particles& p = m_model.particles;

@@ -109,11 +109,15 @@ class ContactSystem {
   /// The first crossed pair in the whole model's order (on a part: over every rank's own
   /// pairs, collective), or none.
   CrossedPair first_crossed_pair(const VectorXd& u) const;
-  /// On a part: the particles of a face, within the search radius of another rank's or this
-  /// rank's own particle of the other face at u, that this part does not hold, summed over the
-  /// ranks (collective). A partner search on the part would miss their pairs: the run cannot
-  /// go on on the parts. 0 on a whole model.
-  std::int64_t partners_outside(const VectorXd& u) const;
+  /// On a part: the particles of a face within `reach` of one of this rank's own particles of
+  /// the other face at u that this part does not hold (CandidateSearch::partners_not_held(),
+  /// collective). With reach = search_radius(), a partner search on the part would miss their
+  /// pairs: the parts must grow before the run goes on. Empty on a whole model.
+  std::vector<std::int64_t> partners_not_held(const VectorXd& u, double reach) const {
+    return m_search.partners_not_held(u, reach);
+  }
+  /// The radius of a partner search [m].
+  double search_radius() const { return m_search.search_radius(); }
   /// A rank's part of the model (ContactRanks given).
   bool partitioned() const { return m_ids.partitioned(); }
   /// Largest normal closure a - n.Y [m] over the pairs that carried a force in the last

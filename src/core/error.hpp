@@ -4,8 +4,11 @@
 #pragma once
 
 #include <cassert>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace peristat {
 
@@ -50,6 +53,26 @@ class InputError : public std::runtime_error {
 class ModelLimit : public std::runtime_error {
  public:
   explicit ModelLimit(const std::string& message) : std::runtime_error(message) {}
+};
+
+/// On the ranks' parts: the contact faces slid past what the parts hold (a face particle has a
+/// partner within the search radius that its rank does not hold). Thrown by every rank alike;
+/// each carries the particles (global ids, ascending) its part must take in to follow the
+/// faces. `peristat run` re-cuts the parts with them and solves the step again from the last
+/// converged step (docs/guide/distributed.md, "Contact on the parts"); elsewhere it stops the
+/// run like any ModelLimit.
+class PartsOutgrown : public ModelLimit {
+ public:
+  PartsOutgrown(const std::string& message, std::vector<std::int64_t> particles, std::int64_t total)
+      : ModelLimit(message), m_particles(std::move(particles)), m_total(total) {}
+  /// This rank's particles to take in, by global id.
+  const std::vector<std::int64_t>& particles() const { return m_particles; }
+  /// Their count summed over the ranks.
+  std::int64_t total() const { return m_total; }
+
+ private:
+  std::vector<std::int64_t> m_particles;
+  std::int64_t m_total = 0;
 };
 
 }  // namespace peristat

@@ -40,7 +40,7 @@ std::size_t ModelPart::memory_bytes() const {
 }
 
 ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int rank,
-                       const std::vector<char>& held) {
+                       const std::vector<char>& held, const std::vector<std::int64_t>& extra) {
   const Index n = whole.particles.size();
   if (owner.size() != static_cast<std::size_t>(n) || held.size() != static_cast<std::size_t>(n))
     throw std::logic_error("extract_part: the owner and held tables must have one entry per particle");
@@ -54,9 +54,13 @@ ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int ra
                              " is to be held and the whole model does not hold it");
   }
 
-  // The particles kept: the held ones and their neighbours, and the sources of the mirror
+  // The particles kept: the held ones and their neighbours, the extra ones, and the sources of the mirror
   // ghosts among them (a ghost's displacement is its source's image; a source is never a ghost).
   std::vector<char> kept = within_stencil(whole, held);
+  for (const std::int64_t g : extra) {
+    if (g < 0 || g >= n) throw std::logic_error("extract_part: an extra particle is not in the model");
+    kept[static_cast<std::size_t>(g)] = 1;
+  }
   for (const MirrorImage& im : whole.constraints.images)
     if (kept[static_cast<std::size_t>(im.ghost)]) kept[static_cast<std::size_t>(im.source)] = 1;
   std::vector<Index> order;  // part -> whole

@@ -36,10 +36,11 @@ struct ModelPart {
 /// owning its rows, -1 for a particle without unknowns) splits the rows, and it computes the
 /// families `held` names (per particle of `whole`; e.g. app/setup.hpp's families_to_hold(),
 /// which holds every particle without an owner, so every rank computes those alike). The part
-/// keeps the held particles, every neighbour of theirs and the source of every mirror ghost
-/// it keeps. `whole` must hold every family `held` names. Throws std::logic_error otherwise, or
-/// when a particle `rank` owns is not held.
+/// keeps the held particles, every neighbour of theirs, the `extra` particles (global ids: e.g.
+/// contact partners that slid towards the part, PartsOutgrown) and the source of every mirror
+/// ghost it keeps. `whole` must hold every family `held` names. Throws std::logic_error
+/// otherwise, or when a particle `rank` owns is not held.
 ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int rank,
-                       const std::vector<char>& held);
+                       const std::vector<char>& held, const std::vector<std::int64_t>& extra = {});
 
 }  // namespace peristat

@@ -81,6 +81,9 @@ class ResultsWriter {
   /// Adds a warning to the "warnings" list of summary.json (written with the next step or
   /// finish()): a result the run accepted but the user should question.
   void add_warning(const std::string& text);
+  /// Sets run.<key> in summary.json (written with the next step or finish()): a figure of the
+  /// run known only as it goes (e.g. run.part_regrowths).
+  void set_run_value(const std::string& key, long long value);
 
   std::string h5_path() const;
 

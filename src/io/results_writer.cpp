@@ -438,6 +438,11 @@ void ResultsWriter::add_warning(const std::string& text) {
   m_impl->warnings.push_back(text);
 }
 
+void ResultsWriter::set_run_value(const std::string& key, long long value) {
+  if (!m_impl->run_info.is_object()) m_impl->run_info = nlohmann::ordered_json::object();
+  m_impl->run_info[key] = value;
+}
+
 std::string ResultsWriter::h5_path() const {
   return m_impl->h5().string();
 }
