@@ -178,56 +178,49 @@ TEST(Distributed, ContactOnThePartsEqualsSerial) {
 // Large sliding on the parts: case 4.1's plates at dx = 1 mm with the left one pulled up by
 // 6 mm in 12 steps (friction 0.3). The partner searches add pairs as the faces slide. On two
 // ranks RCB cuts along the interface, and the slide stays within each part (its ring holds
-// the other plate's particles along the whole height): the serial answer within 1e-8 and the
-// same candidates at every step. On four ranks a cut across the height separates face
-// particles from partners 6 mm away: the run must stop with exit 3 and the reason at the first
-// state where a part would miss a partner, and never go on without the pair.
+// the other plate's particles along the whole height). On four ranks a cut across the height
+// separates face particles from partners 6 mm away: the parts must grow (PartsOutgrown, at
+// least once) and the run go on. Either way: the serial answer within 1e-8 (the bound of every
+// distributed comparison: rounding differs with the ranks' sums, measured 1e-12 to 1e-11) and
+// the same candidates at every step, so no pair was missed.
 std::string slide_scene(const fs::path& dir) {
   const fs::path path = dir / "large_slide.yaml";
   std::ofstream(path) << test::large_slide_yaml("6.0e-3", "friction: 0.3");
   return path.string();
 }
 
-TEST(Distributed, LargeSlidingOnThePartsFindsThePartnersOrStops) {
+TEST(Distributed, LargeSlidingOnThePartsGrowsThePartsAndFindsThePartners) {
   const fs::path dir = test::fresh_directory("distributed_part_slide");
   const std::string scene = slide_scene(dir);
   const test::CliResult serial =
       test::run_cli("run " + scene + " --quiet --out " + (dir / "serial").string());
-  const test::CliResult two = test::run_mpi(
-      2, "run " + scene + " --quiet --out " + (dir / "two").string() + " --set solver.belos.model=part");
   ASSERT_EQ(serial.exit_code, 0) << serial.err;
-  ASSERT_EQ(two.exit_code, 0) << two.out << two.err;
-  const nlohmann::json s = test::read_json(dir / "serial" / "summary.json"),
-                       t = test::read_json(dir / "two" / "summary.json");
+  const nlohmann::json s = test::read_json(dir / "serial" / "summary.json");
   ASSERT_EQ(s["steps"].size(), 12u);
-  ASSERT_EQ(t["steps"].size(), 12u);
   const auto candidates = [](const nlohmann::json& j, std::size_t k) {
     return j["steps"][k]["counts"]["contact_candidates"].get<long long>();
   };
   EXPECT_GT(candidates(s, 11), candidates(s, 0))
       << "the searches must add pairs for this test to mean anything";
-  for (std::size_t k = 0; k < 12; ++k) EXPECT_EQ(candidates(t, k), candidates(s, k)) << "step " << k + 1;
-  const test::CliResult cmp = test::run_cli("compare " + (dir / "two" / "large_slide.h5").string() + " " +
-                                            (dir / "serial" / "large_slide.h5").string() + " --json");
-  ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
-  EXPECT_LE(test::json_number(cmp.out, "relative_l2"), 1e-8);
-
-  const test::CliResult four = test::run_mpi(
-      4, "run " + scene + " --quiet --out " + (dir / "four").string() + " --set solver.belos.model=part");
-  EXPECT_EQ(four.exit_code, 3) << four.out << four.err;
-  EXPECT_NE(four.err.find("solver.belos.model=whole"), std::string::npos) << four.err;
-  const nlohmann::json f = test::read_json(dir / "four" / "summary.json");
-  EXPECT_EQ(f["status"], "no_convergence");
-  EXPECT_NE(f["message"].get<std::string>().find("slid past the ranks' parts"), std::string::npos)
-      << f["message"];
-  EXPECT_GE(f["steps"].size(), 1u) << "the converged steps are kept";
-  EXPECT_LT(f["steps"].size(), 12u);
-  // The steps it kept are the serial run's.
-  const test::CliResult kept = test::run_cli("compare " + (dir / "four" / "large_slide.h5").string() + " " +
-                                             (dir / "serial" / "large_slide.h5").string() +
-                                             " --json --step " + std::to_string(f["steps"].size()));
-  ASSERT_EQ(kept.exit_code, 0) << kept.err;
-  EXPECT_LE(test::json_number(kept.out, "relative_l2"), 1e-8);
+  for (const int ranks : {2, 4}) {
+    SCOPED_TRACE(std::to_string(ranks) + " ranks");
+    const fs::path out = dir / ("ranks" + std::to_string(ranks));
+    const test::CliResult r = test::run_mpi(ranks, "run " + scene + " --out " + out.string());  // defaults
+    ASSERT_EQ(r.exit_code, 0) << r.out << r.err;
+    const nlohmann::json t = test::read_json(out / "summary.json");
+    EXPECT_EQ(t["run"]["model"], "part");
+    ASSERT_EQ(t["steps"].size(), 12u);
+    for (std::size_t k = 0; k < 12; ++k) EXPECT_EQ(candidates(t, k), candidates(s, k)) << "step " << k + 1;
+    if (ranks == 4) {
+      ASSERT_TRUE(t["run"].contains("part_regrowths")) << "the cut across the height must make the parts grow";
+      EXPECT_GE(t["run"]["part_regrowths"].get<int>(), 1);
+      EXPECT_NE(r.out.find("the parts take in"), std::string::npos) << r.out;
+    }
+    const test::CliResult cmp = test::run_cli("compare " + (out / "large_slide.h5").string() + " " +
+                                              (dir / "serial" / "large_slide.h5").string() + " --json");
+    ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
+    EXPECT_LE(test::json_number(cmp.out, "relative_l2"), 1e-8);
+  }
 }
 
 /// Stops `c` inside the write of step `kill` (its checkpoint holds the step before) on `first`
