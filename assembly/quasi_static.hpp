@@ -111,7 +111,8 @@ class QuasiStaticProblem final : public Problem,
   /// Distributed: the unknowns (ascending) whose entries of x the own-rows residual
   /// (EvaluationMode::own_rows_only) reads: the neighbours of every family it computes, every
   /// contact pair's two particles (the pairs are evaluated whole) and the sources of mirror
-  /// ghosts among them. Changes with traits().structure_version. Distributed only (std::logic_error otherwise).
+  /// ghosts among them. Changes with traits().structure_version. Distributed only
+  /// (std::logic_error otherwise).
   std::vector<Index> residual_reads() const;
   /// The structure version is the contact candidates' (a partner search that adds pairs grows
   /// the pattern); the tangent is unsymmetric while a pair slips with friction (the Jacobian

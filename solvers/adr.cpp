@@ -52,7 +52,8 @@ void AdrSolver::prepare(const VectorXd& x) {
   VectorXd rows = VectorXd::Zero(n);
   for (Index col = 0; col < m_K.outerSize(); ++col)
     for (SparseMatrix::InnerIterator it(m_K, col); it; ++it) rows[it.row()] += std::abs(it.value());
-  if (const PreconditionerSource* source = m_problem.preconditioner_source()) source->add_stiffness_bound(rows);
+  if (const PreconditionerSource* source = m_problem.preconditioner_source())
+    source->add_stiffness_bound(rows);
   // Distributed, a rank's rows hold only its own unknowns' sums: the largest over the ranks.
   const double largest = m_share.distributed() ? m_share.ranks->max(rows.maxCoeff()) : rows.maxCoeff();
   m_density = 0.25 * m_options.density_factor * rows.cwiseMax(kRowSumFloor * largest);

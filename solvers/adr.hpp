@@ -27,7 +27,9 @@ class AdrSolver final : public StepSolver {
   /// Computes the fictitious density at the converged state x when the tangent may have
   /// changed (first call, or any call for a problem whose tangent is not constant).
   void prepare(const VectorXd& x) override;
-  bool prepared() const override { return m_have_density && m_structure == m_problem.traits().structure_version; }
+  bool prepared() const override {
+    return m_have_density && m_structure == m_problem.traits().structure_version;
+  }
   bool cutback_helps() const override { return false; }
   /// max(rtol * force_scale, a floor of 1e-300 N), the convergence test of the pseudo-time steps.
   double residual_tolerance(double force_scale) const override;

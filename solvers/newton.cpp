@@ -308,7 +308,8 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
       ++report.active_set_changes;
       if (it >= 2 && state[0] == state[2]) ++two_cycles;
     }
-    report.increments.push_back(alpha * m_problem.unknowns().norm(m_dx) / std::max(m_problem.unknowns().norm(x), kTiny));
+    const UnknownSpace unknowns = m_problem.unknowns();
+    report.increments.push_back(alpha * unknowns.norm(m_dx) / std::max(unknowns.norm(x), kTiny));
     report.residuals.push_back(relative(norm));
     if (monitor) monitor(it, report.residuals.back(), alpha, krylov);
   }

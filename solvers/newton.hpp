@@ -32,7 +32,9 @@ class NewtonSolver final : public StepSolver {
   /// prescribed components have just jumped (docs/theory/newton.md, "Predictor").
   void prepare(const VectorXd& x) override;
   /// True when a factor usable for the first iteration of the next solve exists.
-  bool prepared() const override { return m_have_factor && m_structure == m_problem.traits().structure_version; }
+  bool prepared() const override {
+    return m_have_factor && m_structure == m_problem.traits().structure_version;
+  }
   /// The Euler predictor x + dx, K(x) dx = -(r(x; from) + dr/dlambda (to - from)), with the
   /// factor of the converged state x and dr/dlambda by central differences at a thousandth
   /// of the increment: the linearised response to the prescribed increment, in place of the
