@@ -324,10 +324,16 @@ void QuasiStaticProblem::restore_state(const StateArchive& archive, const Vector
   m_damage.commit();
 }
 
-std::uint64_t QuasiStaticProblem::preconditioner_state() const {
+ProblemTraits QuasiStaticProblem::traits() const {
+  ProblemTraits traits;
+  traits.tangent_symmetric = !m_contact || m_contact->symmetric();
+  traits.tangent_constant = m_small_kinematics && !m_contact && !m_failure;
+  traits.structure_version = m_contact ? m_contact->version() : 0;
+  traits.state_signature = m_contact ? m_contact->signature() : 0;
   // Every rank breaks the same pairs (bond_failure.hpp), so the count is collective too.
   const auto broken = static_cast<std::uint64_t>(m_failure ? m_failure->broken() : 0);
-  return state_signature() ^ (broken * 0x9E3779B97F4A7C15ULL);
+  traits.preconditioner_state = traits.state_signature ^ (broken * 0x9E3779B97F4A7C15ULL);
+  return traits;
 }
 
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {
@@ -459,14 +465,9 @@ void QuasiStaticProblem::expand_state(const VectorXd& x) {
   expand(m_x_ghosts, m_u);
 }
 
-double QuasiStaticProblem::norm(const VectorXd& v) const {
-  if (!part()) return v.norm();
-  return std::sqrt(m_ranks.sum(v.head(m_options.owned_unknowns).squaredNorm()));
-}
-
-bool QuasiStaticProblem::all_finite(const VectorXd& v) const {
-  if (!part()) return v.allFinite();
-  return !m_ranks.any(!v.head(m_options.owned_unknowns).allFinite());
+UnknownSpace QuasiStaticProblem::unknowns() const {
+  const Index n = m_model.constraints.n_free;
+  return part() ? UnknownSpace(n, m_options.owned_unknowns, m_ranks) : UnknownSpace(n);
 }
 
 double QuasiStaticProblem::force_norm() const {
@@ -487,9 +488,11 @@ double QuasiStaticProblem::force_norm() const {
   return std::sqrt(m_ranks.sum(own) + unowned);
 }
 
-bool QuasiStaticProblem::set_own_rows_only(bool on) {
-  if (!distributed()) return false;
-  m_own_rows_only = on;
+bool QuasiStaticProblem::set_evaluation_mode(EvaluationMode mode) {
+  if (mode == EvaluationMode::touching_closed && !m_contact) return false;
+  if (mode == EvaluationMode::own_rows_only && !distributed()) return false;
+  if (m_contact) m_contact->set_touching_closed(mode == EvaluationMode::touching_closed);
+  m_own_rows_only = mode == EvaluationMode::own_rows_only;
   return true;
 }
 

@@ -69,7 +69,10 @@ inline double over_ranks(const ProblemOptions& options, const Ranks& ranks, doub
   return on_part(options) ? ranks.sum(value) : value;
 }
 
-class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
+class QuasiStaticProblem final : public Problem,
+                                 public PreconditionerSource,
+                                 public IrreversibleState,
+                                 public PseudoVelocityInput {
  public:
   /// `ranks`: the ranks of the run, the one way to the others (a distributed run's collectives
   /// and exchanges; one process by default).
@@ -78,15 +81,13 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   QuasiStaticProblem(const QuasiStaticProblem&) = delete;
   QuasiStaticProblem& operator=(const QuasiStaticProblem&) = delete;
 
-  Index n_unknowns() const override { return m_model.constraints.n_free; }
+  /// On a part (ProblemOptions::owned_unknowns): norms over the owned entries, summed over the ranks.
+  UnknownSpace unknowns() const override;
   /// Also starts a trial of the exact-contact multipliers, predicted from the committed ones.
   void set_load_factor(double lambda) override;
   double load_factor() const override { return m_lambda; }
   void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override;
   double force_scale() const override { return m_force_scale; }
-  /// On a part (ProblemOptions::owned_unknowns): over the owned entries, summed over the ranks.
-  double norm(const VectorXd& v) const override;
-  bool all_finite(const VectorXd& v) const override;
   SparseMatrix make_tangent() const override {
     return m_options.matrix_free ? SparseMatrix() : m_pattern.make_matrix(m_model.constraints);
   }
@@ -105,39 +106,40 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   void set_action_chunk(Index chunk) { m_action.set_chunk(chunk); }
   /// Distributed: the unknowns (ascending) whose entries of v the action of this rank's rows
   /// reads: the ghosts of its rows, two horizons deep, with contact partners and mirror
-  /// sources. Changes with structure_version(). Every unknown in one process.
+  /// sources. Changes with traits().structure_version. Every unknown in one process.
   std::vector<Index> action_reads() const { return peristat::action_reads(m_model, m_options.rows, m_contact.get()); }
   /// Distributed: the unknowns (ascending) whose entries of x the own-rows residual
-  /// (set_own_rows_only()) reads: the neighbours of every family it computes, every contact
-  /// pair's two particles (the pairs are evaluated whole) and the sources of mirror ghosts
-  /// among them. Changes with structure_version(). Distributed only (std::logic_error otherwise).
+  /// (EvaluationMode::own_rows_only) reads: the neighbours of every family it computes, every
+  /// contact pair's two particles (the pairs are evaluated whole) and the sources of mirror
+  /// ghosts among them. Changes with traits().structure_version. Distributed only
+  /// (std::logic_error otherwise).
   std::vector<Index> residual_reads() const;
-  /// The contact candidates' version: a partner search that adds pairs grows the pattern.
-  std::uint64_t structure_version() const override { return m_contact ? m_contact->version() : 0; }
-  /// False while a pair slips with friction (the Jacobian of eq 14 is not symmetric).
-  bool tangent_symmetric() const override { return !m_contact || m_contact->symmetric(); }
-  bool tangent_constant() const override { return m_small_kinematics && !m_contact && !m_failure; }
-  bool set_touching_closed(bool on) override {
-    if (m_contact) m_contact->set_touching_closed(on);
-    return m_contact != nullptr;
-  }
-  /// Distributed ADR: the residual of this rank's rows only, from the families of its
-  /// particles and their neighbours (and of the particles without a row, which every rank
-  /// computes); the contact pairs stay whole on every rank. The rows it computes are bit for
-  /// bit the whole evaluation's (unit.Assembly.OwnedRows*). False in one process.
-  bool set_own_rows_only(bool on) override;
-  /// The contact and friction active set.
-  std::uint64_t state_signature() const override { return m_contact ? m_contact->signature() : 0; }
-  std::uint64_t preconditioner_state() const override;
+  /// The structure version is the contact candidates' (a partner search that adds pairs grows
+  /// the pattern); the tangent is unsymmetric while a pair slips with friction (the Jacobian
+  /// of eq 14), constant with linearised kinematics and neither contact nor failure; the
+  /// state signature is the contact and friction active set, and the preconditioner's state
+  /// adds the broken bonds.
+  ProblemTraits traits() const override;
+  /// touching_closed with contact (ContactSystem::set_touching_closed). own_rows_only when
+  /// distributed (distributed ADR): the residual of this rank's rows only, from the families
+  /// of its particles and their neighbours (and of the particles without a row, which every
+  /// rank computes); the contact pairs stay whole on every rank. The rows it computes are bit
+  /// for bit the whole evaluation's (unit.Assembly.OwnedRows*).
+  bool set_evaluation_mode(EvaluationMode mode) override;
+  /// This problem: the `bond` preconditioner and the contact pairs' stiffness bound.
+  PreconditionerSource* preconditioner_source() override { return this; }
   /// The `bond` preconditioner (assembly/bond_preconditioner.hpp), built on first request.
   SparseMatrix make_preconditioner() override;
   void assemble_preconditioner(SparseMatrix& P) override;
-  void commit(const VectorXd& x) override;
   /// Every candidate pair, whatever its state: 4 x ContactSystem::stiffness_bound on the two
   /// components of both particles (a 2 x 2 block appears twice in a row, +J and -J).
   void add_stiffness_bound(VectorXd& row_sums) const override;
+  void commit(const VectorXd& x) override;
+  /// This problem when the scene models failure, else null.
+  IrreversibleState* irreversible_state() override { return m_failure ? this : nullptr; }
   /// Bond failure: the bonds over the scene's criterion at x break (BondFailure) and join
-  /// the contact candidates when the scene models contact. Returns the bonds broken.
+  /// the contact candidates when the scene models contact. Returns the bonds broken (0
+  /// without failure).
   Index advance_irreversible_state(const VectorXd& x, Index at_most = 0) override;
   void revert_irreversible_state() override;
   /// Exact contact enforcement (ContactSystem::update_multipliers).
@@ -279,7 +281,7 @@ class QuasiStaticProblem final : public Problem, public PseudoVelocityInput {
   std::vector<char> m_mirror_zone;  ///< per particle, with failure and mirror conditions: ghost or image
   double m_lambda = 0.0;
   double m_committed_lambda = 0.0;  ///< load factor of the last commit()
-  bool m_own_rows_only = false;     ///< set_own_rows_only()
+  bool m_own_rows_only = false;     ///< EvaluationMode::own_rows_only
 
   // State of the last evaluate.
   VectorXd m_u, m_force;

@@ -39,19 +39,21 @@ AdrSolver::AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocity
 }
 
 void AdrSolver::prepare(const VectorXd& x) {
-  if (m_have_density && m_problem.tangent_constant() && m_structure == m_problem.structure_version()) return;
+  const ProblemTraits traits = m_problem.traits();
+  if (m_have_density && traits.tangent_constant && m_structure == traits.structure_version) return;
   // Gershgorin: with Lambda_ii >= 1/4 sum_j |K_ij| every eigenvalue of Lambda^-1 K is at most
   // 4, the stability limit of the central difference with unit time step (Kilic and Madenci).
-  if (m_K.size() == 0 || m_structure != m_problem.structure_version()) {
+  if (m_K.size() == 0 || m_structure != traits.structure_version) {
     m_K = m_problem.make_tangent();
-    m_structure = m_problem.structure_version();
+    m_structure = traits.structure_version;
   }
   m_problem.evaluate(x, m_r, &m_K);
   const Index n = m_problem.n_unknowns();
   VectorXd rows = VectorXd::Zero(n);
   for (Index col = 0; col < m_K.outerSize(); ++col)
     for (SparseMatrix::InnerIterator it(m_K, col); it; ++it) rows[it.row()] += std::abs(it.value());
-  m_problem.add_stiffness_bound(rows);
+  if (const PreconditionerSource* source = m_problem.preconditioner_source())
+    source->add_stiffness_bound(rows);
   // Distributed, a rank's rows hold only its own unknowns' sums: the largest over the ranks.
   const double largest = m_share.distributed() ? m_share.ranks->max(rows.maxCoeff()) : rows.maxCoeff();
   m_density = 0.25 * m_options.density_factor * rows.cwiseMax(kRowSumFloor * largest);
@@ -73,7 +75,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   // Distributed: the rank's rows only while relaxing, the whole residual again after (the
   // load stepping recomputes it from scratch, and checks, commits and writes from it).
   const bool distributed = m_share.distributed();
-  if (distributed && !m_problem.set_own_rows_only(true))
+  if (distributed && !m_problem.set_evaluation_mode(EvaluationMode::own_rows_only))
     throw std::logic_error("AdrSolver: the problem cannot evaluate its own rows only");
   // After an update of the own unknowns: each rank's ghosts from their owners (the entries
   // its rows read), and every unknown on every rank once the solve ends, however it ends.
@@ -84,7 +86,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   };
   const ScopeExit whole_after([&] {
     if (!distributed) return;
-    m_problem.set_own_rows_only(false);
+    m_problem.set_evaluation_mode(EvaluationMode::standard);
     // (Unwinding: no collective call, which the other ranks may not be making.)
     if (std::uncaught_exceptions() > 0) return;
     m_share.exchange->share_all(x);

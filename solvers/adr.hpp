@@ -16,7 +16,7 @@ class AdrSolver final : public StepSolver {
   /// `velocity`: where the pseudo-velocity goes when the problem's residual reads one (the
   /// paper's velocity-sign friction); null otherwise.
   /// `share`: under mpirun, the unknowns this rank updates (docs/guide/distributed.md); each
-  /// pseudo-time step then evaluates the rank's rows only (Problem::set_own_rows_only), updates
+  /// pseudo-time step then evaluates the rank's rows only (EvaluationMode::own_rows_only), updates
   /// its own unknowns, and shares them with every rank (on a rank's part: with the ranks that
   /// read them).
   AdrSolver(Problem& problem, const AdrOptions& options, PseudoVelocityInput* velocity = nullptr,
@@ -27,7 +27,9 @@ class AdrSolver final : public StepSolver {
   /// Computes the fictitious density at the converged state x when the tangent may have
   /// changed (first call, or any call for a problem whose tangent is not constant).
   void prepare(const VectorXd& x) override;
-  bool prepared() const override { return m_have_density && m_structure == m_problem.structure_version(); }
+  bool prepared() const override {
+    return m_have_density && m_structure == m_problem.traits().structure_version;
+  }
   bool cutback_helps() const override { return false; }
   /// max(rtol * force_scale, a floor of 1e-300 N), the convergence test of the pseudo-time steps.
   double residual_tolerance(double force_scale) const override;
@@ -43,7 +45,7 @@ class AdrSolver final : public StepSolver {
   VectorXd m_density;
   SparseMatrix m_K;  ///< tangent for the row sums (pattern kept across load steps)
   bool m_have_density = false;
-  std::uint64_t m_structure = 0;  ///< the problem's structure_version() of m_K
+  std::uint64_t m_structure = 0;  ///< the problem's traits().structure_version of m_K
   VectorXd m_r, m_r_old, m_v;  ///< reused across solves: no allocation per iteration
 };
 

@@ -63,7 +63,7 @@ SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& tria
     r.reason = std::move(why);
     return r;
   };
-  if (!problem.all_finite(trial)) {
+  if (!problem.unknowns().all_finite(trial)) {
     Index k = 0;  // this rank's first (on a rank whose entries are all finite: none)
     while (k < trial.size() && std::isfinite(trial[k])) ++k;
     return reject(
@@ -71,7 +71,7 @@ SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& tria
         (k < trial.size() ? " (unknown " + std::to_string(k) + ")" : std::string(" on another rank")));
   }
   problem.evaluate(trial, r_check, nullptr);
-  const double norm = problem.norm(r_check), scale = problem.force_scale();
+  const double norm = problem.unknowns().norm(r_check), scale = problem.force_scale();
   r.true_residual = norm / std::max(scale, std::numeric_limits<double>::min());
   if (!std::isfinite(norm)) return reject("the residual recomputed at the solver's state is not finite");
   if (r.converged && norm > solver.residual_tolerance(scale)) {
@@ -109,17 +109,19 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
   char buf[320];
   Index at_most = 0;  // 0: no cap beyond failure.fraction
   int successes = 0;  // converged rounds since the last halving
+  IrreversibleState* irreversible = problem.irreversible_state();
+  if (!irreversible) return {};  // nothing can change: the load step is done
   for (int resolve = 1;; ++resolve) {
     Index broken = 0;
     try {
-      broken = problem.advance_irreversible_state(x, at_most);
+      broken = irreversible->advance_irreversible_state(x, at_most);
     } catch (const ModelLimit& limit) {
       std::snprintf(buf, sizeof buf, "load step %d/%d: %s", k, n, limit.what());
       return buf;
     }
     if (broken == 0) return {};
     if (resolve > loading.max_resolves) {
-      problem.revert_irreversible_state();
+      irreversible->revert_irreversible_state();
       std::snprintf(buf, sizeof buf,
                     "load step %d/%d: bonds still breaking after %d re-solves at load factor %.6g "
                     "(loading.max_resolves)",
@@ -141,7 +143,7 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
       }
       continue;
     }
-    problem.revert_irreversible_state();
+    irreversible->revert_irreversible_state();
     solver.invalidate_factorization();
     if (broken == 1) {
       std::snprintf(buf, sizeof buf,

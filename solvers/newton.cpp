@@ -39,11 +39,12 @@ NewtonSolver::NewtonSolver(Problem& problem, LinearSolver& linear, const NewtonO
       m_linear(linear),
       m_options(options),
       m_K(problem.make_tangent()),
-      m_structure(problem.structure_version()) {}
+      m_structure(problem.traits().structure_version) {}
 
 void NewtonSolver::follow_structure() {
-  if (m_problem.structure_version() == m_structure) return;
-  m_structure = m_problem.structure_version();
+  const std::uint64_t structure = m_problem.traits().structure_version;
+  if (structure == m_structure) return;
+  m_structure = structure;
   m_K = m_problem.make_tangent();
   m_analyzed = m_unsymmetric_analyzed = false;
   m_have_factor = false;
@@ -51,7 +52,7 @@ void NewtonSolver::follow_structure() {
 }
 
 bool NewtonSolver::reuse_factor() const {
-  return m_have_factor && (m_problem.tangent_constant() || m_options.tangent == TangentKind::initial);
+  return m_have_factor && (m_problem.traits().tangent_constant || m_options.tangent == TangentKind::initial);
 }
 
 LinearSolver& NewtonSolver::select_solver() {
@@ -74,14 +75,14 @@ void NewtonSolver::factorize(SolveReport& report) {
   }
   lin.factorize(m_K);
   m_factored = &lin;
-  m_factor_state = m_problem.state_signature();  // of the evaluation m_K comes from
+  m_factor_state = m_problem.traits().state_signature;  // of the evaluation m_K comes from
   m_have_factor = lin.info() == Eigen::Success;
   report.seconds_factorize += wall_seconds() - t0;
 }
 
 void NewtonSolver::solve_linear(LinearSolver& lin, double rtol, SolveReport& report, double t0) {
   const double setup0 = lin.stats().setup_seconds;
-  lin.configure({m_K_symmetric, rtol, m_problem.preconditioner_state()});
+  lin.configure({m_K_symmetric, rtol, m_problem.traits().preconditioner_state});
   lin.solve(-m_r, m_dx);
   const double setup = lin.stats().setup_seconds - setup0;  // a deferred set-up counts as one
   report.seconds_factorize += setup;
@@ -97,7 +98,7 @@ void NewtonSolver::prepare(const VectorXd& x) {
   const long f0 = factorizations();
   const double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, &m_K);
-  m_K_symmetric = m_problem.tangent_symmetric();
+  m_K_symmetric = m_problem.traits().tangent_symmetric;
   m_pending.seconds_evaluate += wall_seconds() - t0;
   factorize(m_pending);
   m_pending.factorizations += static_cast<int>(factorizations() - f0);
@@ -129,19 +130,19 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
   // The tangent with touching contact pairs closed and stuck: an increment that pushes bodies
   // together is predicted with them in contact, not through each other (case 4.1, step 1:
   // 11 -> 5 Newton iterations). It replaces the factor when it differs from it.
-  const bool closes = !reuse_factor() && m_problem.set_touching_closed(true);
+  const bool closes = !reuse_factor() && m_problem.set_evaluation_mode(EvaluationMode::touching_closed);
   {
     const ScopeExit reopen([&] {
-      if (closes) m_problem.set_touching_closed(false);
+      if (closes) m_problem.set_evaluation_mode(EvaluationMode::standard);
     });
     m_problem.evaluate(x, m_r, closes ? &m_K : nullptr);
   }
-  if (closes) m_K_symmetric = m_problem.tangent_symmetric();
+  if (closes) m_K_symmetric = m_problem.traits().tangent_symmetric;
   m_r += m_trial_r;  // the linearised residual at `to`
   m_problem.set_load_factor(to);
   report.seconds_evaluate += wall_seconds() - t0;
   const long f0 = factorizations();  // set-ups here and, deferred, in the solve below
-  if (closes && m_problem.state_signature() != m_factor_state) {
+  if (closes && m_problem.traits().state_signature != m_factor_state) {
     select_solver().renew_preconditioner();  // the kept one was built without these pairs
     factorize(report);
     if (!m_have_factor) {
@@ -158,7 +159,7 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
   report.factorizations += static_cast<int>(factorizations() - f0);
   report.linear_iterations += lin.stats().iterations;
   report.predictor_solves = 1;
-  if (lin.info() == Eigen::Success && m_problem.all_finite(m_dx)) x += m_dx;
+  if (lin.info() == Eigen::Success && m_problem.unknowns().all_finite(m_dx)) x += m_dx;
   return report;
 }
 
@@ -198,19 +199,19 @@ double NewtonSolver::evaluate_first(const VectorXd& x, bool& use_existing, Solve
   double t0 = wall_seconds();
   const bool assemble0 = !(reuse_factor() || use_existing);
   m_problem.evaluate(x, m_r, assemble0 ? &m_K : nullptr);
-  if (assemble0) m_K_symmetric = m_problem.tangent_symmetric();
+  if (assemble0) m_K_symmetric = m_problem.traits().tangent_symmetric;
   report.seconds_evaluate += wall_seconds() - t0;
-  if (use_existing && !reuse_factor() && m_problem.state_signature() != m_factor_state) {
+  if (use_existing && !reuse_factor() && m_problem.traits().state_signature != m_factor_state) {
     // The first iterate's contact active set is not the one the factor was built with (the
     // predictor closed or opened pairs): that factor would step as if they had not, so the
     // tangent is evaluated here instead (case 4.3, step 1: 8 -> 5 Newton iterations).
     t0 = wall_seconds();
     m_problem.evaluate(x, m_r, &m_K);
-    m_K_symmetric = m_problem.tangent_symmetric();
+    m_K_symmetric = m_problem.traits().tangent_symmetric;
     report.seconds_evaluate += wall_seconds() - t0;
     use_existing = false;
   }
-  return m_problem.norm(m_r);
+  return m_problem.unknowns().norm(m_r);
 }
 
 bool NewtonSolver::line_search(const VectorXd& x, double& norm, double& alpha, SolveReport& report) {
@@ -221,9 +222,9 @@ bool NewtonSolver::line_search(const VectorXd& x, double& norm, double& alpha, S
     m_trial = x + alpha * m_dx;
     const double t0 = wall_seconds();
     m_problem.evaluate(m_trial, m_trial_r, reuse_factor() ? nullptr : &m_K);
-    if (!reuse_factor()) m_K_symmetric = m_problem.tangent_symmetric();
+    if (!reuse_factor()) m_K_symmetric = m_problem.traits().tangent_symmetric;
     report.seconds_evaluate += wall_seconds() - t0;
-    const double trial_norm = m_problem.norm(m_trial_r);
+    const double trial_norm = m_problem.unknowns().norm(m_trial_r);
     const bool accept =
         !o.line_search || converged(trial_norm) || trial_norm <= (1.0 - kArmijo * alpha) * norm;
     if (accept && std::isfinite(trial_norm)) {
@@ -248,7 +249,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
   if (monitor) monitor(0, report.residuals.back(), 0.0, 0);
   // Discrete states (contact active set) of the accepted iterates, to count changes and
   // to detect a cycle between two states.
-  std::uint64_t state[3] = {m_problem.state_signature(), 0, 0};
+  std::uint64_t state[3] = {m_problem.traits().state_signature, 0, 0};
   int two_cycles = 0;
   double previous_norm = 0.0, eta = kForcingMax;  // the last iteration's residual and forcing term
 
@@ -289,7 +290,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
     report.linear_iterations += lin.stats().iterations;
     ++report.iterations;
     use_existing = false;
-    if (lin.info() != Eigen::Success || !m_problem.all_finite(m_dx)) {
+    if (lin.info() != Eigen::Success || !m_problem.unknowns().all_finite(m_dx)) {
       report.reason = "linear solve failed: " + describe(lin.info());
       return report;
     }
@@ -302,12 +303,13 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
     previous_norm = norm_before;
     state[2] = state[1];
     state[1] = state[0];
-    state[0] = m_problem.state_signature();
+    state[0] = m_problem.traits().state_signature;
     if (state[0] != state[1]) {
       ++report.active_set_changes;
       if (it >= 2 && state[0] == state[2]) ++two_cycles;
     }
-    report.increments.push_back(alpha * m_problem.norm(m_dx) / std::max(m_problem.norm(x), kTiny));
+    const UnknownSpace unknowns = m_problem.unknowns();
+    report.increments.push_back(alpha * unknowns.norm(m_dx) / std::max(unknowns.norm(x), kTiny));
     report.residuals.push_back(relative(norm));
     if (monitor) monitor(it, report.residuals.back(), alpha, krylov);
   }

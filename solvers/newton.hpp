@@ -32,7 +32,9 @@ class NewtonSolver final : public StepSolver {
   /// prescribed components have just jumped (docs/theory/newton.md, "Predictor").
   void prepare(const VectorXd& x) override;
   /// True when a factor usable for the first iteration of the next solve exists.
-  bool prepared() const override { return m_have_factor && m_structure == m_problem.structure_version(); }
+  bool prepared() const override {
+    return m_have_factor && m_structure == m_problem.traits().structure_version;
+  }
   /// The Euler predictor x + dx, K(x) dx = -(r(x; from) + dr/dlambda (to - from)), with the
   /// factor of the converged state x and dr/dlambda by central differences at a thousandth
   /// of the increment: the linearised response to the prescribed increment, in place of the
@@ -81,8 +83,8 @@ class NewtonSolver final : public StepSolver {
   SparseMatrix m_K;
   bool m_analyzed = false;
   bool m_have_factor = false;
-  std::uint64_t m_structure = 0;  ///< the problem's structure_version() of m_K
-  std::uint64_t m_factor_state = 0;  ///< the problem's state_signature() when the factor was built
+  std::uint64_t m_structure = 0;  ///< the problem's traits().structure_version of m_K
+  std::uint64_t m_factor_state = 0;  ///< the problem's traits().state_signature when the factor was built
   bool m_reproducible = true;        ///< see StepSolver::set_reproducible()
   SolveReport m_pending;  ///< work of prepare(), added to the next report
   VectorXd m_r, m_dx, m_trial, m_trial_r;

@@ -104,7 +104,7 @@ struct LinearSolve {
   /// method's forcing term), never below the configured tolerance (solver.krylov.rtol,
   /// solver.belos.rtol), which stays the floor: 0 asks for the floor. Direct solvers ignore it.
   double rtol = 0.0;
-  /// The problem's preconditioner_state(), for solvers that keep a preconditioner across
+  /// The problem's traits().preconditioner_state, for solvers that keep a preconditioner across
   /// factorize() calls while it serves (solvers/linear/preconditioner_reuse.hpp). A kept
   /// preconditioner is renewed because solves grew slower only once this has changed since it
   /// was built: while it has not, its matrix has changed only with the smooth deformation, and

@@ -50,7 +50,7 @@ class PreconditionerReuse {
   bool due() const { return m_due; }
   /// The next factorize() builds a new one (a new pattern, say).
   void renew() { m_due = true; }
-  /// The problem's preconditioner_state() at the next solve.
+  /// The problem's traits().preconditioner_state at the next solve.
   void set_state(std::uint64_t state) { m_state = state; }
 
   /// One solve: build() when there is no preconditioner (`have` false), run(), and once more

@@ -31,11 +31,11 @@ class WholeUnknowns final : public UnknownExchange {
       : m_problem(problem), m_owner(std::move(owner)), m_all(problem.ranks(), m_owner) {}
   void share_all(VectorXd& x) override { m_all.share(x.data()); }
   void share_reads(VectorXd& x) override {
-    if (!m_reads || m_version != m_problem.structure_version()) {
+    if (!m_reads || m_version != m_problem.traits().structure_version) {
       const std::vector<Index> reads = m_problem.residual_reads();
       m_reads = std::make_unique<GhostExchange>(m_problem.ranks(), m_owner,
                                                 std::vector<std::int64_t>(reads.begin(), reads.end()));
-      m_version = m_problem.structure_version();
+      m_version = m_problem.traits().structure_version;
     }
     m_reads->share(x.data());
   }

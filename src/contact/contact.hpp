@@ -74,7 +74,7 @@ class ContactSystem {
   /// its gate: distance within delta_c, not separated along the normal; under exact
   /// enforcement, facing within the window): status stick (slip without friction), force
   /// zero, and the Jacobian of a closed pair at full gate, (C/a) n n^T (+ k_t t t^T with
-  /// friction). The Euler predictor's tangent (Problem::set_touching_closed).
+  /// friction). The Euler predictor's tangent (EvaluationMode::touching_closed).
   void set_touching_closed(bool on) { m_touching_closed = on; }
   /// Adds the contact part of dPi/du (2N) of the last evaluation.
   void add_internal_force(VectorXd& force) const;

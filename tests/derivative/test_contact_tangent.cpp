@@ -228,7 +228,7 @@ TEST(ContactTangent, AssembledTangentMatchesFiniteDifferences) {
     const ContactCounts counts = problem.contact()->counts();
     EXPECT_GT(counts.stick, 0) << normal;
     EXPECT_GT(counts.slip, 0) << normal;
-    EXPECT_FALSE(problem.tangent_symmetric()) << normal << ": slipping pairs make it unsymmetric";
+    EXPECT_FALSE(problem.traits().tangent_symmetric) << normal << ": slipping pairs make it unsymmetric";
     const test::FiniteDifferenceCheck fd = test::check_tangent(problem, x, 1e-7 * dx);
     EXPECT_LT(fd.worst, 1e-6) << normal << fd;
   }
@@ -262,7 +262,7 @@ TEST(ContactTangent, ConsistentAfterASearchChangesThePartners) {
   QuasiStaticProblem problem(model, problem_options(scene));
   problem.set_load_factor(1.0);
   const Index before = problem.contact()->size();
-  const std::uint64_t version = problem.structure_version();
+  const std::uint64_t version = problem.traits().structure_version;
 
   // The left block slides up by 3.6 dx and both are pressed towards the interface by 2%
   // of a spacing, plus random motion of 0.5% dx.
@@ -278,7 +278,7 @@ TEST(ContactTangent, ConsistentAfterASearchChangesThePartners) {
   VectorXd r;
   problem.evaluate(x, r, nullptr);
   problem.commit(x);  // slid by more than half a spacing since the (reference) search: search again
-  EXPECT_NE(problem.structure_version(), version);
+  EXPECT_NE(problem.traits().structure_version, version);
   ASSERT_GT(problem.contact()->size(), before);
   ASSERT_EQ(problem.update_multipliers(x).status, ConstraintUpdate::Status::updated);
 

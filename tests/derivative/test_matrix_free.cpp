@@ -190,7 +190,7 @@ TEST(MatrixFree, ActionEqualsTheAssembledTangentWithFrictionalContact) {
   const ContactCounts counts = p->matrix_free->contact()->counts();
   EXPECT_GT(counts.stick, 0);
   EXPECT_GT(counts.slip, 0);
-  EXPECT_FALSE(p->matrix_free->tangent_symmetric());
+  EXPECT_FALSE(p->matrix_free->traits().tangent_symmetric);
 
   VectorXd r;
   p->matrix_free->evaluate(x + random_vector(n, 0.01 * dx, 5u), r, nullptr);

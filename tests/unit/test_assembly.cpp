@@ -132,7 +132,7 @@ struct RankedMatrices {
   SparseMatrix K, P;
   VectorXd r;
   double scale = 0.0;  ///< force_scale() of the whole evaluation
-  /// With the rows split (distributed ADR, set_own_rows_only()): the residual
+  /// With the rows split (distributed ADR, EvaluationMode::own_rows_only): the residual
   /// of the own rows only, its force scale, and the whole residual evaluated after it again;
   /// the own rows again from x with NaN outside residual_reads(), and how many entries those are.
   VectorXd own_r, r_after, own_r_from_reads;
@@ -153,12 +153,12 @@ RankedMatrices assemble(const Model& model, ProblemOptions options, const Prepar
   problem.evaluate(x, m.r, &m.K);
   m.scale = problem.force_scale();
   problem.assemble_preconditioner(m.P);
-  if (problem.set_own_rows_only(true)) {
+  if (problem.set_evaluation_mode(EvaluationMode::own_rows_only)) {
     // First elsewhere, so that a family the own rows need and that is not computed holds
     // another state's values (the whole evaluation above left x's in every family).
-    problem.set_own_rows_only(false);
+    problem.set_evaluation_mode(EvaluationMode::standard);
     problem.evaluate(1.7 * x, m.own_r, nullptr);
-    problem.set_own_rows_only(true);
+    problem.set_evaluation_mode(EvaluationMode::own_rows_only);
     problem.evaluate(x, m.own_r, nullptr);
     m.own_scale = problem.force_scale();
     // Distributed ADR shares only these entries between its steps (GhostExchange).
@@ -167,7 +167,7 @@ RankedMatrices assemble(const Model& model, ProblemOptions options, const Prepar
     VectorXd ghosts_only = VectorXd::Constant(x.size(), std::numeric_limits<double>::quiet_NaN());
     for (const Index f : reads) ghosts_only[f] = x[f];
     problem.evaluate(ghosts_only, m.own_r_from_reads, nullptr);
-    problem.set_own_rows_only(false);
+    problem.set_evaluation_mode(EvaluationMode::standard);
     problem.evaluate(x, m.r_after, nullptr);
   }
   return m;
@@ -355,9 +355,9 @@ void expect_partitioned_ranks_equal_the_whole(const Scene& scene, const Model& m
         SparseMatrix P = problem.make_preconditioner();
         problem.assemble_preconditioner(P);
         if (rings == 2) {  // distributed ADR's steps: its rows only, no exchange
-          ASSERT_TRUE(problem.set_own_rows_only(true));
+          ASSERT_TRUE(problem.set_evaluation_mode(EvaluationMode::own_rows_only));
           problem.evaluate(x, own_r, nullptr);
-          problem.set_own_rows_only(false);
+          problem.set_evaluation_mode(EvaluationMode::standard);
         }
         EXPECT_TRUE((r.array() == whole_r.array()).all()) << "rank " << rank << ": the whole residual";
         EXPECT_EQ(scale, whole.force_scale());

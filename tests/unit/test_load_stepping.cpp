@@ -17,7 +17,7 @@ namespace {
 /// fails() says so.
 class OneUnknownProblem : public Problem {
  public:
-  Index n_unknowns() const override { return 1; }
+  UnknownSpace unknowns() const override { return UnknownSpace(1); }
   void set_load_factor(double l) override { m_lambda = l; }
   double load_factor() const override { return m_lambda; }
   void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override {
@@ -32,8 +32,7 @@ class OneUnknownProblem : public Problem {
     K.makeCompressed();
     return K;
   }
-  bool tangent_symmetric() const override { return true; }
-  bool tangent_constant() const override { return false; }
+  ProblemTraits traits() const override { return {.tangent_symmetric = true, .tangent_constant = false}; }
   void commit(const VectorXd& x) override {
     EXPECT_FALSE(fails()) << "committed a state whose solve failed";
     committed.push_back(x[0]);
@@ -192,9 +191,10 @@ TEST(LoadStepping, AStepThatKeepsFailingDeepStops) {
 // A crack that runs: from load factor 0.5 on, `pending` bonds are over the criterion. The
 // re-solve after a round fails (non-finite residual) when the round broke more than
 // `tolerable` bonds at once, as Newton does when too much of the structure lets go at once.
-class RunningCrackProblem final : public OneUnknownProblem {
+class RunningCrackProblem final : public OneUnknownProblem, public IrreversibleState {
  public:
   RunningCrackProblem(Index pending, Index tolerable) : m_pending(pending), m_tolerable(tolerable) {}
+  IrreversibleState* irreversible_state() override { return this; }
   Index advance_irreversible_state(const VectorXd& x, Index at_most) override {
     EXPECT_TRUE(std::isfinite(x[0])) << "criterion checked at a state that is not an equilibrium";
     m_round = 0;

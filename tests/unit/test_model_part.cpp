@@ -201,7 +201,7 @@ void expect_part_rows_equal_the_whole(const Scene& scene) {
       for (const Index f : problem.action_reads())
         v[f] = direction[part.global_unknown[static_cast<std::size_t>(f)]];
       problem.apply_tangent(v, y);
-      ASSERT_TRUE(problem.set_own_rows_only(true));
+      ASSERT_TRUE(problem.set_evaluation_mode(EvaluationMode::own_rows_only));
       problem.evaluate(xl, r_own, nullptr);
       for (Index f = 0; f < part.n_owned_unknowns; ++f) {
         const auto g = part.global_unknown[static_cast<std::size_t>(f)];

@@ -444,7 +444,7 @@ TEST(PrecrackedPlate, ContactKeepsTheFacesApart) {
   EXPECT_GT(go.max_closure, 3.0 * gw.max_closure);
 }
 
-// The Euler predictor's tangent (Problem::set_touching_closed, docs/theory/newton.md,
+// The Euler predictor's tangent (EvaluationMode::touching_closed, docs/theory/newton.md,
 // "Predictor"): in the reference state of two touching blocks each vertical neighbour pair
 // across the interface sits at the edge of its gate (|Y| = delta_c = dx), open, without force
 // or stiffness. With the flag on, exactly those pairs get the Jacobian of a stuck pair at full
@@ -465,7 +465,7 @@ TEST(TouchingPredictor, ClosesTouchingPairsInTheTangentOnly) {
   problem.evaluate(x, r_plain, &K);
   const ContactSystem& c = *problem.contact();
   EXPECT_EQ(c.counts().active(), 0) << "no pair carries a force in the reference state";
-  ASSERT_TRUE(problem.set_touching_closed(true));
+  ASSERT_TRUE(problem.set_evaluation_mode(EvaluationMode::touching_closed));
   problem.evaluate(x, r_closed, &K);
   const ContactLaw& law = c.law();
   int touching = 0;
@@ -492,7 +492,7 @@ TEST(TouchingPredictor, ClosesTouchingPairsInTheTangentOnly) {
   EXPECT_EQ(touching, spec.nx);
   EXPECT_EQ(c.counts().stick, spec.nx);
   EXPECT_EQ((r_closed - r_plain).norm(), 0.0) << "the flag changes the tangent only";
-  ASSERT_TRUE(problem.set_touching_closed(false));
+  ASSERT_TRUE(problem.set_evaluation_mode(EvaluationMode::standard));
   problem.evaluate(x, r_closed, &K);
   EXPECT_EQ(c.counts().active(), 0);
 }
