@@ -64,7 +64,7 @@ double AdrSolver::residual_tolerance(double force_scale) const {
   return std::max(m_options.rtol * force_scale, kForceFloor);
 }
 
-SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
+SolveReport AdrSolver::solve(VectorXd& x, IterationObserver* observer) {
   SolveReport report;
   const AdrOptions& o = m_options;
   const Index n = x.size();
@@ -128,7 +128,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
   const auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kForceFloor); };
   double norm = measure(false);
   report.residuals.push_back(relative(norm));
-  if (monitor) monitor(0, report.residuals.back(), 0.0, 0);
+  if (observer) observer->iteration_done(0, report.residuals.back(), 0.0, 0);
   if (norm <= tolerance()) {
     report.converged = true;
     report.reason = "converged";
@@ -157,7 +157,7 @@ SolveReport AdrSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
     }
     if (done || it % o.report_every == 0 || it == o.max_iterations) {
       report.residuals.push_back(relative(norm));
-      if (monitor) monitor(clamp_to_int(it), report.residuals.back(), c, 0);
+      if (observer) observer->iteration_done(clamp_to_int(it), report.residuals.back(), c, 0);
     }
     if (done) {
       report.converged = true;

@@ -23,7 +23,7 @@ class AdrSolver final : public StepSolver {
             UnknownShare share = {});
 
   /// Relaxes from x (at rest) to r(x) = 0 at the problem's current load factor.
-  SolveReport solve(VectorXd& x, const SolveMonitor& monitor = {}) override;
+  SolveReport solve(VectorXd& x, IterationObserver* observer = nullptr) override;
   /// Computes the fictitious density at the converged state x when the tangent may have
   /// changed (first call, or any call for a problem whose tangent is not constant).
   void prepare(const VectorXd& x) override;

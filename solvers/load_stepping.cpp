@@ -40,8 +40,8 @@ void accumulate(StepReport& step, const SolveReport& r) {
 /// state that fails any is reported as not converged, with the reason. Work is added to
 /// `step`; `r_check` is scratch.
 SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& trial, VectorXd& r_check,
-                            const LoadSteppingCallbacks& cb, StepReport& step) {
-  SolveReport r = solver.solve(trial, cb.on_iteration);
+                            LoadSteppingObserver& observer, StepReport& step) {
+  SolveReport r = solver.solve(trial, &observer);
   accumulate(step, r);
   while (r.converged) {
     const ConstraintUpdate m = problem.update_multipliers(trial);
@@ -52,8 +52,8 @@ SolveReport solve_and_check(Problem& problem, StepSolver& solver, VectorXd& tria
       return r;
     }
     ++step.multiplier_updates;
-    if (cb.on_multipliers) cb.on_multipliers(m.violation, m.updates);
-    r = solver.solve(trial, cb.on_iteration);
+    observer.multipliers_updated(m.violation, m.updates);
+    r = solver.solve(trial, &observer);
     accumulate(step, r);
   }
   if (!r.converged && !r.accepted_unconverged) return r;
@@ -103,7 +103,7 @@ void accept(Problem& problem, VectorXd& x, VectorXd& trial, const SolveReport& r
 /// two rounds in a row converge. Returns "" or why the run has to stop (x is then the last
 /// converged state).
 std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x, VectorXd& trial,
-                              VectorXd& r_check, const Loading& loading, const LoadSteppingCallbacks& cb,
+                              VectorXd& r_check, const Loading& loading, LoadSteppingObserver& observer,
                               StepReport& step, int n, double lambda) {
   const int k = step.step;
   char buf[320];
@@ -129,11 +129,11 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
       return buf;
     }
     ++step.resolves;
-    if (cb.on_resolve) cb.on_resolve(broken, resolve);
+    observer.bonds_broke(broken, resolve);
     solver.invalidate_factorization();
     solver.prepare(x);  // the tangent without the broken bonds
     trial = x;
-    const SolveReport r = solve_and_check(problem, solver, trial, r_check, cb, step);
+    const SolveReport r = solve_and_check(problem, solver, trial, r_check, observer, step);
     if (r.converged || r.accepted_unconverged) {
       accept(problem, x, trial, r, step);
       step.bonds_broken += broken;
@@ -155,13 +155,13 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
     at_most = std::max<Index>(1, broken / 2);
     successes = 0;
     ++step.break_cutbacks;
-    if (cb.on_break_cutback) cb.on_break_cutback(r.reason, broken, at_most);
+    observer.resolve_failed(r.reason, broken, at_most);
   }
 }
 }  // namespace
 
 RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, const Loading& loading,
-                         const LoadSteppingCallbacks& cb, int steps_done) {
+                         LoadSteppingObserver& observer, int steps_done) {
   RunReport run;
   run.steps_done = steps_done;
   const int n = loading.steps;
@@ -190,13 +190,13 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
         if (!solver.prepared()) solver.prepare(x);  // tangent of the converged state
         const double next = std::min(lambda + increment, target);
         problem.set_load_factor(next);
-        if (cb.on_attempt) cb.on_attempt(k, n, next, step.cutbacks);
+        observer.attempt_started(k, n, next, step.cutbacks);
         trial = x;
         if (loading.extrapolate && lambda_before >= 0.0 && lambda > lambda_before)
           trial += ((next - lambda) / (lambda - lambda_before)) * (x - x_before);
         else if (loading.extrapolate)
           accumulate(step, solver.predict(trial, lambda));  // no secant: the solver's tangent
-        const SolveReport r = solve_and_check(problem, solver, trial, r_check, cb, step);
+        const SolveReport r = solve_and_check(problem, solver, trial, r_check, observer, step);
         if (r.converged || r.accepted_unconverged) {
           x_before = x;
           lambda_before = lambda;
@@ -204,7 +204,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
           lambda = next;
           ++step.substeps;
           if (std::string why =
-                  break_and_resolve(problem, solver, x, trial, r_check, loading, cb, step, n, lambda);
+                  break_and_resolve(problem, solver, x, trial, r_check, loading, observer, step, n, lambda);
               !why.empty()) {
             run.message = std::move(why);
             return run;
@@ -241,7 +241,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
           return run;
         }
         increment *= 0.5;
-        if (cb.on_cutback) cb.on_cutback(r.reason, increment);
+        observer.cut_back(r.reason, increment);
       }
     } catch (const PartsOutgrown&) {  // the caller re-cuts the parts and solves the step again
       problem.set_load_factor(lambda);
@@ -254,7 +254,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
     step.load_factor = lambda;
     step.wall_seconds = wall_seconds() - start;
     run.steps_done = k;
-    if (cb.on_step) cb.on_step(step, x);
+    observer.step_done(step, x);
   }
   run.completed = true;
   run.message = "completed";

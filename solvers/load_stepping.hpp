@@ -7,7 +7,6 @@
 // unconverged) are committed and reported.
 #pragma once
 
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -44,30 +43,34 @@ struct RunReport {
   std::string message;
 };
 
-struct LoadSteppingCallbacks {
+/// What run_load_steps tells as it goes; every method does nothing unless overridden.
+class LoadSteppingObserver : public IterationObserver {
+ public:
   /// A nominal step converged; x is its state (unknowns).
-  std::function<void(const StepReport&, const VectorXd& x)> on_step;
+  virtual void step_done(const StepReport& /*step*/, const VectorXd& /*x*/) {}
   /// Start of an attempt at load factor lambda (sub-step or retry) of nominal step k.
-  std::function<void(int step, int n_steps, double lambda, int cutbacks)> on_attempt;
+  virtual void attempt_started(int /*step*/, int /*n_steps*/, double /*lambda*/, int /*cutbacks*/) {}
   /// Every Newton iterate (ADR: every report_every-th iterate, and the first and last).
-  SolveMonitor on_iteration;
+  void iteration_done(int /*iteration*/, double /*relative_residual*/, double /*extra*/,
+                      int /*linear_iterations*/) override {}
   /// Bonds broke at a converged state; the same load is solved again (re-solve k).
-  std::function<void(Index broken, int resolve)> on_resolve;
+  virtual void bonds_broke(Index /*broken*/, int /*resolve*/) {}
   /// The re-solve after breaking `broken` bonds failed: they are restored and at most
   /// `next` of them (the most critical) break in the retry.
-  std::function<void(const std::string& reason, Index broken, Index next)> on_break_cutback;
+  virtual void resolve_failed(const std::string& /*reason*/, Index /*broken*/, Index /*next*/) {}
   /// A converged state violated its multiplier constraints by `violation`; the multipliers
   /// were updated (update k of this increment) and the same load is solved again.
-  std::function<void(double violation, int update)> on_multipliers;
+  virtual void multipliers_updated(double /*violation*/, int /*update*/) {}
   /// An attempt failed and the step is cut back.
-  std::function<void(const std::string& reason, double next_increment)> on_cutback;
+  virtual void cut_back(const std::string& /*reason*/, double /*next_increment*/) {}
 };
 
 /// Runs the load steps from the committed state x (normally zero at load factor 0): nominal
 /// steps steps_done + 1 .. loading.steps, the problem's load factor being that of step
-/// steps_done (a resumed run). Throws PartsOutgrown (core/error.hpp) when a converged state
-/// shows that the ranks' parts must grow; x and the problem are then in the middle of a step.
+/// steps_done (a resumed run). `observer` is told of the steps, attempts and iterates.
+/// Throws PartsOutgrown (core/error.hpp) when a converged state shows that the ranks' parts
+/// must grow; x and the problem are then in the middle of a step.
 RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, const Loading& loading,
-                         const LoadSteppingCallbacks& callbacks, int steps_done = 0);
+                         LoadSteppingObserver& observer, int steps_done = 0);
 
 }  // namespace peristat

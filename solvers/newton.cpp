@@ -104,12 +104,12 @@ void NewtonSolver::prepare(const VectorXd& x) {
   m_pending.factorizations += static_cast<int>(factorizations() - f0);
 }
 
-SolveReport NewtonSolver::solve(VectorXd& x, const SolveMonitor& monitor) {
+SolveReport NewtonSolver::solve(VectorXd& x, IterationObserver* observer) {
   follow_structure();
   SolveReport report = m_pending;
   m_pending = SolveReport{};
   const long f0 = factorizations();
-  report = solve_iterations(x, monitor, std::move(report));
+  report = solve_iterations(x, observer, std::move(report));
   report.factorizations += static_cast<int>(factorizations() - f0);
   return report;
 }
@@ -240,13 +240,13 @@ bool NewtonSolver::line_search(const VectorXd& x, double& norm, double& alpha, S
   }
 }
 
-SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report) {
+SolveReport NewtonSolver::solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report) {
   // Iteration 1 uses the factor of the last converged state when there is one.
   bool use_existing = m_have_factor;
   const NewtonOptions& o = m_options;
   double norm = evaluate_first(x, use_existing, report);
   report.residuals.push_back(relative(norm));
-  if (monitor) monitor(0, report.residuals.back(), 0.0, 0);
+  if (observer) observer->iteration_done(0, report.residuals.back(), 0.0, 0);
   // Discrete states (contact active set) of the accepted iterates, to count changes and
   // to detect a cycle between two states.
   std::uint64_t state[3] = {m_problem.traits().state_signature, 0, 0};
@@ -311,7 +311,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, const SolveMonitor& moni
     const UnknownSpace unknowns = m_problem.unknowns();
     report.increments.push_back(alpha * unknowns.norm(m_dx) / std::max(unknowns.norm(x), kTiny));
     report.residuals.push_back(relative(norm));
-    if (monitor) monitor(it, report.residuals.back(), alpha, krylov);
+    if (observer) observer->iteration_done(it, report.residuals.back(), alpha, krylov);
   }
 }
 

@@ -6,7 +6,6 @@
 // solver (CHOLMOD, LDLT) hands over to UMFPACK.
 #pragma once
 
-#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -24,7 +23,7 @@ class NewtonSolver final : public StepSolver {
 
   /// Solves r(x) = 0 at the problem's current load factor, starting from x.
   /// On failure x holds the last iterate (the caller restores its converged state).
-  SolveReport solve(VectorXd& x, const SolveMonitor& monitor = {}) override;
+  SolveReport solve(VectorXd& x, IterationObserver* observer = nullptr) override;
 
   /// Factorises the tangent at x (a converged state, at the current load factor). The
   /// first iteration of the next solve uses this factor: the Euler predictor of the new
@@ -48,7 +47,7 @@ class NewtonSolver final : public StepSolver {
   void set_reproducible(bool reproducible) override { m_reproducible = reproducible; }
 
  private:
-  SolveReport solve_iterations(VectorXd& x, const SolveMonitor& monitor, SolveReport report);
+  SolveReport solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report);
   /// The residual at x, with the tangent unless the first iteration keeps the factor it has
   /// (`use_existing`, cleared when the predictor changed the active set); returns its norm.
   double evaluate_first(const VectorXd& x, bool& use_existing, SolveReport& report);

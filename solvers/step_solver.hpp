@@ -3,7 +3,6 @@
 // Relaxation (solvers/adr.hpp) implement it on the same Problem, hence the same kernels.
 #pragma once
 
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -35,19 +34,25 @@ struct SolveReport {
   double seconds_solve = 0.0;
 };
 
-/// Called as a solve progresses: iteration, relative residual, a solver-specific number
-/// (Newton: the line-search step length; ADR: the damping coefficient) and the Krylov
-/// iterations of the linear solve that led to this iterate (Newton with an iterative linear
-/// solver, from iteration 1; 0 otherwise).
-using SolveMonitor =
-    std::function<void(int iteration, double relative_residual, double extra, int linear_iterations)>;
+/// Told as a solve progresses (StepSolver::solve).
+class IterationObserver {
+ public:
+  virtual ~IterationObserver() = default;
+  /// An iterate: iteration, relative residual, a solver-specific number (Newton: the
+  /// line-search step length; ADR: the damping coefficient) and the Krylov iterations of the
+  /// linear solve that led to this iterate (Newton with an iterative linear solver, from
+  /// iteration 1; 0 otherwise).
+  virtual void iteration_done(int iteration, double relative_residual, double extra,
+                              int linear_iterations) = 0;
+};
 
 class StepSolver {
  public:
   virtual ~StepSolver() = default;
   /// Solves r(x) = 0 at the problem's current load factor, starting from x. On failure x
-  /// holds the last iterate (the caller restores its converged state).
-  virtual SolveReport solve(VectorXd& x, const SolveMonitor& monitor = {}) = 0;
+  /// holds the last iterate (the caller restores its converged state). `observer` (if any) is
+  /// told of the iterates.
+  virtual SolveReport solve(VectorXd& x, IterationObserver* observer = nullptr) = 0;
   /// Called with the converged state before the load factor moves on.
   virtual void prepare(const VectorXd& /*x*/) {}
   /// False when prepare() must be called before the next solve.

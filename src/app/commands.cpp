@@ -297,24 +297,25 @@ class Run {
     // Every nominal step: the results, then the checkpoint (a stop between the two repeats the step).
     StateArchive checkpoint;
     checkpoint.texts = {{"scene", m_scene.text}, {"overrides", joined(m_args.overrides)}, {"solver", m_args.solver}};
-    const auto on_step = [&](const StepReport& step, const VectorXd& state) {
-      m_recorder->record(step, state);
-      if (m_recorder->due(step.step)) m_progress->step_done(step);
-      checkpoint.arrays.clear();
-      checkpoint.put("state/x", m_view->unknowns(state));  // collective on the parts
-      checkpoint.put("state/steps_done", step.step);
-      m_problem->save_state(checkpoint);
-      if (m_root) write_checkpoint(m_checkpoint_path, checkpoint);
-      m_checkpointed = true;
+    class Observer final : public ProgressObserver {
+     public:
+      Observer(Run& run, StateArchive& checkpoint)
+          : ProgressObserver(*run.m_progress), m_run(run), m_checkpoint(checkpoint) {}
+      void step_done(const StepReport& step, const VectorXd& state) override {
+        m_run.record_step(step, state, m_checkpoint);
+      }
+
+     private:
+      Run& m_run;
+      StateArchive& m_checkpoint;
     };
     return finish_run(
         *m_recorder,
         [&] {
           for (;;) {
-            LoadSteppingCallbacks callbacks = m_progress->callbacks();
-            callbacks.on_step = on_step;
+            Observer observer(*this, checkpoint);  // made again after grow_parts(): a new printer
             try {
-              return run_load_steps(*m_problem, *m_solver, m_x, m_scene.loading, callbacks, m_steps_done);
+              return run_load_steps(*m_problem, *m_solver, m_x, m_scene.loading, observer, m_steps_done);
             } catch (const PartsOutgrown& grown) {
               grow_parts(grown);
             }
@@ -325,6 +326,18 @@ class Run {
 
  private:
   bool verbose() const { return !m_args.quiet && m_root; }
+
+  /// What a converged nominal step leaves: its results record, then the checkpoint.
+  void record_step(const StepReport& step, const VectorXd& state, StateArchive& checkpoint) {
+    m_recorder->record(step, state);
+    if (m_recorder->due(step.step)) m_progress->step_done(step);
+    checkpoint.arrays.clear();
+    checkpoint.put("state/x", m_view->unknowns(state));  // collective on the parts
+    checkpoint.put("state/steps_done", step.step);
+    m_problem->save_state(checkpoint);
+    if (m_root) write_checkpoint(m_checkpoint_path, checkpoint);
+    m_checkpointed = true;
+  }
 
   // In the order they are built (and destroyed in reverse: the solvers before the problem).
   const RunArguments& m_args;

@@ -19,7 +19,7 @@ class WriteGuard {
   WriteGuard& operator=(const WriteGuard&) = delete;
 };
 
-/// Thrown by the run's progress callbacks once a signal has arrived.
+/// Thrown by the run's progress observer (app/progress.hpp) once a signal has arrived.
 struct Interrupted {
   int signal;
 };

@@ -43,58 +43,58 @@ void ProgressPrinter::header(const Scene& scene, const ModelSize& size, double m
         "stiffness (contact.stiffness sets the rate, not the answer; docs/theory/contact.md)\n");
 }
 
-LoadSteppingCallbacks ProgressPrinter::callbacks() const {
-  LoadSteppingCallbacks cb;
-  const bool verbose = m_verbose, adr = m_adr;
-  const QuasiStaticProblem& problem = m_problem;
-  cb.on_attempt = [verbose](int k, int n, double lambda, int cutbacks) {
-    check_interrupt();
-    if (!verbose) return;
-    std::printf("step %d/%d  load factor %.6g%s\n", k, n, lambda, cutbacks ? "  (after cut-back)" : "");
-    std::fflush(stdout);
-  };
-  cb.on_iteration = [verbose, adr, &problem](int it, double rel, double extra, int krylov) {
-    check_interrupt();
-    if (!verbose) return;
-    if (adr)
-      std::printf("  adr %9d  residual %.3e  damping %.4f", it, rel, extra);
-    else if (it == 0)
-      std::printf("  newton %2d  residual %.3e", it, rel);
-    else
-      std::printf("  newton %2d  residual %.3e  step %.3g", it, rel, extra);
-    if (krylov > 0) std::printf("  krylov %d", krylov);
-    if (const ContactSystem* contact = problem.contact()) {
-      const ContactCounts& c = contact->counts();
-      std::printf("  contact open %d stick %d slip %d", c.open, c.stick, c.slip);
-    }
-    std::printf("\n");
-    std::fflush(stdout);
-  };
-  cb.on_resolve = [verbose, &problem](Index broken, int resolve) {
-    check_interrupt();
-    if (!verbose) return;
-    std::printf("  %ld bonds broke (%ld in all); re-solve %d at the same load\n", static_cast<long>(broken),
-                static_cast<long>(problem.failure()->broken()), resolve);
-    std::fflush(stdout);
-  };
-  cb.on_break_cutback = [verbose](const std::string& reason, Index broken, Index next) {
-    if (!verbose) return;
-    std::printf("  re-solve failed (%s): the %ld bonds are restored; retrying with the %ld most critical\n",
-                reason.c_str(), static_cast<long>(broken), static_cast<long>(next));
-    std::fflush(stdout);
-  };
-  cb.on_multipliers = [verbose](double violation, int update) {
-    check_interrupt();
-    if (!verbose) return;
-    std::printf("  exact contact: largest closure %.3e of a pair's normal distance; multiplier update %d, "
-                "solving again\n",
-                violation, update);
-    std::fflush(stdout);
-  };
-  cb.on_cutback = [verbose](const std::string& reason, double next) {
-    if (verbose) std::printf("  cut-back: %s; next increment %.4g\n", reason.c_str(), next);
-  };
-  return cb;
+void ProgressObserver::attempt_started(int k, int n, double lambda, int cutbacks) {
+  check_interrupt();
+  if (!m_printer.m_verbose) return;
+  std::printf("step %d/%d  load factor %.6g%s\n", k, n, lambda, cutbacks ? "  (after cut-back)" : "");
+  std::fflush(stdout);
+}
+
+void ProgressObserver::iteration_done(int it, double rel, double extra, int krylov) {
+  check_interrupt();
+  if (!m_printer.m_verbose) return;
+  if (m_printer.m_adr)
+    std::printf("  adr %9d  residual %.3e  damping %.4f", it, rel, extra);
+  else if (it == 0)
+    std::printf("  newton %2d  residual %.3e", it, rel);
+  else
+    std::printf("  newton %2d  residual %.3e  step %.3g", it, rel, extra);
+  if (krylov > 0) std::printf("  krylov %d", krylov);
+  if (const ContactSystem* contact = m_printer.m_problem.contact()) {
+    const ContactCounts& c = contact->counts();
+    std::printf("  contact open %d stick %d slip %d", c.open, c.stick, c.slip);
+  }
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
+void ProgressObserver::bonds_broke(Index broken, int resolve) {
+  check_interrupt();
+  if (!m_printer.m_verbose) return;
+  std::printf("  %ld bonds broke (%ld in all); re-solve %d at the same load\n", static_cast<long>(broken),
+              static_cast<long>(m_printer.m_problem.failure()->broken()), resolve);
+  std::fflush(stdout);
+}
+
+void ProgressObserver::resolve_failed(const std::string& reason, Index broken, Index next) {
+  if (!m_printer.m_verbose) return;
+  std::printf("  re-solve failed (%s): the %ld bonds are restored; retrying with the %ld most critical\n",
+              reason.c_str(), static_cast<long>(broken), static_cast<long>(next));
+  std::fflush(stdout);
+}
+
+void ProgressObserver::multipliers_updated(double violation, int update) {
+  check_interrupt();
+  if (!m_printer.m_verbose) return;
+  std::printf(
+      "  exact contact: largest closure %.3e of a pair's normal distance; multiplier update %d, "
+      "solving again\n",
+      violation, update);
+  std::fflush(stdout);
+}
+
+void ProgressObserver::cut_back(const std::string& reason, double next) {
+  if (m_printer.m_verbose) std::printf("  cut-back: %s; next increment %.4g\n", reason.c_str(), next);
 }
 
 void ProgressPrinter::step_done(const StepReport& s) const {

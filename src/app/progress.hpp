@@ -18,16 +18,31 @@ class ProgressPrinter {
   /// The run's header: scene, model size, method, threads, ADR budget, contact candidates.
   void header(const Scene& scene, const ModelSize& size, double model_seconds,
               const std::string& method) const;
-  /// The load-stepping callbacks that print (and check for a pending signal); on_step is left
-  /// to the caller.
-  LoadSteppingCallbacks callbacks() const;
   /// The end-of-step lines: contact counts, bonds broken, iterations and timings.
   void step_done(const StepReport& step) const;
 
  private:
+  friend class ProgressObserver;
   bool m_verbose;
   bool m_adr;
   const QuasiStaticProblem& m_problem;
+};
+
+/// The load-stepping observer that prints (and checks for a pending signal) what a
+/// ProgressPrinter says; step_done is left to a derived class.
+class ProgressObserver : public LoadSteppingObserver {
+ public:
+  explicit ProgressObserver(const ProgressPrinter& printer) : m_printer(printer) {}
+
+  void attempt_started(int k, int n, double lambda, int cutbacks) override;
+  void iteration_done(int it, double rel, double extra, int krylov) override;
+  void bonds_broke(Index broken, int resolve) override;
+  void resolve_failed(const std::string& reason, Index broken, Index next) override;
+  void multipliers_updated(double violation, int update) override;
+  void cut_back(const std::string& reason, double next) override;
+
+ private:
+  const ProgressPrinter& m_printer;
 };
 
 }  // namespace peristat

@@ -42,6 +42,7 @@
 #include "solvers/load_stepping.hpp"
 #include "solvers/newton.hpp"
 #include "parallel/mpi/mpi_ranks.hpp"
+#include "support/step_log.hpp"
 
 using namespace peristat;
 
@@ -93,8 +94,11 @@ int tension(int n, const std::vector<Override>& overrides) {
   StepReport last;
   int steps = 0, newton_its = 0, lin_its = 0, facts = 0;
   double evaluate = 0, factorize = 0, solve = 0;
-  LoadSteppingCallbacks cb;
-  cb.on_step = [&](const StepReport& s, const VectorXd&) {
+  test::StepLog log;
+  const double t1 = wall_seconds();
+  const RunReport run = run_load_steps(problem, newton, x, scene.loading, log);
+  const double t_solve = wall_seconds() - t1;
+  for (const StepReport& s : log.steps) {
     ++steps;
     newton_its += s.newton_iterations;
     lin_its += s.linear_iterations;
@@ -103,10 +107,7 @@ int tension(int n, const std::vector<Override>& overrides) {
     factorize += s.seconds_factorize;
     solve += s.seconds_solve;
     last = s;
-  };
-  const double t1 = wall_seconds();
-  const RunReport run = run_load_steps(problem, newton, x, scene.loading, cb);
-  const double t_solve = wall_seconds() - t1;
+  }
   const double per_it = newton_its > 0 ? t_solve / newton_its : 0.0;
   std::printf(
       "n,particles,unknowns,nonzeros,linear,threads,model_s,solve_s,total_s,newton_its,krylov_its,"
@@ -296,15 +297,15 @@ int part_newton(const std::string& path, const std::vector<Override>& overrides)
   VectorXd x = VectorXd::Zero(problem.n_unknowns());
   int newton = 0, krylov = 0;
   double residual = 0.0;
-  LoadSteppingCallbacks cb;
-  cb.on_step = [&](const StepReport& s, const VectorXd&) {
+  test::StepLog log;
+  const double t1 = wall_seconds();
+  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, log);
+  const double t_run = wall_seconds() - t1;
+  for (const StepReport& s : log.steps) {
     newton += s.newton_iterations;
     krylov += s.linear_iterations;
     residual = s.final_residual;
-  };
-  const double t1 = wall_seconds();
-  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
-  const double t_run = wall_seconds() - t1;
+  }
   const std::vector<double> mine = {static_cast<double>(part.model.particles.size()),
                                     static_cast<double>(part.n_owned),
                                     static_cast<double>(problem.n_unknowns()),

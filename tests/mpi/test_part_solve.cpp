@@ -22,6 +22,7 @@
 #include "app/unknown_share.hpp"
 #include "support/finite_difference.hpp"
 #include "support/scenes.hpp"
+#include "support/step_log.hpp"
 
 namespace peristat {
 
@@ -179,11 +180,10 @@ VectorXd whole_run(Scene scene, std::vector<double>* residuals) {
   std::unique_ptr<LinearSolver> linear;
   const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear);
   VectorXd x = VectorXd::Zero(problem.n_unknowns());
-  LoadSteppingCallbacks cb;
-  cb.on_step = [&](const StepReport& s, const VectorXd&) {
+  test::StepLog log;
+  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, log);
+  for (const StepReport& s : log.steps)
     residuals->insert(residuals->end(), s.residuals.begin(), s.residuals.end());
-  };
-  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
   EXPECT_TRUE(run.completed) << run.message;
   return x;
 }
@@ -278,11 +278,10 @@ TEST(PartNewton, NewtonOnThePartsReachesTheWholeModelsAnswer) {
     const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear, &part);
     VectorXd x = VectorXd::Zero(problem.n_unknowns());
     std::vector<double> residuals;
-    LoadSteppingCallbacks cb;
-    cb.on_step = [&](const StepReport& s, const VectorXd&) {
+    test::StepLog log;
+    const RunReport run = run_load_steps(problem, *solver, x, scene.loading, log);
+    for (const StepReport& s : log.steps)
       residuals.insert(residuals.end(), s.residuals.begin(), s.residuals.end());
-    };
-    const RunReport run = run_load_steps(problem, *solver, x, scene.loading, cb);
     ASSERT_TRUE(run.completed) << run.message;
     problem.import_ghosts(x);  // the run keeps the owned entries right; the ghosts from their owners
     const double scale = x_ref.cwiseAbs().maxCoeff();

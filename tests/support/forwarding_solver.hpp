@@ -9,7 +9,7 @@ namespace peristat::test {
 class ForwardingStepSolver : public StepSolver {
  public:
   explicit ForwardingStepSolver(StepSolver& inner) : m_inner(inner) {}
-  SolveReport solve(VectorXd& x, const SolveMonitor& monitor) override { return m_inner.solve(x, monitor); }
+  SolveReport solve(VectorXd& x, IterationObserver* observer) override { return m_inner.solve(x, observer); }
   void prepare(const VectorXd& x) override { m_inner.prepare(x); }
   bool prepared() const override { return m_inner.prepared(); }
   SolveReport predict(VectorXd& x, double from) override { return m_inner.predict(x, from); }

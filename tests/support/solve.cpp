@@ -1,5 +1,7 @@
 #include "support/solve.hpp"
 
+#include <utility>
+
 #include <Eigen/Dense>
 
 #include "app/linear_solvers.hpp"
@@ -7,6 +9,7 @@
 #include "core/clock.hpp"
 #include "support/forwarding_solver.hpp"
 #include "support/scenes.hpp"
+#include "support/step_log.hpp"
 
 namespace peristat::test {
 
@@ -43,16 +46,16 @@ std::unique_ptr<Solved> solve_parsed(Scene scene, bool always_reproducible) {
   const std::unique_ptr<StepSolver> solver = make_step_solver(s->scene, *s->problem, linear);
   s->x = VectorXd::Zero(s->problem->n_unknowns());
   s->problem->set_load_factor(0.0);
-  LoadSteppingCallbacks cb;
-  cb.on_step = [&](const StepReport& r, const VectorXd&) { s->steps.push_back(r); };
+  StepLog log;
   const double t0 = wall_seconds();
   if (always_reproducible) {
     AlwaysReproducible reproducible(*solver);
-    s->run = run_load_steps(*s->problem, reproducible, s->x, s->scene.loading, cb);
+    s->run = run_load_steps(*s->problem, reproducible, s->x, s->scene.loading, log);
   } else {
-    s->run = run_load_steps(*s->problem, *solver, s->x, s->scene.loading, cb);
+    s->run = run_load_steps(*s->problem, *solver, s->x, s->scene.loading, log);
   }
   s->seconds = wall_seconds() - t0;
+  s->steps = std::move(log.steps);
   // The solver's last evaluation was at the converged x, so the problem's state (stresses,
   // contact forces and pair states) is that of the solution. Evaluating again here would
   // see the committed slip and report slipping pairs as sticking at the limit.

@@ -2,6 +2,7 @@
 // unknown with r(x) = x - lambda that "fails" (non-finite residual) beyond a load factor.
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -9,6 +10,7 @@
 #include "solvers/load_stepping.hpp"
 #include "solvers/newton.hpp"
 #include "support/forwarding_solver.hpp"
+#include "support/step_log.hpp"
 
 namespace peristat {
 namespace {
@@ -67,9 +69,9 @@ Outcome run_with(Problem& p, const Loading& loading) {
   NewtonSolver newton(p, *linear, no);
   VectorXd x = VectorXd::Zero(1);
   Outcome r;
-  LoadSteppingCallbacks cb;
-  cb.on_step = [&](const StepReport& s, const VectorXd&) { r.steps.push_back(s); };
-  r.report = run_load_steps(p, newton, x, loading, cb);
+  test::StepLog log;
+  r.report = run_load_steps(p, newton, x, loading, log);
+  r.steps = std::move(log.steps);
   return r;
 }
 
@@ -122,7 +124,7 @@ TEST(LoadStepping, SubStepsAreCommittedOnlyWhenConverged) {
 class LyingSolver final : public StepSolver {
  public:
   explicit LyingSolver(bool poison) : m_poison(poison) {}
-  SolveReport solve(VectorXd& x, const SolveMonitor& = {}) override {
+  SolveReport solve(VectorXd& x, IterationObserver* = nullptr) override {
     if (m_poison) x.setConstant(std::numeric_limits<double>::infinity());
     SolveReport r;
     r.converged = true;
@@ -142,7 +144,8 @@ RunReport run_lying(ScalarProblem& p, bool poison) {
   loading.steps = 2;
   loading.max_cutbacks = 2;
   VectorXd x = VectorXd::Zero(1);
-  return run_load_steps(p, solver, x, loading, {});
+  LoadSteppingObserver quiet;
+  return run_load_steps(p, solver, x, loading, quiet);
 }
 
 TEST(LoadStepping, NonFiniteStateIsNeverAccepted) {
@@ -288,9 +291,9 @@ class FailsOnceProblem final : public OneUnknownProblem {
 class RecordingSolver final : public test::ForwardingStepSolver {
  public:
   using ForwardingStepSolver::ForwardingStepSolver;
-  SolveReport solve(VectorXd& x, const SolveMonitor& monitor) override {
+  SolveReport solve(VectorXd& x, IterationObserver* observer) override {
     reproducible.push_back(m_reproducible);
-    return m_inner.solve(x, monitor);
+    return m_inner.solve(x, observer);
   }
   void set_reproducible(bool value) override {
     m_reproducible = value;
@@ -319,10 +322,9 @@ TEST(LoadStepping, SolvesAreReproducibleFromTheFirstCheckpointOn) {
     loading.steps = 4;
     VectorXd x = VectorXd::Constant(1, 0.25 * steps_done);
     p.set_load_factor(0.25 * steps_done);
-    std::vector<StepReport> steps;
-    LoadSteppingCallbacks cb;
-    cb.on_step = [&](const StepReport& s, const VectorXd&) { steps.push_back(s); };
-    const RunReport r = run_load_steps(p, recording, x, loading, cb, steps_done);
+    test::StepLog log;
+    const RunReport r = run_load_steps(p, recording, x, loading, log, steps_done);
+    const std::vector<StepReport>& steps = log.steps;
     ASSERT_TRUE(r.completed) << r.message;
     std::vector<bool> expected;
     if (steps_done == 0) {

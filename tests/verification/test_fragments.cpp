@@ -45,7 +45,8 @@ TEST(Fragments, AParticleWithoutBondsIsHeldAndTheRestIsSolved) {
   // the rest of the plate is in equilibrium.
   std::unique_ptr<LinearSolver> linear;
   const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear);
-  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, {});
+  LoadSteppingObserver quiet;
+  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, quiet);
   ASSERT_TRUE(run.completed) << run.message;
   EXPECT_EQ(x[fx], 1e-2) << "the fragment is held where it was";
   VectorXd r;
@@ -107,7 +108,8 @@ TEST(Fragments, AHeldFragmentIsAnObstacleToTheRest) {
 
   std::unique_ptr<LinearSolver> linear;
   const std::unique_ptr<StepSolver> solver = make_step_solver(scene, problem, linear);
-  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, {});
+  LoadSteppingObserver quiet;
+  const RunReport run = run_load_steps(problem, *solver, x, scene.loading, quiet);
   ASSERT_TRUE(run.completed) << run.message;
   EXPECT_EQ(problem.failure()->broken(), model.bonds.family_size(held)) << "the press breaks no other bond";
   VectorXd r;
