@@ -256,6 +256,40 @@ bool ThreadedCycle::read_smoother(const RCP<MueLu::SmootherBase<double, LO, GO, 
   return false;
 }
 
+bool ThreadedCycle::read_smoothing(MueLu::Level& L, int i, Level& level, std::string& why_not) {
+  if (L.IsAvailable("PreSmoother") &&
+      !read_smoother(L.Get<RCP<MueLu::SmootherBase<double, LO, GO, NT>>>("PreSmoother"), level.pre,
+                     why_not))
+    return false;
+  if (L.IsAvailable("PostSmoother") &&
+      !read_smoother(L.Get<RCP<MueLu::SmootherBase<double, LO, GO, NT>>>("PostSmoother"), level.post,
+                     why_not))
+    return false;
+  // D^-1 as Ifpack2 computes it (Details::Chebyshev's reciprocal_threshold): an entry below
+  // the threshold t in magnitude gets t itself, not 1 / t (that row is barely smoothed);
+  // Jacobi's threshold is 0.
+  if (level.pre.kind != Smoother::Kind::none && level.post.kind != Smoother::Kind::none &&
+      level.pre.min_diagonal != level.post.min_diagonal) {
+    why_not = "level " + std::to_string(i) + " smooths with two diagonal thresholds";
+    return false;
+  }
+  const double threshold =
+      level.pre.kind != Smoother::Kind::none ? level.pre.min_diagonal : level.post.min_diagonal;
+  const LO n = level.A.numRows();
+  level.d_inv.assign(static_cast<std::size_t>(n), 0.0);
+  const auto* row = level.A.graph.row_map.data();
+  const LO* col = level.A.graph.entries.data();
+  const double* a = level.A.values.data();
+  for (LO r = 0; r < n; ++r)
+    for (auto k = row[r]; k < row[r + 1]; ++k)
+      if (col[k] == r) level.d_inv[r] = std::abs(a[k]) < threshold ? threshold : 1.0 / a[k];
+  if (!std::all_of(level.d_inv.begin(), level.d_inv.end(), [](double v) { return std::isfinite(v); })) {
+    why_not = "level " + std::to_string(i) + " has a zero diagonal entry (Jacobi)";
+    return false;
+  }
+  return true;
+}
+
 std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& why_not, Finest finest) {
   std::unique_ptr<ThreadedCycle> c(new ThreadedCycle);
   if (h.GetCycle() != MueLu::VCYCLE) {
@@ -296,36 +330,8 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
       c->m_levels[static_cast<std::size_t>(i - 1)].P = P->getLocalMatrixHost();
     }
     finer = A;
-    if (L.IsAvailable("PreSmoother") &&
-        !read_smoother(L.Get<RCP<MueLu::SmootherBase<double, LO, GO, NT>>>("PreSmoother"), level.pre,
-                       why_not))
-      return nullptr;
-    if (L.IsAvailable("PostSmoother") &&
-        !read_smoother(L.Get<RCP<MueLu::SmootherBase<double, LO, GO, NT>>>("PostSmoother"), level.post,
-                       why_not))
-      return nullptr;
-    // D^-1 as Ifpack2 computes it (Details::Chebyshev's reciprocal_threshold): an entry below
-    // the threshold t in magnitude gets t itself, not 1 / t (that row is barely smoothed);
-    // Jacobi's threshold is 0.
-    if (level.pre.kind != Smoother::Kind::none && level.post.kind != Smoother::Kind::none &&
-        level.pre.min_diagonal != level.post.min_diagonal) {
-      why_not = "level " + std::to_string(i) + " smooths with two diagonal thresholds";
-      return nullptr;
-    }
-    const double threshold =
-        level.pre.kind != Smoother::Kind::none ? level.pre.min_diagonal : level.post.min_diagonal;
+    if (!read_smoothing(L, i, level, why_not)) return nullptr;
     const LO n = level.A.numRows();
-    level.d_inv.assign(static_cast<std::size_t>(n), 0.0);
-    const auto* row = level.A.graph.row_map.data();
-    const LO* col = level.A.graph.entries.data();
-    const double* a = level.A.values.data();
-    for (LO r = 0; r < n; ++r)
-      for (auto k = row[r]; k < row[r + 1]; ++k)
-        if (col[k] == r) level.d_inv[r] = std::abs(a[k]) < threshold ? threshold : 1.0 / a[k];
-    if (!std::all_of(level.d_inv.begin(), level.d_inv.end(), [](double v) { return std::isfinite(v); })) {
-      why_not = "level " + std::to_string(i) + " has a zero diagonal entry (Jacobi)";
-      return nullptr;
-    }
     if (i > 0) {  // the finest level's are the caller's
       level.b.assign(static_cast<std::size_t>(n), 0.0);
       level.x.assign(static_cast<std::size_t>(n), 0.0);

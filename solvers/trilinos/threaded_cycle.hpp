@@ -97,6 +97,9 @@ class ThreadedCycle {
 
   static bool read_smoother(const Teuchos::RCP<MueLu::SmootherBase<double, LO, GO, NT>>& s, Smoother& out,
                             std::string& why_not);
+  /// Level i's smoothers (MueLu level `L`) into `level`, and its D^-1 (level.d_inv, as Ifpack2
+  /// computes it); false with the reason in `why_not` when the cycle cannot repeat them.
+  static bool read_smoothing(MueLu::Level& L, int i, Level& level, std::string& why_not);
   void cycle(std::size_t l, const double* b, double* x);
   void smooth(Level& level, const Smoother& s, const double* b, double* x, bool zero_guess);
 

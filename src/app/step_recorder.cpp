@@ -78,6 +78,52 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
   return info.dump();
 }
 
+/// The energy ledger up to the recorded state into `rec`'s counts.
+void add_energy_counts(StepRecord& rec, const EnergyLedger& e) {
+  // The energy ledger up to this state (docs/guide/results.md).
+  rec.counts["energy_external_work"] = e.external_work;
+  rec.counts["energy_strain"] = e.strain_energy;
+  rec.counts["energy_contact_work"] = e.contact_work;
+  rec.counts["energy_residual_work"] = e.residual_work;
+  rec.counts["energy_released"] = e.released;
+  rec.counts["energy_quadrature"] = e.quadrature;
+  rec.counts["energy_worst_relative"] = e.worst_relative;
+}
+
+/// The bond failure's counts of step s (broken bonds, criterion peak, fragments) into `rec`.
+void add_failure_counts(StepRecord& rec, const QuasiStaticProblem& problem, const BondFailure& failure,
+                        const StepReport& s, Index fragment_contacts) {
+  rec.counts["bonds_broken"] = s.bonds_broken;
+  rec.counts["broken_bonds_total"] = failure.broken();
+  rec.counts["resolves"] = s.resolves;
+  rec.counts["break_cutbacks"] = s.break_cutbacks;
+  // The intact pair closest to breaking at the step's final state (docs/guide/results.md).
+  const BondFailure::Peak peak = failure.peak();
+  rec.counts["criterion_peak"] = peak.ratio;
+  rec.counts["fragments"] = problem.fragments();
+  rec.counts["fragment_particles"] = problem.fragment_particles();
+  if (problem.contact()) {
+    rec.counts["fragment_contacts"] = fragment_contacts;
+    rec.counts["fragment_reaction"] = problem.fragment_reaction();
+  }
+  if (peak.i >= 0) {
+    rec.counts["criterion_peak_x"] = peak.at.x();
+    rec.counts["criterion_peak_y"] = peak.at.y();
+  }
+}
+
+/// The contact pairs' counts of step s (states, distances, multiplier updates) into `rec`.
+void add_contact_counts(StepRecord& rec, const ContactSystem& contact, bool exact, const StepReport& s) {
+  const ContactCounts& c = contact.counts();
+  rec.counts["contact_candidates"] = c.candidates;
+  rec.counts["contact_open"] = c.open;
+  rec.counts["contact_stick"] = c.stick;
+  rec.counts["contact_slip"] = c.slip;
+  rec.counts["contact_min_distance"] = contact.min_distance();
+  rec.counts["contact_max_closure"] = contact.max_closure();
+  if (exact) rec.counts["multiplier_updates"] = s.multiplier_updates;
+}
+
 }  // namespace
 
 std::string compliance_warning(const QuasiStaticProblem& problem, const StepReport& step) {
@@ -172,6 +218,12 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     add_step_warnings(s);
   }
   if (!due(s.step)) return;
+  gather_step_fields(x);
+  if (!m_writer) return;
+  write_record(s, step_contact_seconds);
+}
+
+void StepRecorder::gather_step_fields(const VectorXd& x) {
   // The fields and the reactions, the whole model's: collective on the parts, so every rank
   // computes them; rank 0 alone writes.
   m_problem->expand(x, m_u);
@@ -187,7 +239,10 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
       m_view->particle_values(mine, 1, m_damage);
     }
   }
-  if (!m_writer) return;
+}
+
+void StepRecorder::write_record(const StepReport& s, double step_contact_seconds) {
+  const ContactSystem* contact = m_problem->contact();
   StepRecord rec;
   rec.index = s.step;
   rec.load_factor = s.load_factor;
@@ -208,34 +263,10 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
     rec.counts["reaction_" + std::to_string(k) + "_x"] = f.x();
     rec.counts["reaction_" + std::to_string(k) + "_y"] = f.y();
   }
-  // The energy ledger up to this state (docs/guide/results.md).
-  const EnergyLedger& e = m_problem->energy_ledger();
-  rec.counts["energy_external_work"] = e.external_work;
-  rec.counts["energy_strain"] = e.strain_energy;
-  rec.counts["energy_contact_work"] = e.contact_work;
-  rec.counts["energy_residual_work"] = e.residual_work;
-  rec.counts["energy_released"] = e.released;
-  rec.counts["energy_quadrature"] = e.quadrature;
-  rec.counts["energy_worst_relative"] = e.worst_relative;
+  add_energy_counts(rec, m_problem->energy_ledger());
   if (const BondFailure* failure = m_problem->failure()) {
     rec.damage = &m_damage;
-    rec.counts["bonds_broken"] = s.bonds_broken;
-    rec.counts["broken_bonds_total"] = failure->broken();
-    rec.counts["resolves"] = s.resolves;
-    rec.counts["break_cutbacks"] = s.break_cutbacks;
-    // The intact pair closest to breaking at the step's final state (docs/guide/results.md).
-    const BondFailure::Peak peak = failure->peak();
-    rec.counts["criterion_peak"] = peak.ratio;
-    rec.counts["fragments"] = m_problem->fragments();
-    rec.counts["fragment_particles"] = m_problem->fragment_particles();
-    if (m_problem->contact()) {
-      rec.counts["fragment_contacts"] = m_fragment_contacts;
-      rec.counts["fragment_reaction"] = m_problem->fragment_reaction();
-    }
-    if (peak.i >= 0) {
-      rec.counts["criterion_peak_x"] = peak.at.x();
-      rec.counts["criterion_peak_y"] = peak.at.y();
-    }
+    add_failure_counts(rec, *m_problem, *failure, s, m_fragment_contacts);
   }
   if (m_scene.solver.type == SolverKind::adr) {
     rec.counts["adr_iterations"] = s.newton_iterations;
@@ -244,14 +275,7 @@ void StepRecorder::record(const StepReport& s, const VectorXd& x) {
   if (contact) {
     rec.contact_force = &m_contact_force;
     rec.contact_state = &m_contact_state;
-    const ContactCounts& c = contact->counts();
-    rec.counts["contact_candidates"] = c.candidates;
-    rec.counts["contact_open"] = c.open;
-    rec.counts["contact_stick"] = c.stick;
-    rec.counts["contact_slip"] = c.slip;
-    rec.counts["contact_min_distance"] = contact->min_distance();
-    rec.counts["contact_max_closure"] = contact->max_closure();
-    if (m_scene.contact.enforcement == ContactEnforcement::exact) rec.counts["multiplier_updates"] = s.multiplier_updates;
+    add_contact_counts(rec, *contact, m_scene.contact.enforcement == ContactEnforcement::exact, s);
   }
   rec.timings = {
       {"evaluate", s.seconds_evaluate}, {"factorize", s.seconds_factorize}, {"solve", s.seconds_solve}};

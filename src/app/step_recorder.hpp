@@ -59,6 +59,12 @@ class StepRecorder {
   /// The contact force and state of each particle into m_contact_force and m_contact_state:
   /// the whole model's on rank 0 (collective on the parts).
   void gather_contact_fields(const ContactSystem& contact);
+  /// The displacements, reactions, contact fields and damage of state x into the members:
+  /// the whole model's on rank 0 (collective on the parts).
+  void gather_step_fields(const VectorXd& x);
+  /// Writes the due step s from the gathered fields (rank 0); `step_contact_seconds` is the
+  /// contact evaluation time since the previous step.
+  void write_record(const StepReport& s, double step_contact_seconds);
 
   const Scene& m_scene;
   const QuasiStaticProblem* m_problem;  ///< never null (rebind())

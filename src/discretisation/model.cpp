@@ -183,9 +183,9 @@ class Builder {
     return static_cast<int>(it - m_scene.bodies.begin());
   }
 
+  /// The particles condition `bc` selects (its fictitious ones created); throws when none.
   std::vector<Index> select(const BoundaryCondition& bc) {
     const int body = body_of(bc);
-    const Polygon& shape = m_scene.bodies[body].shape;
     std::vector<Index> chosen;
     const double eps = 1e-9 * m_dx;
     const auto in_box = [&](const Vec2& x) {  // selectors region and block
@@ -208,62 +208,69 @@ class Builder {
         }
       }
     } else {
-      // edge and surround: the edge's frame (counter-clockwise polygon, outward normal).
-      const std::size_t n = shape.vertices.size();
-      Vec2 a = Vec2::Zero(), b = Vec2::Zero();
-      if (bc.selector == BoundaryCondition::Selector::edge) {
-        a = shape.vertices[bc.edge];
-        b = shape.vertices[(bc.edge + 1) % n];
-      }
-      const Vec2 tangent = (b - a).normalized();
-      const Vec2 outward(tangent.y(), -tangent.x());
-      const double length = (b - a).norm();
-      const auto along_edge = [&](const Vec2& x) {
-        const double t = tangent.dot(x - a);
-        return t >= -eps && t <= length + eps;
-      };
-      if (bc.layers == 0) {
-        // The body's own outermost particles: inside, within one spacing of the edge line
-        // (edge) or of the boundary (surround).
-        const Particles& p = m_model.particles;
-        for (Index q = 0; q < p.size(); ++q) {
-          if (p.body[q] != body || p.fictitious[q]) continue;
-          const Vec2& x = p.position[q];
-          bool take = false;
-          if (bc.selector == BoundaryCondition::Selector::edge) {
-            const double d = -outward.dot(x - a);
-            take = d > -eps && d <= m_dx + eps && along_edge(x);
-          } else {
-            take = distance_to_boundary(shape, x) <= m_dx + eps;
-          }
-          if (take) chosen.push_back(q);
-        }
-      } else {
-        const double depth = layers_of(bc) * m_dx;
-        const Box box = polygon_box(shape);
-        for (int i = lattice_floor(box.lo.x() - depth, 0) - 1; i <= lattice_floor(box.hi.x() + depth, 0) + 1;
-             ++i) {
-          for (int j = lattice_floor(box.lo.y() - depth, 1) - 1;
-               j <= lattice_floor(box.hi.y() + depth, 1) + 1; ++j) {
-            const Vec2 x = lattice_point(i, j);
-            if (inside_polygon(shape, x)) continue;
-            bool take = false;
-            if (bc.selector == BoundaryCondition::Selector::edge) {
-              const double d = outward.dot(x - a);
-              take = d > 0.0 && d <= depth + eps && along_edge(x);
-            } else {
-              take = distance_to_boundary(shape, x) <= depth + eps;
-            }
-            if (take) chosen.push_back(fictitious_at(bc, body, i, j));
-          }
-        }
-      }
+      select_edge(bc, body, eps, chosen);
     }
     if (chosen.empty()) {
       throw InputError(bc.where, "this condition selects no particle of body '" + bc.body +
                                      "' (check the edge, region or layers)");
     }
     return chosen;
+  }
+
+  /// The particles of an edge or surround condition on `body` into `chosen`: its own outermost
+  /// (layers 0) or the fictitious layers outside (created as needed); `eps` the lattice tolerance.
+  void select_edge(const BoundaryCondition& bc, int body, double eps, std::vector<Index>& chosen) {
+    const Polygon& shape = m_scene.bodies[body].shape;
+    // edge and surround: the edge's frame (counter-clockwise polygon, outward normal).
+    const std::size_t n = shape.vertices.size();
+    Vec2 a = Vec2::Zero(), b = Vec2::Zero();
+    if (bc.selector == BoundaryCondition::Selector::edge) {
+      a = shape.vertices[bc.edge];
+      b = shape.vertices[(bc.edge + 1) % n];
+    }
+    const Vec2 tangent = (b - a).normalized();
+    const Vec2 outward(tangent.y(), -tangent.x());
+    const double length = (b - a).norm();
+    const auto along_edge = [&](const Vec2& x) {
+      const double t = tangent.dot(x - a);
+      return t >= -eps && t <= length + eps;
+    };
+    if (bc.layers == 0) {
+      // The body's own outermost particles: inside, within one spacing of the edge line
+      // (edge) or of the boundary (surround).
+      const Particles& p = m_model.particles;
+      for (Index q = 0; q < p.size(); ++q) {
+        if (p.body[q] != body || p.fictitious[q]) continue;
+        const Vec2& x = p.position[q];
+        bool take = false;
+        if (bc.selector == BoundaryCondition::Selector::edge) {
+          const double d = -outward.dot(x - a);
+          take = d > -eps && d <= m_dx + eps && along_edge(x);
+        } else {
+          take = distance_to_boundary(shape, x) <= m_dx + eps;
+        }
+        if (take) chosen.push_back(q);
+      }
+    } else {
+      const double depth = layers_of(bc) * m_dx;
+      const Box box = polygon_box(shape);
+      for (int i = lattice_floor(box.lo.x() - depth, 0) - 1; i <= lattice_floor(box.hi.x() + depth, 0) + 1;
+           ++i) {
+        for (int j = lattice_floor(box.lo.y() - depth, 1) - 1;
+             j <= lattice_floor(box.hi.y() + depth, 1) + 1; ++j) {
+          const Vec2 x = lattice_point(i, j);
+          if (inside_polygon(shape, x)) continue;
+          bool take = false;
+          if (bc.selector == BoundaryCondition::Selector::edge) {
+            const double d = outward.dot(x - a);
+            take = d > 0.0 && d <= depth + eps && along_edge(x);
+          } else {
+            take = distance_to_boundary(shape, x) <= depth + eps;
+          }
+          if (take) chosen.push_back(fictitious_at(bc, body, i, j));
+        }
+      }
+    }
   }
 
   void apply_constraints(const std::vector<std::vector<Index>>& selected) {
@@ -393,13 +400,6 @@ class Builder {
     Bonds& bonds = m_model.bonds;
     const Index n = p.size();
     const double reach = m_model.horizon + m_dx;
-    // mirror[k]: the stencil index of -offset[k], the offset of the reverse bond.
-    std::vector<int> mirror(s.offset.size());
-    for (std::size_t k = 0; k < s.offset.size(); ++k) {
-      const auto it =
-          std::find(s.offset.begin(), s.offset.end(), std::array<int, 2>{-s.offset[k][0], -s.offset[k][1]});
-      mirror[k] = static_cast<int>(it - s.offset.begin());
-    }
     const std::vector<char>& hold = m_model.family_held;
     const auto held = [&hold](Index i) { return hold.empty() || hold[static_cast<std::size_t>(i)]; };
     std::vector<int> stencil_index;  // per bond, while building
@@ -442,6 +442,27 @@ class Builder {
       bonds.start[i + 1] = static_cast<Index>(bonds.neighbour.size());
       if (!hold.empty()) m_model.whole_start[static_cast<std::size_t>(i) + 1] = m_model.n_bonds_whole;
     }
+    pair_reverse_bonds(stencil_index);
+    shrink_huge(bonds.neighbour);
+    shrink_huge(bonds.xi);
+    shrink_huge(bonds.weight);
+  }
+
+  /// Fills bonds.reverse from each bond's stencil index (`stencil_index`); throws
+  /// std::logic_error for a bond without its reverse.
+  void pair_reverse_bonds(const std::vector<int>& stencil_index) {
+    const Stencil& s = m_model.stencil;
+    Bonds& bonds = m_model.bonds;
+    const Index n = m_model.particles.size();
+    // mirror[k]: the stencil index of -offset[k], the offset of the reverse bond.
+    std::vector<int> mirror(s.offset.size());
+    for (std::size_t k = 0; k < s.offset.size(); ++k) {
+      const auto it =
+          std::find(s.offset.begin(), s.offset.end(), std::array<int, 2>{-s.offset[k][0], -s.offset[k][1]});
+      mirror[k] = static_cast<int>(it - s.offset.begin());
+    }
+    const std::vector<char>& hold = m_model.family_held;
+    const auto held = [&hold](Index i) { return hold.empty() || hold[static_cast<std::size_t>(i)]; };
     // Reverse bonds: a family lists its bonds in increasing stencil index, so the bond
     // j -> i (stencil index mirror[k]) is found by binary search in j's family.
     assign_huge(bonds.reverse, bonds.neighbour.size(), Index{-1});
@@ -464,9 +485,6 @@ class Builder {
     if (unpaired >= 0)
       throw std::logic_error("discretise: bond " + std::to_string(unpaired) + " (to particle " +
                              std::to_string(bonds.neighbour[unpaired]) + ") has no reverse bond");
-    shrink_huge(bonds.neighbour);
-    shrink_huge(bonds.xi);
-    shrink_huge(bonds.weight);
   }
 
   void number_unknowns() {

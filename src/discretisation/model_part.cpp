@@ -32,15 +32,10 @@ LatticeIndex part_lattice_index(const Particles& p) {
   return index;
 }
 
-}  // namespace
-
-std::size_t ModelPart::memory_bytes() const {
-  auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  return model.memory_bytes() + bytes(global_id) + bytes(owner) + bytes(global_unknown);
-}
-
-ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int rank,
-                       const std::vector<char>& held, const std::vector<std::int64_t>& extra) {
+/// Checks the owner and held tables against `whole`: one entry per particle, every particle
+/// `rank` owns held, every held family held by `whole`. Throws std::logic_error otherwise.
+void check_part_tables(const Model& whole, const std::vector<int>& owner, int rank,
+                       const std::vector<char>& held) {
   const Index n = whole.particles.size();
   if (owner.size() != static_cast<std::size_t>(n) || held.size() != static_cast<std::size_t>(n))
     throw std::logic_error("extract_part: the owner and held tables must have one entry per particle");
@@ -53,7 +48,12 @@ ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int ra
       throw std::logic_error("extract_part: the family of particle " + std::to_string(g) +
                              " is to be held and the whole model does not hold it");
   }
+}
 
+/// Per particle of `whole`: whether the part keeps it.
+std::vector<char> kept_particles(const Model& whole, const std::vector<char>& held,
+                                 const std::vector<std::int64_t>& extra) {
+  const Index n = whole.particles.size();
   // The particles kept: the held ones and their neighbours, the extra ones, and the sources of the mirror
   // ghosts among them (a ghost's displacement is its source's image; a source is never a ghost).
   std::vector<char> kept = within_stencil(whole, held);
@@ -63,23 +63,22 @@ ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int ra
   }
   for (const MirrorImage& im : whole.constraints.images)
     if (kept[static_cast<std::size_t>(im.ghost)]) kept[static_cast<std::size_t>(im.source)] = 1;
+  return kept;
+}
+
+/// The part's order (part -> whole): the particles `rank` owns, then the other kept ones.
+std::vector<Index> part_order(const std::vector<int>& owner, int rank, const std::vector<char>& kept) {
+  const auto n = static_cast<Index>(owner.size());
   std::vector<Index> order;  // part -> whole
   for (Index g = 0; g < n; ++g)
     if (owner[static_cast<std::size_t>(g)] == rank) order.push_back(g);
-  const auto n_owned = static_cast<Index>(order.size());
   for (Index g = 0; g < n; ++g)
     if (kept[static_cast<std::size_t>(g)] && owner[static_cast<std::size_t>(g)] != rank) order.push_back(g);
-  std::vector<Index> local(static_cast<std::size_t>(n), -1);  // whole -> part
-  for (std::size_t l = 0; l < order.size(); ++l)
-    local[static_cast<std::size_t>(order[l])] = static_cast<Index>(l);
+  return order;
+}
 
-  ModelPart part;
-  part.n_owned = n_owned;
-  part.n_particles_whole = n;
-  part.n_unknowns_whole = whole.constraints.n_free;
-  part.global_id.assign(order.begin(), order.end());
-  part.owner = permuted(owner, order);
-  Model& m = part.model;
+/// Copies the model-wide fields and the kept particles, in the part's order, into `m`.
+void copy_particles(const Model& whole, const std::vector<Index>& order, Model& m) {
   m.stencil = whole.stencil;
   m.spacing = whole.spacing;
   m.horizon = whole.horizon;
@@ -95,11 +94,15 @@ ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int ra
   m.particles.fictitious = permuted(wp.fictitious, order);
   m.particles.lattice = permuted(wp.lattice, order);
   m.lattice_index = part_lattice_index(m.particles);
-  const auto nl = static_cast<Index>(order.size());
+}
 
+/// Fills the part's constraints and its map of unknowns to the whole's.
+void part_constraints(const Constraints& wc, const std::vector<Index>& order,
+                      const std::vector<Index>& local, ModelPart& part) {
+  const auto nl = static_cast<Index>(order.size());
+  const Index n_owned = part.n_owned;
   // Constraints: the components of the kept particles; unknowns numbered in the part's order.
-  const Constraints& wc = whole.constraints;
-  Constraints& c = m.constraints;
+  Constraints& c = part.model.constraints;
   c.prescribed.resize(2 * order.size());
   c.value.resize(2 * order.size());
   c.free_index.assign(2 * order.size(), -1);
@@ -131,7 +134,12 @@ ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int ra
     for (const MirrorImage& im : c.images) ++c.image_start[static_cast<std::size_t>(im.source) + 1];
     for (Index l = 0; l < nl; ++l) c.image_start[l + 1] += c.image_start[l];
   }
+}
 
+/// Fills the part's bonds, family_held and whole_start from the held families of `whole`.
+void part_bonds(const Model& whole, const std::vector<Index>& order, const std::vector<Index>& local,
+                const std::vector<char>& held, Model& m) {
+  const auto nl = static_cast<Index>(order.size());
   // Bonds: the held families, in the part's order; a bond's reverse where its neighbour's
   // family is held too.
   const Bonds& wb = whole.bonds;
@@ -173,6 +181,35 @@ ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int ra
     if (const Index pb = bond_of[wbnd]; pb >= 0)
       if (const Index wr = wb.reverse[wbnd]; wr >= 0)
         b.reverse[static_cast<std::size_t>(pb)] = bond_of[static_cast<std::size_t>(wr)];
+}
+
+}  // namespace
+
+std::size_t ModelPart::memory_bytes() const {
+  auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
+  return model.memory_bytes() + bytes(global_id) + bytes(owner) + bytes(global_unknown);
+}
+
+ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int rank,
+                       const std::vector<char>& held, const std::vector<std::int64_t>& extra) {
+  check_part_tables(whole, owner, rank, held);
+  const Index n = whole.particles.size();
+  const std::vector<char> kept = kept_particles(whole, held, extra);
+  const std::vector<Index> order = part_order(owner, rank, kept);  // part -> whole
+  std::vector<Index> local(static_cast<std::size_t>(n), -1);        // whole -> part
+  for (std::size_t l = 0; l < order.size(); ++l)
+    local[static_cast<std::size_t>(order[l])] = static_cast<Index>(l);
+
+  ModelPart part;
+  part.n_owned = static_cast<Index>(std::count_if(
+      owner.begin(), owner.end(), [rank](int o) { return o == rank; }));
+  part.n_particles_whole = n;
+  part.n_unknowns_whole = whole.constraints.n_free;
+  part.global_id.assign(order.begin(), order.end());
+  part.owner = permuted(owner, order);
+  copy_particles(whole, order, part.model);
+  part_constraints(whole.constraints, order, local, part);
+  part_bonds(whole, order, local, held, part.model);
   return part;
 }
 

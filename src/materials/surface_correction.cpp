@@ -21,6 +21,45 @@ Vec5 as_vec(const std::array<double, 5>& a) { return Vec5(a.data()); }
 constexpr double kMomentTolerance = 1e-6;
 /// Passes of the bounded least-change solve (each fixes at least one more factor).
 constexpr int kMaxBoundPasses = 30;
+/// The mark of a factor not held at a bound (SurfaceCorrection::compute_family's `fixed`).
+constexpr double kFree = -1.0;
+
+/// The multipliers `lambda` of the bounded least-change solve of the family of bonds [b0, b1)
+/// (moments), fixing in `fixed` each factor that leaves [kMinInfluence, kMaxInfluence] at the
+/// bound; whether any factor was fixed.
+bool bounded_multipliers(const Bonds& bonds, Index b0, Index b1, std::span<const double> intact,
+                         const Vec5& q0, std::vector<double>& fixed, Vec5& lambda) {
+  bool clipped = false;
+  for (int pass = 0; pass < kMaxBoundPasses; ++pass) {
+    Mat5 G = Mat5::Zero();
+    Vec5 r = q0;
+    for (Index b = b0; b < b1; ++b) {
+      const double a = intact[b] * bonds.xi[b].squaredNorm();
+      if (a == 0.0) continue;
+      const Vec5 q = as_vec(quartic_monomials(bonds.xi[b].normalized()));
+      const double f = fixed[b - b0];
+      if (f != kFree) {
+        r -= a * f * q;
+      } else {
+        r -= a * q;
+        G.noalias() += a * q * q.transpose();
+      }
+    }
+    // Minimum-norm solution: a family with fewer than five bond directions has a singular G.
+    lambda = G.completeOrthogonalDecomposition().solve(r);
+    bool changed = false;
+    for (Index b = b0; b < b1; ++b) {
+      if (fixed[b - b0] != kFree || intact[b] == 0.0) continue;
+      const double omega = 1.0 + as_vec(quartic_monomials(bonds.xi[b].normalized())).dot(lambda);
+      if (omega < kMinInfluence || omega > kMaxInfluence) {
+        fixed[b - b0] = omega < kMinInfluence ? kMinInfluence : kMaxInfluence;
+        changed = clipped = true;
+      }
+    }
+    if (!changed) break;
+  }
+  return clipped;
+}
 }  // namespace
 
 std::array<double, 5> quartic_monomials(const Vec2& n) {
@@ -117,41 +156,11 @@ void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, 
   // sum a omega q = q0, with the factors that leave [kMinInfluence, kMaxInfluence] fixed at
   // the bound and the rest solved again.
   const Vec5 q0 = as_vec(m_q0);
-  constexpr double kFree = -1.0;
   // fixed[b - b0]: the bound a factor is held at, or kFree. Families hold a few dozen bonds.
   thread_local std::vector<double> fixed;
   fixed.assign(static_cast<std::size_t>(b1 - b0), kFree);
-  bool clipped = false;
   Vec5 lambda = Vec5::Zero();
-  for (int pass = 0; pass < kMaxBoundPasses; ++pass) {
-    Mat5 G = Mat5::Zero();
-    Vec5 r = q0;
-    for (Index b = b0; b < b1; ++b) {
-      const double a = intact[b] * bonds.xi[b].squaredNorm();
-      if (a == 0.0) continue;
-      const Vec5 q = as_vec(quartic_monomials(bonds.xi[b].normalized()));
-      const double f = fixed[b - b0];
-      if (f != kFree) {
-        r -= a * f * q;
-      } else {
-        r -= a * q;
-        G.noalias() += a * q * q.transpose();
-      }
-    }
-    // Minimum-norm solution: a family with fewer than five bond directions has a singular G.
-    lambda = G.completeOrthogonalDecomposition().solve(r);
-    bool changed = false;
-    for (Index b = b0; b < b1; ++b) {
-      if (fixed[b - b0] != kFree || intact[b] == 0.0) continue;
-      const double omega = 1.0 + as_vec(quartic_monomials(bonds.xi[b].normalized())).dot(lambda);
-      if (omega < kMinInfluence || omega > kMaxInfluence) {
-        fixed[b - b0] = omega < kMinInfluence ? kMinInfluence : kMaxInfluence;
-        changed = clipped = true;
-      }
-    }
-    if (!changed) break;
-  }
-  stats.clipped += clipped;
+  stats.clipped += bounded_multipliers(bonds, b0, b1, intact, q0, fixed, lambda);
   Vec5 moment = Vec5::Zero();
   double volume = 0.0;
   for (Index b = b0; b < b1; ++b) {

@@ -3,6 +3,8 @@
 // 3 no convergence (README.md, "Using it").
 #include <cstdio>
 #include <exception>
+#include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -12,24 +14,42 @@
 #include "core/version.hpp"
 #include "parallel/mpi/mpi_ranks.hpp"
 
-int main(int argc, char** argv) {
-  using namespace peristat;
-  // Under mpirun: MPI starts now, and the ranks other than 0 print nothing (they run the same
-  // model; docs/guide/distributed.md).
-  const parallel::Session mpi;
-  register_linear_solvers();  // belos and the bond_amg V-cycle behind the linear-solver seam
+namespace peristat {
+namespace {
+
+/// The subcommands' arguments and their CLI11 objects (CLI11 keeps references to the fields,
+/// so a CommandLine stays where it was made).
+struct CommandLine {
+  RunArguments run;
+  CLI::App* run_cmd = nullptr;
+  std::string check_scene;
+  std::vector<std::string> check_overrides;
+  CLI::App* check_cmd = nullptr;
+  ProbeArguments probe;
+  std::vector<double> line;
+  CLI::App* probe_cmd = nullptr;
+  CompareArguments compare;
+  int compare_step = 0;
+  double compare_tol = 0.0;
+  CLI::App* compare_cmd = nullptr;
+  CLI::Option* compare_step_opt = nullptr;
+  CLI::Option* compare_tol_opt = nullptr;
+};
+
+/// Under mpirun: the ranks other than 0 print nothing (they run the same model).
+void silence_other_ranks() {
   if (parallel::process_ranks()->rank() > 0) {
     std::FILE* out = std::freopen("/dev/null", "w", stdout);
     std::FILE* err = std::freopen("/dev/null", "w", stderr);
     (void)out;
     (void)err;
   }
-  CLI::App app{"peristat: quasi-static state-based peridynamics (Newton on a consistent tangent)"};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", program_description(), "print peristat's version and commit, and exit");
+}
 
-  RunArguments run;
-  CLI::App* run_cmd = app.add_subcommand("run", "solve a scene load step by load step");
+/// Adds `peristat run` and its options to `app`.
+void add_run_command(CLI::App& app, CommandLine& c) {
+  RunArguments& run = c.run;
+  CLI::App* run_cmd = c.run_cmd = app.add_subcommand("run", "solve a scene load step by load step");
   run_cmd->add_option("scene", run.scene, "scene file (YAML)")->required();
   run_cmd->add_option("--out", run.out, "output directory (default results/<scene name>)");
   run_cmd->add_option("--solver", run.solver, "newton or adr (overrides solver.type)");
@@ -41,35 +61,71 @@ int main(int argc, char** argv) {
                     "continue the stopped run in --out from its last converged load step (same scene and options)");
   run_cmd->add_option("--threads", run.threads, "OpenMP threads for assembly (default: all cores)")
       ->check(CLI::PositiveNumber);
+}
 
-  std::string check_scene;
-  std::vector<std::string> check_overrides;
-  CLI::App* check_cmd = app.add_subcommand("check", "validate a scene and print the model size");
-  check_cmd->add_option("scene", check_scene, "scene file (YAML)")->required();
-  check_cmd->add_option("--set", check_overrides, "override a scene key")
+/// Adds `peristat check`, `probe` and `compare` and their options to `app`.
+void add_other_commands(CLI::App& app, CommandLine& c) {
+  CLI::App* check_cmd = c.check_cmd = app.add_subcommand("check", "validate a scene and print the model size");
+  check_cmd->add_option("scene", c.check_scene, "scene file (YAML)")->required();
+  check_cmd->add_option("--set", c.check_overrides, "override a scene key")
       ->take_all()
       ->allow_extra_args(false);
 
-  ProbeArguments probe;
-  std::vector<double> line;
-  CLI::App* probe_cmd = app.add_subcommand("probe", "CSV line profile s,x,y,ux,uy of a results file");
+  ProbeArguments& probe = c.probe;
+  CLI::App* probe_cmd = c.probe_cmd =
+      app.add_subcommand("probe", "CSV line profile s,x,y,ux,uy of a results file");
   probe_cmd->add_option("results", probe.results, "results file (.h5)")->required();
-  probe_cmd->add_option("--line", line, "X0 Y0 X1 Y1 (reference coordinates)")->expected(4)->required();
+  probe_cmd->add_option("--line", c.line, "X0 Y0 X1 Y1 (reference coordinates)")->expected(4)->required();
   probe_cmd->add_option("--step", probe.step, "step number (default: last)");
   probe_cmd->add_option("--points", probe.points, "number of samples (default 101)");
 
-  CompareArguments compare;
-  int compare_step = 0;
-  double compare_tol = 0.0;
-  CLI::App* compare_cmd =
+  CompareArguments& compare = c.compare;
+  CLI::App* compare_cmd = c.compare_cmd =
       app.add_subcommand("compare", "displacement difference of A against the reference B (same particles)");
   compare_cmd->add_option("a", compare.a, "results file (.h5)")->required();
   compare_cmd->add_option("b", compare.b, "reference results file (.h5)")->required();
-  CLI::Option* compare_step_opt =
-      compare_cmd->add_option("--step", compare_step, "step K of both files (default: the last of each)");
-  CLI::Option* compare_tol_opt =
-      compare_cmd->add_option("--tol", compare_tol, "exit code 1 when the relative L2 difference exceeds T");
+  c.compare_step_opt =
+      compare_cmd->add_option("--step", c.compare_step, "step K of both files (default: the last of each)");
+  c.compare_tol_opt =
+      compare_cmd->add_option("--tol", c.compare_tol, "exit code 1 when the relative L2 difference exceeds T");
   compare_cmd->add_flag("--json", compare.json, "print one JSON object");
+}
+
+/// Runs the subcommand the parsed command line names; its exit code.
+int run_subcommand(CommandLine& c) {
+  if (*c.run_cmd) return run_command(c.run);
+  if (*c.check_cmd) return check_command(c.check_scene, c.check_overrides);
+  if (*c.probe_cmd) {
+    c.probe.x0 = c.line[0];
+    c.probe.y0 = c.line[1];
+    c.probe.x1 = c.line[2];
+    c.probe.y1 = c.line[3];
+    return probe_command(c.probe);
+  }
+  if (*c.compare_cmd) {
+    if (c.compare_step_opt->count() > 0) c.compare.step = c.compare_step;
+    if (c.compare_tol_opt->count() > 0) c.compare.tol = c.compare_tol;
+    return compare_command(c.compare);
+  }
+  return exit_internal_error;
+}
+
+}  // namespace
+}  // namespace peristat
+
+int main(int argc, char** argv) {
+  using namespace peristat;
+  // Under mpirun: MPI starts now, and the ranks other than 0 print nothing (they run the same
+  // model; docs/guide/distributed.md).
+  const parallel::Session mpi;
+  register_linear_solvers();  // belos and the bond_amg V-cycle behind the linear-solver seam
+  silence_other_ranks();
+  CLI::App app{"peristat: quasi-static state-based peridynamics (Newton on a consistent tangent)"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", program_description(), "print peristat's version and commit, and exit");
+  CommandLine command_line;
+  add_run_command(app, command_line);
+  add_other_commands(app, command_line);
 
   try {
     app.parse(argc, argv);
@@ -78,20 +134,7 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (*run_cmd) return run_command(run);
-    if (*check_cmd) return check_command(check_scene, check_overrides);
-    if (*probe_cmd) {
-      probe.x0 = line[0];
-      probe.y0 = line[1];
-      probe.x1 = line[2];
-      probe.y1 = line[3];
-      return probe_command(probe);
-    }
-    if (*compare_cmd) {
-      if (compare_step_opt->count() > 0) compare.step = compare_step;
-      if (compare_tol_opt->count() > 0) compare.tol = compare_tol;
-      return compare_command(compare);
-    }
+    return run_subcommand(command_line);
   } catch (const InputError& e) {
     std::fprintf(stderr, "peristat: error: %s\n", e.what());
     return exit_bad_input;
@@ -101,5 +144,4 @@ int main(int argc, char** argv) {
     parallel::abort_if_distributed(exit_internal_error);
     return exit_internal_error;
   }
-  return exit_internal_error;
 }
