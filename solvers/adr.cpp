@@ -64,6 +64,65 @@ double AdrSolver::residual_tolerance(double force_scale) const {
   return std::max(m_options.rtol * force_scale, kForceFloor);
 }
 
+double AdrSolver::measure(const VectorXd& x, bool damping, double& num, double& den) const {
+  const Index n = x.size();
+  if (!m_share.distributed()) {
+    if (damping) {
+      num = den = 0.0;
+      for (Index i = 0; i < n; ++i) {
+        const double xi2 = x[i] * x[i];
+        den += xi2;
+        if (m_v[i] != 0.0) num += xi2 * (m_r[i] - m_r_old[i]) / (m_density[i] * m_v[i]);
+      }
+    }
+    return m_r.norm();
+  }
+  double sums[3] = {0.0, 0.0, 0.0};  // r.r, num, den
+  for (Index i = 0; i < n; ++i) {
+    if (!m_share.owned[static_cast<std::size_t>(i)]) continue;
+    sums[0] += m_r[i] * m_r[i];
+    if (!damping) continue;
+    const double xi2 = x[i] * x[i];
+    sums[2] += xi2;
+    if (m_v[i] != 0.0) sums[1] += xi2 * (m_r[i] - m_r_old[i]) / (m_density[i] * m_v[i]);
+  }
+  m_share.ranks->sum_in_rank_order(std::span<double>(sums, damping ? 3 : 1));
+  num = sums[1];
+  den = sums[2];
+  return std::sqrt(sums[0]);
+}
+
+void AdrSolver::share_reads(VectorXd& x) {
+  if (!m_share.distributed()) return;
+  if (!m_share.problem_imports_state) m_share.exchange->share_reads(x);
+  if (m_velocity) m_share.exchange->share_reads(m_v);
+}
+
+void AdrSolver::take_step(VectorXd& x, double c) {
+  // Left to decay on the entries of other ranks, the velocities would reach subnormal
+  // numbers and slow the loop.
+  const bool distributed = m_share.distributed();
+  const Index n = x.size();
+  for (Index i = 0; i < n; ++i) {
+    if (distributed && !m_share.owned[static_cast<std::size_t>(i)]) continue;
+    m_v[i] = ((2.0 - c) * m_v[i] - 2.0 * m_r[i] / m_density[i]) / (2.0 + c);
+    x[i] += m_v[i];
+  }
+  share_reads(x);
+}
+
+void AdrSolver::spent_budget(SolveReport& report, double relative) const {
+  const AdrOptions& o = m_options;
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "ADR budget of %ld iterations reached at relative residual %.3e (rtol %.1e)",
+                o.max_iterations, relative, o.rtol);
+  report.reason = buf;
+  if (o.accept_on_budget) {
+    report.accepted_unconverged = true;
+    report.reason += "; state kept (on_budget: accept)";
+  }
+}
+
 SolveReport AdrSolver::solve(VectorXd& x, IterationObserver* observer) {
   SolveReport report;
   const AdrOptions& o = m_options;
@@ -77,13 +136,7 @@ SolveReport AdrSolver::solve(VectorXd& x, IterationObserver* observer) {
   const bool distributed = m_share.distributed();
   if (distributed && !m_problem.set_evaluation_mode(EvaluationMode::own_rows_only))
     throw std::logic_error("AdrSolver: the problem cannot evaluate its own rows only");
-  // After an update of the own unknowns: each rank's ghosts from their owners (the entries
-  // its rows read), and every unknown on every rank once the solve ends, however it ends.
-  const auto share = [&] {
-    if (!distributed) return;
-    if (!m_share.problem_imports_state) m_share.exchange->share_reads(x);
-    if (m_velocity) m_share.exchange->share_reads(m_v);
-  };
+  // Every unknown on every rank once the solve ends, however it ends.
   const ScopeExit whole_after([&] {
     if (!distributed) return;
     m_problem.set_evaluation_mode(EvaluationMode::standard);
@@ -92,41 +145,14 @@ SolveReport AdrSolver::solve(VectorXd& x, IterationObserver* observer) {
     m_share.exchange->share_all(x);
     if (m_velocity) m_share.exchange->share_all(m_v);
   });
-  // ||r|| and the Rayleigh quotient's sums (below) at x, over the ranks' own rows in one sum.
-  double num = 0.0, den = 0.0;
-  const auto measure = [&](bool damping) {
-    if (!distributed) {
-      if (damping) {
-        num = den = 0.0;
-        for (Index i = 0; i < n; ++i) {
-          const double xi2 = x[i] * x[i];
-          den += xi2;
-          if (m_v[i] != 0.0) num += xi2 * (m_r[i] - m_r_old[i]) / (m_density[i] * m_v[i]);
-        }
-      }
-      return m_r.norm();
-    }
-    double sums[3] = {0.0, 0.0, 0.0};  // r.r, num, den
-    for (Index i = 0; i < n; ++i) {
-      if (!m_share.owned[static_cast<std::size_t>(i)]) continue;
-      sums[0] += m_r[i] * m_r[i];
-      if (!damping) continue;
-      const double xi2 = x[i] * x[i];
-      sums[2] += xi2;
-      if (m_v[i] != 0.0) sums[1] += xi2 * (m_r[i] - m_r_old[i]) / (m_density[i] * m_v[i]);
-    }
-    m_share.ranks->sum_in_rank_order(std::span<double>(sums, damping ? 3 : 1));
-    num = sums[1];
-    den = sums[2];
-    return std::sqrt(sums[0]);
-  };
+  double num = 0.0, den = 0.0;  // the Rayleigh quotient's sums at x (measure())
 
   double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, nullptr);
   report.seconds_evaluate += wall_seconds() - t0;
   const auto tolerance = [&] { return residual_tolerance(m_problem.force_scale()); };
   const auto relative = [&](double norm) { return norm / std::max(m_problem.force_scale(), kForceFloor); };
-  double norm = measure(false);
+  double norm = measure(x, false, num, den);
   report.residuals.push_back(relative(norm));
   if (observer) observer->iteration_done(0, report.residuals.back(), 0.0, 0);
   if (norm <= tolerance()) {
@@ -140,7 +166,7 @@ SolveReport AdrSolver::solve(VectorXd& x, IterationObserver* observer) {
   // with F = -r and c from the local Rayleigh quotient (docs/theory/adr.md).
   m_v = -0.5 * m_r.cwiseQuotient(m_density);
   x += m_v;  // distributed: zero on other ranks' entries (their rows are zero here)
-  share();
+  share_reads(x);
   double c = 0.0;
   for (long it = 1; it <= o.max_iterations; ++it) {
     m_r_old.swap(m_r);
@@ -149,7 +175,7 @@ SolveReport AdrSolver::solve(VectorXd& x, IterationObserver* observer) {
     m_problem.evaluate(x, m_r, nullptr);
     report.seconds_evaluate += wall_seconds() - t0;
     report.iterations = clamp_to_int(it);
-    norm = measure(true);
+    norm = measure(x, true, num, den);
     const bool done = norm <= tolerance();
     if (!std::isfinite(norm)) {
       report.reason = "ADR diverged (non-finite residual) at iteration " + std::to_string(it);
@@ -169,24 +195,9 @@ SolveReport AdrSolver::solve(VectorXd& x, IterationObserver* observer) {
     // c = 2 sqrt(u.K1 u / u.u) (num / den, from measure()), zero when the quotient is not
     // positive.
     c = (num > 0.0 && den > 0.0) ? std::min(2.0 * std::sqrt(num / den), kMaxDamping) : 0.0;
-    // Distributed: the own entries only; the ghosts come from their owners (share()), and the
-    // others, which this rank's rows never read, stay as they are until the solve ends (left
-    // to decay here, they would reach subnormal numbers and slow the loop).
-    for (Index i = 0; i < n; ++i) {
-      if (distributed && !m_share.owned[static_cast<std::size_t>(i)]) continue;
-      m_v[i] = ((2.0 - c) * m_v[i] - 2.0 * m_r[i] / m_density[i]) / (2.0 + c);
-      x[i] += m_v[i];
-    }
-    share();
+    take_step(x, c);
   }
-  char buf[200];
-  std::snprintf(buf, sizeof buf, "ADR budget of %ld iterations reached at relative residual %.3e (rtol %.1e)",
-                o.max_iterations, relative(norm), o.rtol);
-  report.reason = buf;
-  if (o.accept_on_budget) {
-    report.accepted_unconverged = true;
-    report.reason += "; state kept (on_budget: accept)";
-  }
+  spent_budget(report, relative(norm));
   return report;
 }
 

@@ -38,6 +38,18 @@ class AdrSolver final : public StepSolver {
   const VectorXd& density() const { return m_density; }
 
  private:
+  /// ||r|| at x and, with `damping`, the Rayleigh quotient's sums into num and den
+  /// (distributed: over the ranks' own rows, in one sum in rank order).
+  double measure(const VectorXd& x, bool damping, double& num, double& den) const;
+  /// Distributed, after an update of the own unknowns: each rank's ghosts from their owners
+  /// (the entries its rows read).
+  void share_reads(VectorXd& x);
+  /// One central-difference step with damping c: m_v and x updated (distributed: the own
+  /// entries only; the others, which this rank's rows never read, stay until the solve ends).
+  void take_step(VectorXd& x, double c);
+  /// The reason (and acceptance) of a solve that spent its budget at relative residual `relative`.
+  void spent_budget(SolveReport& report, double relative) const;
+
   Problem& m_problem;
   PseudoVelocityInput* m_velocity;
   AdrOptions m_options;

@@ -158,6 +158,46 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
     observer.resolve_failed(r.reason, broken, at_most);
   }
 }
+/// The first iterate of an attempt at load factor `next` from the converged x at `lambda`:
+/// with loading.extrapolate, along the secant from (x_before, lambda_before) when there is one,
+/// else the solver's tangent predictor; x itself otherwise.
+void predict(VectorXd& trial, const VectorXd& x, const VectorXd& x_before, double lambda_before, double lambda,
+             double next, const Loading& loading, StepSolver& solver, StepReport& step) {
+  trial = x;
+  if (loading.extrapolate && lambda_before >= 0.0 && lambda > lambda_before)
+    trial += ((next - lambda) / (lambda - lambda_before)) * (x - x_before);
+  else if (loading.extrapolate)
+    accumulate(step, solver.predict(trial, lambda));  // no secant: the solver's tangent
+}
+
+/// After a failed attempt of `step` at load factor `next` (its cut-backs and `halvings` counted):
+/// the load factor back at the converged `lambda`, and the factor dropped (it may belong to a
+/// diverged iterate). Returns why the step has to stop instead of halving the increment, or "".
+std::string after_failed_attempt(Problem& problem, StepSolver& solver, const Loading& loading,
+                                 const StepReport& step, int halvings, int n, double lambda, double next,
+                                 const std::string& last) {
+  const int k = step.step;
+  if (step.substeps + step.cutbacks > kMaxAttemptsPerStep) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "load step %d/%d stopped at load factor %.6g after %d sub-steps and %d cut-backs: the "
+                  "increment keeps failing %d halvings deep (last attempt: %s)",
+                  k, n, lambda, step.substeps, step.cutbacks, halvings, last.c_str());
+    problem.set_load_factor(lambda);
+    return buf;
+  }
+  problem.set_load_factor(lambda);
+  solver.invalidate_factorization();
+  if (halvings > loading.max_cutbacks || !solver.cutback_helps()) {
+    char buf[256];
+    std::snprintf(buf, sizeof buf,
+                  "load step %d/%d did not converge at load factor %.6g after %d cut-backs "
+                  "(last attempt: %s)",
+                  k, n, next, step.cutbacks - 1, last.c_str());
+    return buf;
+  }
+  return {};
+}
 }  // namespace
 
 RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, const Loading& loading,
@@ -191,11 +231,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
         const double next = std::min(lambda + increment, target);
         problem.set_load_factor(next);
         observer.attempt_started(k, n, next, step.cutbacks);
-        trial = x;
-        if (loading.extrapolate && lambda_before >= 0.0 && lambda > lambda_before)
-          trial += ((next - lambda) / (lambda - lambda_before)) * (x - x_before);
-        else if (loading.extrapolate)
-          accumulate(step, solver.predict(trial, lambda));  // no secant: the solver's tangent
+        predict(trial, x, x_before, lambda_before, lambda, next, loading, solver, step);
         const SolveReport r = solve_and_check(problem, solver, trial, r_check, observer, step);
         if (r.converged || r.accepted_unconverged) {
           x_before = x;
@@ -217,29 +253,13 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
         }
         ++step.cutbacks;
         ++halvings;
-        if (step.substeps + step.cutbacks > kMaxAttemptsPerStep) {
-          char buf[320];
-          std::snprintf(
-              buf, sizeof buf,
-              "load step %d/%d stopped at load factor %.6g after %d sub-steps and %d cut-backs: the "
-              "increment keeps failing %d halvings deep (last attempt: %s)",
-              k, n, lambda, step.substeps, step.cutbacks, halvings, r.reason.c_str());
-          problem.set_load_factor(lambda);
-          run.message = buf;
+        if (std::string why =
+                after_failed_attempt(problem, solver, loading, step, halvings, n, lambda, next, r.reason);
+            !why.empty()) {
+          run.message = std::move(why);
           return run;
         }
-        problem.set_load_factor(lambda);
-        solver.invalidate_factorization();  // the factor may belong to a diverged iterate
-        lambda_before = -1.0;               // the retry starts from the converged state, not a prediction
-        if (halvings > loading.max_cutbacks || !solver.cutback_helps()) {
-          char buf[256];
-          std::snprintf(buf, sizeof buf,
-                        "load step %d/%d did not converge at load factor %.6g after %d cut-backs "
-                        "(last attempt: %s)",
-                        k, n, next, step.cutbacks - 1, r.reason.c_str());
-          run.message = buf;
-          return run;
-        }
+        lambda_before = -1.0;  // the retry starts from the converged state, not a prediction
         increment *= 0.5;
         observer.cut_back(r.reason, increment);
       }
