@@ -203,10 +203,15 @@ class Run {
 
   /// The problem on it, and its size.
   void build_problem() {
-    m_problem = std::make_unique<QuasiStaticProblem>(
-        m_model.held(), process_problem_options(m_scene, m_plan, m_model, *m_ranks), *m_ranks);
+    make_problem();
     if ((m_plan.ranks > 1 || m_model.part) && !m_args.quiet && m_root)
       std::printf("peristat: %s\n", held_text(m_plan).c_str());
+  }
+
+  /// The problem on this process's model, and the size of both.
+  void make_problem() {
+    m_problem = std::make_unique<QuasiStaticProblem>(
+        m_model.held(), process_problem_options(m_scene, m_plan, m_model, *m_ranks), *m_ranks);
     m_size = measure(m_model.held(), *m_problem, m_model.part_or_null());
   }
 
@@ -266,9 +271,7 @@ class Run {
     m_problem.reset();
     m_model = ProcessModel{};
     build_model();
-    m_problem = std::make_unique<QuasiStaticProblem>(
-        m_model.held(), process_problem_options(m_scene, m_plan, m_model, *m_ranks), *m_ranks);
-    m_size = measure(m_model.held(), *m_problem, m_model.part_or_null());
+    make_problem();
     make_solver();
     start_from_checkpoint(false);
     m_progress = std::make_unique<ProgressPrinter>(verbose(), m_plan.solver, *m_problem);
