@@ -20,22 +20,6 @@ RankShare::RankShare(const Model& model, const OwnedRows& rows) {
     if (free[c] >= 0 && !rows.contains(static_cast<Index>(c / 2))) m_other_unknowns.push_back(free[c]);
 }
 
-std::vector<Index> RankShare::residual_reads(const Model& model, const ContactSystem* contact) const {
-  const Bonds& bonds = model.bonds;
-  const Index n = model.particles.size();
-  std::vector<char> read(static_cast<std::size_t>(n), 0);
-  for (Index i = 0; i < n; ++i) {
-    if (!m_family_needed[static_cast<std::size_t>(i)]) continue;
-    read[static_cast<std::size_t>(i)] = 1;
-    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
-      read[static_cast<std::size_t>(bonds.neighbour[b])] = 1;
-  }
-  if (contact)
-    for (const ContactPair& c : contact->pairs())
-      read[static_cast<std::size_t>(c.i)] = read[static_cast<std::size_t>(c.j)] = 1;
-  return read_unknowns(model.constraints, read);
-}
-
 std::size_t RankShare::memory_bytes() const {
   return m_force_needed.capacity() + m_family_needed.capacity() + m_other_unknowns.capacity() * sizeof(Index);
 }

@@ -37,10 +37,6 @@ class RankShare {
   bool family_needed(Index i) const { return m_family_needed[static_cast<std::size_t>(i)] != 0; }
   /// The unknowns of other ranks, ascending.
   const std::vector<Index>& other_unknowns() const { return m_other_unknowns; }
-  /// The unknowns (ascending) whose entries of x the own-rows residual reads: the neighbours
-  /// of every family it computes, every contact pair's two particles (the pairs are evaluated
-  /// whole) and the sources of mirror ghosts among them.
-  std::vector<Index> residual_reads(const Model& model, const ContactSystem* contact) const;
   std::size_t memory_bytes() const;
 
  private:

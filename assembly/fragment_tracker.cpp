@@ -12,11 +12,10 @@ FragmentTracker::FragmentTracker(const Model& model, const BondFailure* failure,
                                  const Ranks& ranks, ValueExchange* particle_values)
     : m_model(model), m_failure(failure), m_options(options), m_ranks(ranks) {
   if (!m_failure) return;
-  if (m_failure->partitioned())
-    m_graph_parts = std::make_unique<GraphParts>(
-        GraphParts{ranks, m_failure->share().proposes, m_failure->share().global_id,
-                   m_failure->part() ? std::span<const int>(m_options.rows.owner) : std::span<const int>{},
-                   particle_values});
+  if (m_failure->partitioned())  // a rank's part (BondFailure refuses any other model holding some families)
+    m_graph_parts = std::make_unique<GraphParts>(GraphParts{ranks, m_failure->share().proposes,
+                                                            m_failure->share().global_id,
+                                                            std::span<const int>(m_options.rows.owner), particle_values});
   find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component, m_graph_parts.get());
   m_fragment.assign(model.particles.size(), 0);
 }

@@ -37,7 +37,7 @@ std::unique_ptr<ContactSystem> make_contact(const Model& model, const ProblemOpt
   return contact;
 }
 
-/// Partitioned bonds: the families whose surface correction a rank counts in its stats, each
+/// On a part: the families whose surface correction a rank counts in its stats, each
 /// family on one rank (its owner's; those without a row on rank 0). Empty: every family.
 std::vector<char> counted_families(const Model& model, const OwnedRows& rows) {
   if (model.holds_every_family()) return {};
@@ -46,12 +46,12 @@ std::vector<char> counted_families(const Model& model, const OwnedRows& rows) {
   return counted;
 }
 
-/// With partitioned bonds, the rank's share of the failure decisions: it proposes the pairs
-/// of the families it counts (its own; rank 0's also those without a row).
+/// On a rank's part, its share of the failure decisions: it proposes the pairs of the families
+/// it counts (its own; rank 0's also those without a row).
 FailureRanks failure_ranks(const Model& model, const ProblemOptions& options, const RankExchanges& exchanges) {
   if (model.holds_every_family()) return {};
-  return {counted_families(model, options.rows), exchanges.particle_values(),
-          options.owned_unknowns >= 0 ? options.global_id : std::vector<std::int64_t>{}, options.n_particles_whole};
+  return {counted_families(model, options.rows), exchanges.particle_values(), options.global_id,
+          options.n_particles_whole};
 }
 
 /// Per body, its material's kernel.
@@ -113,18 +113,20 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
     for (const MirrorImage& im : model.constraints.images) m_mirror_zone[im.ghost] = m_mirror_zone[im.source] = 1;
   }
   // What a rank computes with own rows only, from the rows alone: built here, once.
+  if (distributed() && options.global_id.empty())
+    throw std::logic_error("QuasiStaticProblem: a rank of a distributed run holds its part of the model "
+                           "(ProblemOptions::global_id)");
   if (distributed()) m_share = RankShare(model, options.rows);
   if (partitioned()) check_partition();
 }
 
 void QuasiStaticProblem::check_partition() const {
-  // What the partitioned path supports (docs/guide/distributed.md, "Partitioned bonds"): forces
-  // shared after each whole evaluation; with failure, the collectives of its decisions. The residual and the
-  // matrix-free action read the families of the rank's particles and their neighbours; an assembled tangent
-  // (and ADR's density from it) reads a column's families two horizons from its rows, so then the neighbours
-  // of those are held too.
-  if (!distributed())
-    throw std::logic_error("QuasiStaticProblem: partitioned bonds need a distributed problem (its rows)");
+  // A part holds the families its rows read (docs/guide/distributed.md): the residual and the
+  // matrix-free action read the families of the rank's particles and their neighbours; an
+  // assembled tangent (and ADR's density from it) reads a column's families two horizons from
+  // its rows, so then the neighbours of those are held too.
+  if (m_options.global_id.empty())
+    throw std::logic_error("QuasiStaticProblem: a model holding some families only must be a rank's part");
   const Bonds& bonds = m_model.bonds;
   const std::vector<char>& held = m_model.family_held;
   for (std::size_t i = 0; i < held.size(); ++i) {
@@ -432,7 +434,6 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
 void QuasiStaticProblem::bond_forces(bool want_tangent) {
   compute_families(want_tangent);
   gather_forces();
-  if (m_exchanges.forces() && !m_own_rows_only) m_exchanges.forces()->share(m_force.data());
 }
 
 void QuasiStaticProblem::gather_forces() {
@@ -494,11 +495,6 @@ bool QuasiStaticProblem::set_evaluation_mode(EvaluationMode mode) {
   if (m_contact) m_contact->set_touching_closed(mode == EvaluationMode::touching_closed);
   m_own_rows_only = mode == EvaluationMode::own_rows_only;
   return true;
-}
-
-std::vector<Index> QuasiStaticProblem::residual_reads() const {
-  if (!m_share.built()) throw std::logic_error("residual_reads: the problem is not distributed");
-  return m_share.residual_reads(m_model, m_contact.get());
 }
 
 void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {

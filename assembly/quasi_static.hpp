@@ -43,10 +43,10 @@ struct ProblemOptions {
   /// make_tangent() gives an empty matrix, evaluate() with K prepares apply_tangent() instead
   /// of writing K (ADR needs the assembled tangent and never sets this).
   bool matrix_free = false;
-  /// The rows this process assembles: a rank of a distributed run (solver.linear: belos
-  /// under mpirun) holds and writes only its rows of the tangent and of the bond
-  /// preconditioner (docs/guide/distributed.md). Every row by default. With the rows split,
-  /// the problem's Ranks combine what the rows' evaluations need (sums, maxima, gathers).
+  /// The rows this process assembles: a rank of a distributed run holds its part of the model
+  /// (global_id below) and writes only its rows of the tangent and of the bond preconditioner
+  /// (docs/guide/distributed.md). Every row by default. With the rows split, the problem's
+  /// Ranks combine what the rows' evaluations need (sums, maxima, gathers).
   OwnedRows rows;
   /// On a rank's part of the model (ModelPart, docs/guide/distributed.md "The partitioned
   /// model"): per particle of the part its whole model's index (the failure decisions, the
@@ -108,12 +108,6 @@ class QuasiStaticProblem final : public Problem,
   /// reads: the ghosts of its rows, two horizons deep, with contact partners and mirror
   /// sources. Changes with traits().structure_version. Every unknown in one process.
   std::vector<Index> action_reads() const { return peristat::action_reads(m_model, m_options.rows, m_contact.get()); }
-  /// Distributed: the unknowns (ascending) whose entries of x the own-rows residual
-  /// (EvaluationMode::own_rows_only) reads: the neighbours of every family it computes, every
-  /// contact pair's two particles (the pairs are evaluated whole) and the sources of mirror
-  /// ghosts among them. Changes with traits().structure_version. Distributed only
-  /// (std::logic_error otherwise).
-  std::vector<Index> residual_reads() const;
   /// The structure version is the contact candidates' (a partner search that adds pairs grows
   /// the pattern); the tangent is unsymmetric while a pair slips with friction (the Jacobian
   /// of eq 14), constant with linearised kinematics and neither contact nor failure; the
@@ -227,11 +221,10 @@ class QuasiStaticProblem final : public Problem,
   void gather_forces();
   /// The norm of m_force over every component; with own rows only, summed over the ranks.
   double force_norm() const;
-  /// A rank of a distributed run: its rows are some of the model's.
+  /// A rank of a distributed run: its rows are some of the model's (its model is its part).
   bool distributed() const { return !m_options.rows.all(); }
-  /// The model holds some families only (Model::family_held): every evaluation computes the
-  /// families m_share names and, on a whole particle table, shares the forces
-  /// (RankExchanges::forces()).
+  /// The model holds some families only (Model::family_held, a rank's part): every
+  /// evaluation computes the families m_share names.
   bool partitioned() const { return !m_model.holds_every_family(); }
   /// The families and forces evaluated are those m_share names.
   bool restricted() const { return m_own_rows_only || partitioned(); }
@@ -240,9 +233,9 @@ class QuasiStaticProblem final : public Problem,
   /// m_u from the state x: on a part, x's ghost tail imported first (RankExchanges::ghosts()).
   void expand_state(const VectorXd& x);
   /// The families' forces (and with want_tangent their Hessians' factors) at m_u into
-  /// m_force and m_energy; partitioned: the rank's, then shared and summed over the ranks.
+  /// m_force and m_energy; on a part: the rank's families, the energy summed over the ranks.
   void bond_forces(bool want_tangent);
-  /// Partitioned: refuses a problem that would read a family the model does not hold.
+  /// On a part: refuses a problem that would read a family the model does not hold.
   void check_partition() const;
   void gather_tangent(SparseMatrix& K) const;
   /// The particles holding a bond of `pairs` (their families change), into m_changed_families.

@@ -1,6 +1,7 @@
 #include "assembly/rank_exchanges.hpp"
 
 #include <algorithm>
+#include <stdexcept>
 
 namespace peristat {
 
@@ -19,25 +20,16 @@ RankExchanges::RankExchanges(const Model& model, const RankLayout& layout, bool 
     m_ghosts = std::make_unique<PartExchange>(ranks, layout.global_unknown,
                                               unknown_owners(model.constraints, owner),
                                               static_cast<std::size_t>(layout.owned_unknowns));
-  if (model.holds_every_family()) return;
-  if (!part) {
-    std::vector<int> component_owner(2 * owner.size());
-    for (std::size_t p = 0; p < owner.size(); ++p) component_owner[2 * p] = component_owner[2 * p + 1] = owner[p];
-    m_forces = std::make_unique<OwnedExchange>(ranks, component_owner, true);
-  }
-  if (!failure) return;
-  if (part) {
-    // A part's own particles come first.
-    const auto n_owned = static_cast<std::size_t>(std::count(owner.begin(), owner.end(), layout.rows.rank));
-    m_particle_values = std::make_unique<OwnedEntriesExchange>(ranks, layout.global_id, owner, n_owned);
-  } else {
-    m_particle_values = std::make_unique<OwnedExchange>(ranks, owner, true);
-  }
+  if (model.holds_every_family() || !failure) return;
+  if (!part) throw std::logic_error("RankExchanges: a model holding some families only must be a rank's part");
+  // A part's own particles come first.
+  const auto n_owned = static_cast<std::size_t>(std::count(owner.begin(), owner.end(), layout.rows.rank));
+  m_particle_values = std::make_unique<OwnedEntriesExchange>(ranks, layout.global_id, owner, n_owned);
 }
 
 std::size_t RankExchanges::memory_bytes() const {
   std::size_t bytes = 0;
-  for (const auto* e : {m_ghosts.get(), m_forces.get(), m_particle_values.get()})
+  for (const auto* e : {m_ghosts.get(), m_particle_values.get()})
     if (e) bytes += e->memory_bytes();
   return bytes;
 }

@@ -1,8 +1,7 @@
 // The exchanges between the ranks that a problem's evaluations need, built from the data of
 // its options (the rows, the global ids) on its Ranks: the ghost tail of a state on a rank's
-// part, the forces of a whole particle table with partitioned bonds, one value per particle
-// (the damage, the pieces of the bond graph) with failure. Owned and counted here; none in one
-// process.
+// part, and one value per particle (the damage, the pieces of the bond graph) with failure.
+// Owned and counted here; none in one process.
 #pragma once
 
 #include <cstdint>
@@ -35,16 +34,13 @@ class RankExchanges {
 
   /// On a rank's part: the ghost tail of a vector over the unknowns from the owners.
   ValueExchange* ghosts() const { return m_ghosts.get(); }
-  /// A whole particle table with partitioned bonds: each rank's own particles' forces (both
-  /// components) to every rank; the particles without a row keep their values.
-  ValueExchange* forces() const { return m_forces.get(); }
-  /// With failure and partitioned bonds (or a part): one value per particle from its owner to
-  /// the ranks that hold it; the particles without a row keep their values.
+  /// With failure on a part: one value per particle from its owner to the ranks that hold it;
+  /// the particles without a row keep their values.
   ValueExchange* particle_values() const { return m_particle_values.get(); }
   std::size_t memory_bytes() const;
 
  private:
-  std::unique_ptr<ValueExchange> m_ghosts, m_forces, m_particle_values;
+  std::unique_ptr<ValueExchange> m_ghosts, m_particle_values;
 };
 
 }  // namespace peristat

@@ -156,52 +156,37 @@ void sort_rows(LO local, const Teuchos::ArrayRCP<std::size_t>& row_pointers, Teu
 
 Distribution distribute(Index n, const UnknownLayout& layout, int rank, int ranks) {
   if (layout.part()) return distribute_part(n, layout, rank);
+  // One process (and a rank's own copy of a whole model, as the MueLu cycle's SerialComm):
+  // every row here, two per node in the particles' order when the layout names them.
+  if (ranks > 1)
+    throw std::logic_error("distribute: under mpirun the unknowns come with a rank's part (UnknownLayout::part())");
   Distribution d;
   d.row_of.resize(n);
   GO nodes = n;
-  GO first_node = -1, end_node = -1;  // this rank's nodes; from the owners, or strips below
   std::vector<Index> particle_of_node;
   if (static_cast<Index>(layout.component.size()) == n && n > 0) {
     d.per_node = 2;
     const Index particles = *std::max_element(layout.component.begin(), layout.component.end()) / 2 + 1;
     std::vector<Index> node_of(particles, -1);
     for (Index k = 0; k < n; ++k) node_of[layout.component[k] / 2] = 0;
-    const bool owners = ranks > 1 && !layout.owner.empty();
-    const auto owner = [&](Index p) { return owners ? layout.owner[static_cast<std::size_t>(p)] : 0; };
     for (Index p = 0; p < particles; ++p)
-      if (node_of[p] == 0) particle_of_node.push_back(p);
-    // By owner, then by particle (stable: strips keep the particle order).
-    std::stable_sort(particle_of_node.begin(), particle_of_node.end(),
-                     [&](Index a, Index b) { return owner(a) < owner(b); });
-    for (std::size_t q = 0; q < particle_of_node.size(); ++q)
-      node_of[particle_of_node[q]] = static_cast<Index>(q);
+      if (node_of[p] == 0) {
+        node_of[p] = static_cast<Index>(particle_of_node.size());
+        particle_of_node.push_back(p);
+      }
     for (Index k = 0; k < n; ++k) d.row_of[k] = 2 * GO(node_of[layout.component[k] / 2]) + layout.component[k] % 2;
     nodes = static_cast<GO>(particle_of_node.size());
-    if (owners) {
-      const auto first = [&](int r) {
-        return static_cast<GO>(std::lower_bound(particle_of_node.begin(), particle_of_node.end(), r,
-                                                [&](Index p, int value) { return owner(p) < value; }) -
-                               particle_of_node.begin());
-      };
-      first_node = first(rank);
-      end_node = first(rank + 1);
-    }
   } else {
     std::iota(d.row_of.begin(), d.row_of.end(), GO(0));
   }
   d.n_rows = d.per_node * nodes;
-  if (first_node < 0) {
-    first_node = strip_start(nodes, rank, ranks);
-    end_node = strip_start(nodes, rank + 1, ranks);
-  }
-  d.first_row = d.per_node * first_node;
-  d.unknown_of_local.assign(static_cast<std::size_t>(d.per_node * (end_node - first_node)), -1);
-  for (Index k = 0; k < n; ++k)
-    if (d.owns(d.row_of[k])) d.unknown_of_local[d.row_of[k] - d.first_row] = k;
+  d.first_row = 0;
+  d.unknown_of_local.assign(static_cast<std::size_t>(d.n_rows), -1);
+  for (Index k = 0; k < n; ++k) d.unknown_of_local[d.row_of[k]] = k;
   if (d.per_node == 2) {
     d.particle_of_local.resize(d.unknown_of_local.size());
-    for (GO q = first_node; q < end_node; ++q)
-      for (int c = 0; c < 2; ++c) d.particle_of_local[2 * (q - first_node) + c] = particle_of_node[q];
+    for (GO q = 0; q < nodes; ++q)
+      for (int c = 0; c < 2; ++c) d.particle_of_local[2 * q + c] = particle_of_node[q];
   }
   return d;
 }

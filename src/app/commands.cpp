@@ -101,57 +101,34 @@ void check_same_run(const StateArchive& checkpoint, const std::string& path, con
   }
 }
 
-/// This process's model and the rows it owns: under mpirun on the parts (solver.belos.model),
-/// the rank's part of the model; with partitioned bonds, the whole particle table with the
-/// families of the rank's rows and their neighbours only (docs/guide/distributed.md), so that
-/// `check` measures what `run` will hold.
+/// This process's model: under mpirun the rank's part of it, else the whole model.
 struct ProcessModel {
   Model model;
   std::optional<ModelPart> part;
-  OwnedRows rows;
   const Model& held() const { return part ? part->model : model; }
   const ModelPart* part_or_null() const { return part ? &*part : nullptr; }
 };
 
-/// The model the plan says this process holds (RunPlan::model, RunPlan::bonds); a part keeps
-/// the `extra` particles too (global ids: the partners of faces that slid towards it).
+/// The model the plan says this process holds (RunPlan::model); a part keeps the `extra`
+/// particles too (global ids: the partners of faces that slid towards it).
 ProcessModel process_model(const Scene& scene, const RunPlan& plan, const Ranks& ranks,
                            const std::vector<std::int64_t>& extra = {}) {
   ProcessModel m;
-  if (plan.model.part) {
-    m.part.emplace(part_model(scene, plan.bonds.rings, ranks.rank(), ranks.size(), extra));
-    return m;
-  }
-  if (plan.bonds.partitioned) {
-    m.model = discretise(scene, [&](const Model& unbonded) {
-      m.rows = owned_rows(scene, unbonded, ranks.rank(), ranks.size());
-      return families_to_hold(unbonded, m.rows, plan.bonds.rings);
-    });
-  } else {
+  if (plan.model.part)
+    m.part.emplace(part_model(scene, plan.model.rings, ranks.rank(), ranks.size(), extra));
+  else
     m.model = discretise(scene);
-    m.rows = owned_rows(scene, m.model, ranks.rank(), ranks.size());
-  }
   return m;
 }
 
-/// The problem's options for this process: under mpirun, the rank's own rows (the problem
-/// shares forces and per-particle values by their owners when its bonds are partitioned).
+/// The problem's options for this process: on a part, its rows and global ids.
 ProblemOptions process_problem_options(const Scene& scene, const RunPlan& plan, const ProcessModel& m,
                                        const Ranks& ranks) {
-  if (m.part) return part_problem_options(scene, plan, *m.part, ranks.rank());
-  ProblemOptions options = problem_options(scene, plan);
-  if (!ranks.alone()) options.rows = m.rows;
-  return options;
+  return m.part ? part_problem_options(scene, plan, *m.part, ranks.rank()) : problem_options(scene, plan);
 }
 
 /// What `run` and `check` print of how the model is spread over the ranks.
-std::string held_text(const RunPlan& plan) {
-  if (plan.model.part) return "model in parts: " + plan.model.reason;
-  return std::string("bonds ") + (plan.bonds.partitioned ? "partitioned" : "whole") + ": " + plan.bonds.reason +
-         (plan.model.reason.empty() || plan.model.reason == "solver.belos.model: whole"
-              ? std::string()
-              : "; the whole particle table on every rank (" + plan.model.reason + ")");
-}
+std::string held_text(const RunPlan& plan) { return "model in parts: " + plan.model.reason; }
 
 /// One `peristat run`: the objects it builds, in the order it builds them, one method per step
 /// (run_command lists them). Under mpirun every rank makes every step alike (the model, the

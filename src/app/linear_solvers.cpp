@@ -47,7 +47,6 @@ std::unique_ptr<LinearSolver> make_problem_linear_solver(const Scene& scene, Qua
     setup.layout = part_unknown_layout(*part, problem.ranks());
   } else if (needs_unknown_layout(options)) {
     setup.layout = unknown_layout(problem.model(), problem.n_unknowns());
-    setup.layout.owner = problem.owned_rows().owner;  // the ranks' rows, as the problem assembles them
   }
   setup.may_be_unsymmetric = scene.contact.enabled && scene.contact.friction > 0.0;  // pairs may slip
   setup.system = std::make_shared<ProblemSystem>(problem);

@@ -17,7 +17,7 @@ struct ModelSize {
   /// Under mpirun with partitioned bonds: the most directed bonds one rank holds (of 2 x bonds).
   bool bonds_partitioned = false;
   long long largest_rank_bonds = 0;
-  /// Under mpirun on the parts (solver.belos.model): the most particles one rank's part holds.
+  /// Under mpirun (every rank its part): the most particles one rank's part holds.
   bool part = false;
   int ranks = 1;  ///< the ranks of the run
   long long largest_rank_particles = 0;

@@ -162,32 +162,20 @@ void price_factorisation(const Scene& scene, const RunPlan& plan, double n, Size
 void share_over_ranks(const Scene& scene, const RunPlan& plan, double n, SizeEstimate& e) {
   if (plan.linear != LinearSolverKind::belos) return;
   const int ranks = plan.ranks;
-  if (plan.matrix_free()) {
-    // Under mpirun every rank holds its share of the bond matrix, and with partitioned bonds
-    // (solver.belos.bonds) the families of its part and of a ring (m + 1) spacings deep
-    // around it: about 1/P + 4 (m + 1) / sqrt(N P) of them for square parts (measured
-    // 0.513 at 1000 x 1000 on two ranks: 1/2 + 0.011 and the fictitious layers), else the
-    // whole model.
-    if (ranks > 1) {
-      const double m = scene.discretization.horizon_factor;
-      e.factor_bytes /= ranks;
-      e.factor_nonzeros /= ranks;
-      if (plan.bonds.partitioned)
-        e.memory_bytes *= std::min(1.0, 1.0 / ranks + 4.0 * (m + 1.0) / std::sqrt(n * ranks));
-    }
-    return;
+  if (!plan.matrix_free()) {
+    e.factor_bytes += kBytesPerCopiedNonzero * e.nonzeros;  // the tangent's copy in Tpetra
+    if (scene.solver.linear.belos.preconditioner == BelosPreconditioner::bond_factor)
+      e.factor_of = "the bond preconditioner, with the tangent's copy in Tpetra";
   }
-  e.factor_bytes += kBytesPerCopiedNonzero * e.nonzeros;  // the tangent's copy in Tpetra
-  if (scene.solver.linear.belos.preconditioner == BelosPreconditioner::bond_factor)
-    e.factor_of = "the bond preconditioner, with the tangent's copy in Tpetra";
-  // Under mpirun a rank assembles, copies and factorises its own rows only
-  // (docs/guide/distributed.md); the model stays whole on every rank.
-  if (ranks > 1) {
-    const double model_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
-    e.memory_bytes = model_bytes + (e.memory_bytes - model_bytes) / ranks;
-    e.factor_bytes /= ranks;
-    e.factor_nonzeros /= ranks;
-  }
+  if (ranks <= 1) return;
+  // Under mpirun every rank holds its share of the matrices, and its part of the model: the
+  // families of its particles and of the rings around them, (m + 1) spacings deep each: about
+  // 1/P + 4 r (m + 1) / sqrt(N P) of them for square parts with r rings (measured 0.513 at
+  // 1000 x 1000 on two ranks with one ring: 1/2 + 0.011 and the fictitious layers).
+  const double m = scene.discretization.horizon_factor;
+  e.factor_bytes /= ranks;
+  e.factor_nonzeros /= ranks;
+  e.memory_bytes *= std::min(1.0, 1.0 / ranks + 4.0 * plan.model.rings * (m + 1.0) / std::sqrt(n * ranks));
 }
 
 }  // namespace

@@ -25,44 +25,17 @@ PreconditionerKind resolved_preconditioner(PreconditionerKind asked, LinearSolve
   return linear == LinearSolverKind::matrix_free ? PreconditionerKind::bond_amg : PreconditionerKind::bond;
 }
 
-ModelChoice part_model_choice(const Scene& scene, const RunPlan& plan) {
-  const BelosModel asked = scene.solver.linear.belos.model;
-  if (asked == BelosModel::whole) return {false, "solver.belos.model: whole"};
-  // It applies to Newton with belos, and to ADR under mpirun; in one process a run with
-  // another linear solver, or ADR, ignores it.
-  const bool belos = plan.newton() && plan.linear == LinearSolverKind::belos;
-  if (!belos && (plan.ranks <= 1 || plan.newton())) return {false, "solver.linear is not belos"};
-  if (asked == BelosModel::automatic && plan.ranks <= 1) return {false, "one process"};
-  return {true, asked == BelosModel::part
-                    ? "solver.belos.model: part"
-                : scene.contact.enabled
-                    ? "each rank holds its own particles and their neighbours, and vectors over their unknowns "
-                      "only; the parts grow when the contact faces slide past them"
-                    : "each rank holds its own particles and their neighbours, and vectors "
-                      "over their unknowns only"};
-}
-
-/// The families a rank's part holds (ModelChoice::part).
-BondsChoice part_bonds(const RunPlan& plan) {
+/// Under mpirun every rank holds its own part of the model and the rings of families around it
+/// (part_rings()); one process holds the whole model.
+ModelChoice model_choice(const Scene& scene, const RunPlan& plan) {
+  if (plan.ranks <= 1) return {false, 0, "one process"};
   const int rings = part_rings(plan);
-  return {true, rings,
-          rings == 1 ? "a rank's part holds the families of its particles and their neighbours"
-                     : "a rank's part holds the families of its particles and of two rings around them (an "
-                       "assembled tangent)"};
-}
-
-/// The families a rank holds of the whole model (solver.belos.bonds).
-BondsChoice partitioned_bonds(const Scene& scene, const RunPlan& plan) {
-  const BelosBonds asked = scene.solver.linear.belos.bonds;
-  if (plan.ranks <= 1 || asked == BelosBonds::whole)
-    return {false, 0, plan.ranks <= 1 ? "one process" : "solver.belos.bonds: whole"};
-  if (plan.linear == LinearSolverKind::belos && plan.matrix_free())
-    return {true, 1, "each rank holds the families of its rows and of their neighbours"};
-  return {true, 2,
-          std::string(
-              "each rank holds the families of its rows and of the particles within two horizons of them (") +
-              (plan.solver == SolverKind::adr ? "ADR's density reads" : "the assembled tangent reads") +
-              " columns two horizons from its rows)"};
+  std::string reason = rings == 1 ? "each rank holds its own particles, the families of their neighbours, and "
+                                    "vectors over their unknowns only"
+                                  : "each rank holds its own particles, the families of two rings around "
+                                    "them (an assembled tangent), and vectors over their unknowns only";
+  if (scene.contact.enabled) reason += "; the parts grow when the contact faces slide past them";
+  return {true, rings, reason};
 }
 
 /// `auto` shortens the bond preconditioner's radius of a matrix-free tangent on large models;
@@ -126,8 +99,7 @@ RunPlan plan_with_linear(const Scene& scene, int ranks, LinearSolverKind linear)
   plan.tangent = tangent_form(scene, linear);
   plan.preconditioner = resolved_preconditioner(scene.solver.linear.preconditioner, linear);
   plan.bond_preconditioner = scene.solver.bond_preconditioner;
-  plan.model = part_model_choice(scene, plan);
-  plan.bonds = plan.model.part ? part_bonds(plan) : partitioned_bonds(scene, plan);
+  plan.model = model_choice(scene, plan);
   return plan;
 }
 

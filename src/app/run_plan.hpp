@@ -36,28 +36,13 @@ inline constexpr double kShortBondsAbove = 500000.0;
 /// smaller than the assembled cg path on every case measured). docs/performance.md.
 LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks);
 
-/// Whether each rank holds only its part of the model (solver.belos.model), and why. A part
-/// runs Newton with belos (either tangent) and ADR under mpirun, with or without contact and
-/// failure (docs/guide/distributed.md, "Running on the parts"). `auto` picks the part under
-/// mpirun for a scene without contact, the whole model elsewhere; a one-process run with
-/// another linear solver, or ADR, ignores the key.
+/// What a rank holds of the model, and why. Under mpirun every rank holds its part: its own
+/// particles, and the families of one ring of particles around them for Newton's matrix-free
+/// tangent, two for an assembled tangent (belos's `assembled`, or ADR's for its density);
+/// docs/guide/distributed.md. One process holds the whole model.
 struct ModelChoice {
   bool part = false;
-  std::string reason;
-};
-
-/// The families a rank holds beyond its own. On a part: one ring of families around its
-/// particles for Newton's matrix-free tangent, two for an assembled tangent (belos's
-/// `assembled`, or ADR's for its density). On the whole model (solver.belos.bonds,
-/// docs/guide/distributed.md "Partitioned bonds"): whether each rank holds only the families
-/// it evaluates, with a failure criterion too (its decisions gathered over the ranks); the
-/// matrix-free tangent (Newton with belos, the default under mpirun) reads the families of a
-/// rank's particles and of their neighbours: one ring; an assembled tangent (belos's
-/// `assembled`, or ADR's for its density) reads a column's families two horizons from its
-/// rows: two rings. False in one process.
-struct BondsChoice {
-  bool partitioned = false;
-  int rings = 0;  ///< stencils around a rank's particles whose families it holds
+  int rings = 0;  ///< on a part: stencils around its particles whose families it holds
   std::string reason;
 };
 
@@ -79,8 +64,7 @@ struct RunPlan {
   PreconditionerKind preconditioner = PreconditionerKind::automatic;
   /// The bond preconditioner's radius, shortened by `auto` on large matrix-free models.
   BondPreconditionerOptions bond_preconditioner;
-  ModelChoice model;  ///< the rank's part of the model, or the whole model
-  BondsChoice bonds;  ///< the families it holds around its rows
+  ModelChoice model;  ///< the rank's part of the model and its rings, or the whole model
 
   bool newton() const { return solver == SolverKind::newton; }
   bool matrix_free() const { return tangent == TangentForm::matrix_free; }

@@ -145,7 +145,7 @@ std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, const RunPlan& 
     throw std::logic_error("make_step_solver: a rank's part of the model runs Newton with belos or ADR");
   if (!plan.newton())
     return std::make_unique<AdrSolver>(problem, scene.solver.adr, problem.pseudo_velocity_input(),
-                                       part ? part_unknown_share(problem, *part) : unknown_share(problem));
+                                       part ? part_unknown_share(problem, *part) : UnknownShare{});
   if (plan.matrix_free() != problem.matrix_free())
     throw std::logic_error("make_step_solver: solver.linear matrix_free needs a problem built with "
                            "ProblemOptions::matrix_free (problem_options() of the same plan)");

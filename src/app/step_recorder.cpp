@@ -45,7 +45,7 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                        {"checks", checks}};
   // Under mpirun: how the rows were split (solver.belos.partition).
   if (s.ranks > 1 || s.part) {
-    info["model"] = s.part ? "part" : "whole";  // solver.belos.model
+    info["model"] = s.part ? "part" : "whole";  // every rank its part (docs/guide/distributed.md)
     info["partition"] = to_string(scene.solver.linear.belos.partition);
     info["bonds_held"] = s.bonds_partitioned ? "partitioned" : "whole";
     if (s.bonds_partitioned) info["largest_rank_bonds"] = s.largest_rank_bonds;

@@ -251,7 +251,7 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
     if (c.i < 0 || c.j < 0)
       throw InputError("the checkpoint's contact pair (" + std::to_string(gi) + ", " + std::to_string(gj) +
                        ") reaches past this rank's part of the model (the faces slid too far for the parts): "
-                       "resume with solver.belos.model=whole");
+                       "resume it on fewer ranks, or on one process");
     c.normal = Vec2(v[2], v[3]);
     c.gap0 = v[4];
     c.stiffness = v[5];

@@ -43,14 +43,6 @@ std::string_view to_string(BelosTangent kind) {
   return name_of(kind, std::array<std::string_view, 2>{"assembled", "matrix_free"});
 }
 
-std::string_view to_string(BelosBonds kind) {
-  return name_of(kind, std::array<std::string_view, 3>{"auto", "partitioned", "whole"});
-}
-
-std::string_view to_string(BelosModel kind) {
-  return name_of(kind, std::array<std::string_view, 3>{"auto", "whole", "part"});
-}
-
 std::string_view to_string(ContactEnforcement kind) {
   return name_of(kind, std::array<std::string_view, 2>{"penalty", "exact"});
 }

@@ -88,22 +88,6 @@ enum class BelosTangent {
   matrix_free  ///< the problem's apply_tangent() on each rank's rows; only the bond matrix assembled
 };
 
-/// solver.belos.bonds: which bond families a rank of a distributed run holds
-/// (docs/guide/distributed.md, "Partitioned bonds").
-enum class BelosBonds {
-  automatic,    ///< `partitioned` in every distributed run (the run plan, src/app/run_plan.hpp)
-  partitioned,  ///< the families its rows and their neighbours' read, built on the rank alone
-  whole         ///< every family on every rank
-};
-
-/// solver.belos.model: what a rank of a distributed run holds of the model
-/// (docs/guide/distributed.md, "The partitioned model").
-enum class BelosModel {
-  automatic,  ///< `part` where a part can run the scene (the run plan, src/app/run_plan.hpp), `whole` elsewhere
-  whole,      ///< every particle and vectors over every unknown on every rank (bonds per `bonds`)
-  part        ///< its own particles and their neighbours, vectors over those only (ModelPart)
-};
-
 /// The Trilinos path (solver.linear: belos; solver.belos.*).
 struct BelosOptions {
   BelosMethod method = BelosMethod::automatic;
@@ -114,8 +98,6 @@ struct BelosOptions {
   /// (case 4.1: 200 against 693, docs/guide/distributed.md "Partition").
   BelosPartition partition = BelosPartition::rcb;
   BelosTangent tangent = BelosTangent::matrix_free;
-  BelosBonds bonds = BelosBonds::automatic;
-  BelosModel model = BelosModel::automatic;
   double rtol = 1e-10;        ///< relative residual ||b - A x|| / ||b||
   int max_iterations = 2000;  ///< Krylov iterations per solve
   int restart = 100;          ///< GMRES basis vectors before a restart
@@ -163,8 +145,6 @@ std::string_view to_string(BelosMethod kind);
 std::string_view to_string(BelosPreconditioner kind);
 std::string_view to_string(BelosPartition kind);
 std::string_view to_string(BelosTangent kind);
-std::string_view to_string(BelosBonds kind);
-std::string_view to_string(BelosModel kind);
 
 // ---- physics ---------------------------------------------------------------------------
 

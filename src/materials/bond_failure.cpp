@@ -43,6 +43,8 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options, cons
                         model.whole_start.size() != static_cast<std::size_t>(n) + 1))
     throw std::logic_error(
         "BondFailure: a model holding some families only needs its rank's share (FailureRanks)");
+  if (partitioned() && !part())
+    throw std::logic_error("BondFailure: a model holding some families only must be a rank's part (global ids)");
   if (part()) {
     if (m_share.global_id.size() != static_cast<std::size_t>(n) || m_share.n_particles_whole <= 0)
       throw std::logic_error("BondFailure: a rank's part needs the global ids and the whole particle count");
@@ -266,30 +268,19 @@ void BondFailure::save(StateArchive& archive) const {
     archive.put("failure/reference_bonds", {m_reference_bond.begin(), m_reference_bond.end()});
     return;
   }
-  // The whole model's index of each reference bond: a family's holders know it; its
-  // owner's value goes to every rank (on a part: to rank 0, by global id).
-  const Index n = m_model.particles.size();
-  if (part()) {
-    std::vector<std::int64_t> ids, values;
-    for (Index i = 0; i < n; ++i) {
-      if (!m_share.proposes[static_cast<std::size_t>(i)]) continue;
-      ids.push_back(global(i));
-      values.push_back(m_reference_bond[i] < 0 ? -1
-                                               : m_model.whole_start[static_cast<std::size_t>(i)] +
-                                                     m_reference_bond[i] - bonds.start[i]);
-    }
-    const std::vector<std::int64_t> table = m_ranks.gather_rows_on_root(
-        std::span<const std::int64_t>(ids), std::span<const std::int64_t>(values), 1, m_share.n_particles_whole);
-    archive.put("failure/reference_bonds", {table.begin(), table.end()});  // the file holds doubles
-    return;
+  // On a part: the whole model's index of each reference bond, from the rank that proposes
+  // its family, to rank 0 by global id.
+  std::vector<std::int64_t> ids, values;
+  for (Index i = 0; i < m_model.particles.size(); ++i) {
+    if (!m_share.proposes[static_cast<std::size_t>(i)]) continue;
+    ids.push_back(global(i));
+    values.push_back(m_reference_bond[i] < 0 ? -1
+                                             : m_model.whole_start[static_cast<std::size_t>(i)] +
+                                                   m_reference_bond[i] - bonds.start[i]);
   }
-  VectorXd reference = VectorXd::Constant(n, -1.0);
-  for (Index i = 0; i < n; ++i)
-    if (m_reference_bond[i] >= 0)
-      reference[i] = static_cast<double>(m_model.whole_start[static_cast<std::size_t>(i)] +
-                                         m_reference_bond[i] - bonds.start[i]);
-  m_share.share->share(reference.data());
-  archive.put("failure/reference_bonds", {reference.data(), reference.data() + n});
+  const std::vector<std::int64_t> table = m_ranks.gather_rows_on_root(
+      std::span<const std::int64_t>(ids), std::span<const std::int64_t>(values), 1, m_share.n_particles_whole);
+  archive.put("failure/reference_bonds", {table.begin(), table.end()});  // the file holds doubles
 }
 
 namespace {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <numeric>
+#include <stdexcept>
 
 namespace peristat {
 
@@ -123,20 +124,10 @@ void find_unsupported(const Model& model, std::span<const double> intact, std::v
       join(i, j);
     }
   }
-  if (parts && !parts->global_id.empty()) {
+  if (parts) {
+    if (parts->global_id.empty()) throw std::logic_error("find_unsupported: the graph's parts need global ids");
     find_unsupported_on_part(model, parent, root, *parts, unsupported);
     return;
-  }
-  if (parts) {
-    // This rank's components as (particle, its representative) links; every rank joins
-    // every rank's links in the same order, so the components (the union of the pieces, each
-    // intact pair being in one rank's piece) are the same on every rank.
-    std::vector<Index> links;  // (particle, its representative), one pair after another
-    for (Index i = 0; i < n; ++i)
-      if (const Index r = root(i); r != i) links.insert(links.end(), {i, r});
-    const std::vector<Index> all = parts->ranks.all_gather(links);
-    std::iota(parent.begin(), parent.end(), Index{0});
-    for (std::size_t k = 0; k < all.size(); k += 2) join(all[k], all[k + 1]);
   }
   std::vector<char> supported(static_cast<std::size_t>(n), 0);
   const std::vector<Index>& free = model.constraints.free_index;

@@ -53,37 +53,6 @@ std::size_t Halo::memory_bytes() const {
          bytes_of(m_send) + bytes_of(m_received) + bytes_of(m_send_ids) + bytes_of(m_received_ids);
 }
 
-GhostExchange::GhostExchange(const Ranks& ranks, const std::vector<int>& owner,
-                             const std::vector<std::int64_t>& reads)
-    : Halo(ranks) {
-  const int size = ranks.size(), me = ranks.rank();
-  // What this rank receives: its reads that others own, grouped by owner (ascending within).
-  std::vector<std::int64_t> ghosts;
-  std::vector<int> ghost_owner;
-  for (const std::int64_t k : reads) {
-    const int p = owner.at(static_cast<std::size_t>(k));
-    if (p < 0 || p >= size) throw std::invalid_argument("GhostExchange: a read entry without an owner rank");
-    if (p == me) continue;
-    ghosts.push_back(k);
-    ghost_owner.push_back(p);
-  }
-  const std::vector<std::size_t> slot = by_owner(ghost_owner, size, m_recv_counts);
-  m_recv_index.resize(ghosts.size());
-  std::vector<std::int64_t> asked(ghosts.size());
-  for (std::size_t g = 0; g < ghosts.size(); ++g) {
-    m_recv_index[slot[g]] = static_cast<std::size_t>(ghosts[g]);
-    asked[slot[g]] = ghosts[g];
-  }
-  // What it sends: each owner learns which of its entries every rank reads.
-  const std::vector<std::int64_t> wanted = ask_owners(asked);
-  m_send_index.resize(wanted.size());
-  for (std::size_t k = 0; k < wanted.size(); ++k) {
-    if (owner.at(static_cast<std::size_t>(wanted[k])) != me)
-      throw std::logic_error("GhostExchange: a rank asked for an entry this rank does not own");
-    m_send_index[k] = static_cast<std::size_t>(wanted[k]);
-  }
-}
-
 PartExchange::PartExchange(const Ranks& ranks, const std::vector<std::int64_t>& ids, const std::vector<int>& owner,
                            std::size_t n_owned)
     : Halo(ranks) {
@@ -112,43 +81,6 @@ PartExchange::PartExchange(const Ranks& ranks, const std::vector<std::int64_t>& 
       throw std::logic_error("PartExchange: a rank asked for an id this rank does not own");
     m_send_index[k] = static_cast<std::size_t>(it - first);
   }
-}
-
-OwnedExchange::OwnedExchange(const Ranks& ranks, const std::vector<int>& owner, bool keep_unowned)
-    : m_ranks(&ranks) {
-  const int size = ranks.size();
-  m_counts.assign(static_cast<std::size_t>(size), 0);
-  std::size_t owned = 0;
-  for (const int p : owner) {
-    if (p < 0 && keep_unowned) continue;
-    if (p < 0 || p >= size) throw std::invalid_argument("OwnedExchange: an entry without an owner rank");
-    ++m_counts[static_cast<std::size_t>(p)];
-    ++owned;
-  }
-  std::vector<std::int64_t> next(static_cast<std::size_t>(size), 0);
-  for (std::size_t p = 1; p < next.size(); ++p) next[p] = next[p - 1] + m_counts[p - 1];
-  m_first = static_cast<std::size_t>(next[static_cast<std::size_t>(ranks.rank())]);
-  m_order.resize(owned);
-  for (std::size_t k = 0; k < owner.size(); ++k)
-    if (owner[k] >= 0) m_order[static_cast<std::size_t>(next[static_cast<std::size_t>(owner[k])]++)] =
-        static_cast<std::int64_t>(k);
-  m_send.resize(static_cast<std::size_t>(m_counts[static_cast<std::size_t>(ranks.rank())]));
-  m_received.resize(owned);
-}
-
-template <class T>
-void OwnedExchange::share_as(T* x, std::vector<T>& send, std::vector<T>& received) {
-  if (m_ranks->alone()) return;
-  send.resize(static_cast<std::size_t>(m_counts[static_cast<std::size_t>(m_ranks->rank())]));
-  received.resize(m_order.size());
-  for (std::size_t k = 0; k < send.size(); ++k) send[k] = x[m_order[m_first + k]];
-  m_ranks->all_gather_v(send.data(), static_cast<std::int64_t>(send.size()), received.data(), m_counts, sizeof(T));
-  for (std::size_t k = 0; k < m_order.size(); ++k) x[m_order[k]] = received[k];
-}
-
-std::size_t OwnedExchange::memory_bytes() const {
-  return bytes_of(m_counts) + bytes_of(m_order) + bytes_of(m_send) + bytes_of(m_received) + bytes_of(m_send_ids) +
-         bytes_of(m_received_ids);
 }
 
 OwnedEntriesExchange::OwnedEntriesExchange(const Ranks& ranks, const std::vector<std::int64_t>& ids,
@@ -180,8 +112,6 @@ std::size_t OwnedEntriesExchange::memory_bytes() const {
 // The element types the headers' share() overloads use.
 template void Halo::share_as(double*, std::vector<double>&, std::vector<double>&);
 template void Halo::share_as(std::int64_t*, std::vector<std::int64_t>&, std::vector<std::int64_t>&);
-template void OwnedExchange::share_as(double*, std::vector<double>&, std::vector<double>&);
-template void OwnedExchange::share_as(std::int64_t*, std::vector<std::int64_t>&, std::vector<std::int64_t>&);
 template void OwnedEntriesExchange::share_as(double*, std::vector<double>&);
 template void OwnedEntriesExchange::share_as(std::int64_t*, std::vector<std::int64_t>&);
 

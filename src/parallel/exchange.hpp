@@ -26,7 +26,7 @@ class ValueExchange {
 };
 
 /// Values that each rank sends to the ranks that read them and receives from the ranks that
-/// own them, in one all-to-all per share(): what GhostExchange and PartExchange build.
+/// own them, in one all-to-all per share(): what PartExchange builds.
 class Halo : public ValueExchange {
  public:
   /// Collective: this rank's entries that others read go to them; its ghost entries are filled.
@@ -53,15 +53,6 @@ class Halo : public ValueExchange {
   std::vector<std::int64_t> m_send_ids, m_received_ids;  ///< made at the first share() of integers
 };
 
-/// Copies into each rank's copy of a vector the entries it reads and does not own, from their
-/// owners: entry k belongs to rank owner[k] (a table every rank holds alike), `reads` lists
-/// the entries this rank reads (its own among them are skipped). Construction and share() are
-/// collective.
-class GhostExchange : public Halo {
- public:
-  GhostExchange(const Ranks& ranks, const std::vector<int>& owner, const std::vector<std::int64_t>& reads);
-};
-
 /// The ghost tail of a vector over a rank's part of the model (ModelPart): entries
 /// [0, n_owned) are this rank's, entry k >= n_owned is the entry of global id ids[k] owned by
 /// rank owner[k], where it sits among that rank's first entries. No table over the whole
@@ -72,28 +63,6 @@ class PartExchange : public Halo {
  public:
   PartExchange(const Ranks& ranks, const std::vector<std::int64_t>& ids, const std::vector<int>& owner,
                std::size_t n_owned);
-};
-
-/// Copies every rank's own entries of a vector into every rank's copy: entry k belongs to rank
-/// owner[k], a table every rank holds alike. An entry without an owner (-1) is refused, or
-/// with `keep_unowned` left as each rank has it. share() is collective.
-class OwnedExchange final : public ValueExchange {
- public:
-  OwnedExchange(const Ranks& ranks, const std::vector<int>& owner, bool keep_unowned = false);
-  void share(double* x) override { share_as(x, m_send, m_received); }
-  void share(std::int64_t* x) override { share_as(x, m_send_ids, m_received_ids); }
-  std::size_t memory_bytes() const override;
-
- private:
-  template <class T>
-  void share_as(T* x, std::vector<T>& send, std::vector<T>& received);
-
-  const Ranks* m_ranks;
-  std::vector<std::int64_t> m_counts;  ///< entries per rank
-  std::vector<std::int64_t> m_order;   ///< the entries, rank by rank, ascending within a rank
-  std::size_t m_first = 0;             ///< where this rank's entries begin in m_order
-  std::vector<double> m_send, m_received;
-  std::vector<std::int64_t> m_send_ids, m_received_ids;  ///< made at the first share() of integers
 };
 
 /// PartExchange over the entries of a part that have an owner (owner >= 0): one value per

@@ -483,10 +483,12 @@ BelosOptions read_belos(const Field& field) {
     o.partition = read_kind(*f, {BelosPartition::strips, BelosPartition::rcb});
   if (auto f = m.find("tangent"))
     o.tangent = read_kind(*f, {BelosTangent::assembled, BelosTangent::matrix_free});
-  if (auto f = m.find("bonds"))
-    o.bonds = read_kind(*f, {BelosBonds::automatic, BelosBonds::partitioned, BelosBonds::whole});
-  if (auto f = m.find("model"))
-    o.model = read_kind(*f, {BelosModel::automatic, BelosModel::whole, BelosModel::part});
+  // Retired keys: every rank of a run under mpirun holds its own part of the model and the
+  // families around it (docs/guide/distributed.md); a scene that still names them is told so.
+  for (const char* retired : {"bonds", "model"})
+    if (auto f = m.find(retired))
+      f->fail("is retired: under mpirun every rank holds its own part of the model, its particles and the "
+              "families around them (docs/guide/distributed.md); remove the key");
   if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
   if (auto f = m.find("max_iterations")) o.max_iterations = schema::int_at_least(*f, 1);
   if (auto f = m.find("restart")) o.restart = schema::int_at_least(*f, 1);

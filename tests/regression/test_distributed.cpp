@@ -60,8 +60,7 @@ double relative_difference(const Pair& p) {
   return test::json_number(c.out, "relative_l2");
 }
 
-/// `bonds`: the families each rank held (solver.belos.bonds: auto partitions every run
-/// without a failure criterion).
+/// `bonds`: the families each rank held (a part: some only).
 void expect_same_answer(const Pair& p, const std::string& bonds = "partitioned") {
   ASSERT_EQ(p.serial.exit_code, 0) << p.serial.err;
   ASSERT_EQ(p.distributed.exit_code, 0) << p.distributed.out << p.distributed.err;
@@ -83,8 +82,8 @@ void expect_same_answer(const Pair& p, const std::string& bonds = "partitioned")
 }
 
 TEST(Distributed, TensionPlateOnTwoRanksEqualsSerial) {
-  // solver.belos.model: auto runs this scene (no contact, no failure) on the ranks' parts of the
-  // model: the results rank 0 writes are gathered from them by global id, particle for particle.
+  // Under mpirun every run is on the ranks' parts of the model: the results rank 0 writes are
+  // gathered from them by global id, particle for particle.
   const Pair p = run_both("tension_plate", "tension_plate", " --set discretization.spacing=2e-3");
   expect_same_answer(p);
   const nlohmann::json mpi = test::read_json(p.dir / "mpi" / "summary.json"),
@@ -108,36 +107,7 @@ TEST(Distributed, TensionPlateOnTwoRanksEqualsSerial) {
             1e-8 * b["energy_strain"].get<double>());
 }
 
-TEST(Distributed, TensionPlateOnThePartsEqualsTheWholeModelOnTheRanks) {
-  // solver.belos.model: part against whole, both on two ranks with the same solver: the two
-  // paths differ in what a rank holds and in the order of sums, not in the answer (1e-8, as above).
-  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
-  const fs::path dir = test::fresh_directory("distributed_part_whole");
-  const std::string run = "run " + scene + " --quiet --set discretization.spacing=2e-3 --out ";
-  const test::CliResult part =
-      test::run_mpi(2, run + (dir / "part").string() + " --set solver.belos.model=part");
-  const test::CliResult whole =
-      test::run_mpi(2, run + (dir / "whole").string() + " --set solver.belos.model=whole");
-  ASSERT_EQ(part.exit_code, 0) << part.out << part.err;
-  ASSERT_EQ(whole.exit_code, 0) << whole.out << whole.err;
-  EXPECT_EQ(test::read_json(dir / "part" / "summary.json")["run"]["model"], "part");
-  EXPECT_EQ(test::read_json(dir / "whole" / "summary.json")["run"]["model"], "whole");
-  const test::CliResult cmp = test::run_cli("compare " + (dir / "part" / "tension_plate.h5").string() + " " +
-                                            (dir / "whole" / "tension_plate.h5").string() + " --json");
-  ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
-  EXPECT_LE(test::json_number(cmp.out, "relative_l2"), 1e-8);
-  // The particle tables are the same, particle for particle (rank 0 gathered the parts').
-  const ResultsReader a((dir / "part" / "tension_plate.h5").string()),
-      b((dir / "whole" / "tension_plate.h5").string());
-  ASSERT_EQ(a.particles().position.size(), b.particles().position.size());
-  for (std::size_t i = 0; i < a.particles().position.size(); ++i) {
-    ASSERT_EQ(a.particles().position[i], b.particles().position[i]) << "particle " << i;
-    ASSERT_EQ(a.particles().volume[i], b.particles().volume[i]) << "particle " << i;
-    ASSERT_EQ(a.particles().fictitious[i], b.particles().fictitious[i]) << "particle " << i;
-  }
-}
-
-// Contact on the parts (solver.belos.model: part; `auto` keeps contact scenes whole): each rank
+// Contact on the parts (every run under mpirun, docs/guide/distributed.md): each rank
 // holds the pairs that touch its own particles, oriented and ordered as in the whole model,
 // owns those whose first end it owns, and reduces the counts, the signature and the checks
 // over the ranks. Cases 4.1 (an interface between two plates, friction 0.8, partner
@@ -148,7 +118,7 @@ void expect_contact_on_parts_as_serial(const std::string& c, const std::string& 
                                        const std::string& extra = "") {
   SCOPED_TRACE(c + extra);
   const Pair p =
-      run_both(c, c, " --set discretization.spacing=" + dx + " --set solver.belos.model=part" + extra);
+      run_both(c, c, " --set discretization.spacing=" + dx + extra);
   expect_same_answer(p);
   const nlohmann::json mpi = test::read_json(p.dir / "mpi" / "summary.json"),
                        serial = test::read_json(p.dir / "serial" / "summary.json");
@@ -263,17 +233,16 @@ void expect_resumes_on_parts(const std::string& c, const std::string& options, i
 // A run on the parts writes the whole model's state into its checkpoint (gathered by global
 // id: the state, and with contact every pair with its friction slip and the displacement of
 // the last partner search), so it resumes on the parts, on one process, and a one-process
-// checkpoint resumes on the parts. The tension plate (2 steps, `auto`: on the parts under
-// mpirun, whole in one process) is killed in step 2's write, case 4.3 (4 steps, friction,
-// exact enforcement: the multipliers too; on the parts asked, also in one process) in step
-// 3's. Each resumed run must end where the uninterrupted run on the parts ends: 1e-10, the
+// checkpoint resumes on the parts. The tension plate (2 steps: on the parts under mpirun, whole
+// in one process) is killed in step 2's write, case 4.3 (4 steps, friction, exact enforcement:
+// the multipliers too) in step 3's. Each resumed run must end where the uninterrupted run on the parts ends: 1e-10, the
 // resume tests' bound (measured 2.8e-12 to 4.1e-12 on the plate).
 TEST(Distributed, ARunOnThePartsResumesOnAnyNumberOfRanks) {
   expect_resumes_on_parts("tension_plate",
                           " --quiet --set discretization.spacing=2e-3 --set solver.linear=belos", 2, 2);
   expect_resumes_on_parts("paper_4_3_precracked_plate",
                           " --quiet --set discretization.spacing=0.02 --set solver.linear=belos"
-                          " --set solver.belos.model=part --set contact.enforcement=exact",
+                          " --set contact.enforcement=exact",
                           4, 3);
 }
 
@@ -283,9 +252,7 @@ TEST(Distributed, ARunOnThePartsResumesOnAnyNumberOfRanks) {
 // and takes its families' references. Each resumed run ends where the uninterrupted run ends.
 TEST(Distributed, ARunWithFailureOnThePartsResumesOnAnyNumberOfRanks) {
   expect_resumes_on_parts("paper_4_4_crack_growth",
-                          " --quiet --set discretization.spacing=0.05 --set solver.linear=belos"
-                          " --set solver.belos.model=part",
-                          6, 5);
+                          " --quiet --set discretization.spacing=0.05 --set solver.linear=belos", 6, 5);
 }
 
 TEST(Distributed, SlidingPlatesOnTwoRanksEqualSerial) {
@@ -331,14 +298,8 @@ void expect_same_bonds_broken(const Pair& p) {
   expect_same_damage(p.h5("serial"), p.h5("mpi"));
 }
 
-TEST(Distributed, CrackGrowthOnTwoRanksBreaksTheSameBonds) {
-  expect_same_bonds_broken(
-      run_both("paper_4_4_crack_growth", "paper_4_4_crack_growth", " --set discretization.spacing=0.05"));
-}
-
 // Failure on the ranks' parts (docs/guide/distributed.md, "Failure on the parts"): case 4.4
-// at dx = 0.05 m, with its crack's frictional contact (`part` asked) and without contact
-// (`auto` then picks the parts). Each part proposes its own families' pairs by global id,
+// at dx = 0.05 m, with its crack's frictional contact and without contact. Each part proposes its own families' pairs by global id,
 // every rank breaks the same pairs, the pieces of the bond graph are joined across the parts:
 // the serial answer within 1e-8, the same damage at every particle to the bit, and per step
 // the same counts of broken bonds, fragments and contact pairs and the same closest intact
@@ -375,7 +336,7 @@ void expect_failure_on_parts_as_serial(const std::string& extra) {
 }
 
 TEST(Distributed, CrackGrowthOnThePartsBreaksTheSameBonds) {
-  expect_failure_on_parts_as_serial(" --set solver.belos.model=part");
+  expect_failure_on_parts_as_serial("");
   expect_failure_on_parts_as_serial(" --set contact.enabled=false");
 }
 
@@ -414,74 +375,9 @@ TEST(Distributed, AssembledTangentOnTwoRanksBreaksTheSameBonds) {
                                     std::string(" --set discretization.spacing=0.05") + kAssembled));
 }
 
-// The assembled tangent on the ranks' parts: a part then holds the families two stencils
-// around its particles (the tangent's columns reach two horizons from its rows), and the
-// rows it assembles are the whole model's. Case 4.1 (sliding with friction) and case 4.4 (the
-// same bonds broken), each against the serial run.
-TEST(Distributed, AssembledTangentOnThePartsEqualsSerial) {
-  const std::string part = std::string(kAssembled) + " --set solver.belos.model=part";
-  const Pair sliding = run_both("paper_4_1_sliding_plates", "paper_4_1_sliding_plates",
-                                " --set discretization.spacing=1e-3" + part);
-  expect_same_answer(sliding);
-  const Pair growth = run_both("paper_4_4_crack_growth", "paper_4_4_crack_growth",
-                               " --set discretization.spacing=0.05" + part);
-  expect_same_bonds_broken(growth);
-  for (const Pair* p : {&sliding, &growth})
-    EXPECT_EQ(test::read_json(p->dir / "mpi" / "summary.json")["run"]["model"], "part");
-}
-
-// Partitioned bonds (docs/guide/distributed.md): a rank's model holds the families its rows
-// read and its problem shares the forces after each whole evaluation. Every force, action
-// entry, tangent and bond-matrix entry is the whole model's to the bit (unit.Assembly.Partitioned*),
-// and so are the failure decisions (unit.PartitionedFailure.*), so a run must give the bits
-// of the two-rank run with every family held: relative L2 exactly 0, and with failure the
-// same damage at every particle and step. Case 4.3 with Newton's matrix-free tangent (one
-// ring of families), the assembled tangent and ADR (two rings); case 4.4 (bonds break in
-// steps 3-6) with Newton (the assembled tangent's two rings: unit.PartitionedFailure.*).
-void expect_partitioned_bits(const std::string& c, const std::string& label, const std::string& extra) {
-  SCOPED_TRACE(c + ", " + label);
-  const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/" + c + "/scene.yaml";
-  const fs::path dir = test::fresh_directory("distributed_partitioned_bits_" + c + "_" + label);
-  // The whole particle table on every rank (contact scenes run on the parts by default).
-  const std::string run = "run " + scene + " --quiet --set solver.belos.model=whole" + extra + " --out ";
-  const test::CliResult part = test::run_mpi(2, run + (dir / "part").string());
-  const test::CliResult whole =
-      test::run_mpi(2, run + (dir / "whole").string() + " --set solver.belos.bonds=whole");
-  ASSERT_EQ(part.exit_code, 0) << part.out << part.err;
-  ASSERT_EQ(whole.exit_code, 0) << whole.out << whole.err;
-  EXPECT_EQ(test::read_json(dir / "part" / "summary.json")["run"]["bonds_held"], "partitioned");
-  EXPECT_EQ(test::read_json(dir / "whole" / "summary.json")["run"]["bonds_held"], "whole");
-  const fs::path a = dir / "part" / (c + ".h5"), b = dir / "whole" / (c + ".h5");
-  const test::CliResult cmp = test::run_cli("compare " + a.string() + " " + b.string() + " --json");
-  ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
-  EXPECT_EQ(test::json_number(cmp.out, "relative_l2"), 0.0);
-  if (c != "paper_4_4_crack_growth") return;  // the one with failure
-  const ResultsReader ra(a.string()), rb(b.string());
-  ASSERT_EQ(ra.steps(), rb.steps());
-  double broken_somewhere = 0.0;
-  for (const int step : ra.steps()) {
-    EXPECT_TRUE((ra.damage(step).array() == rb.damage(step).array()).all()) << "damage, step " << step;
-    broken_somewhere = std::max(broken_somewhere, ra.damage(step).maxCoeff());
-  }
-  EXPECT_GT(broken_somewhere, 0.0) << "the scene must break bonds for this test to mean anything";
-}
-
-TEST(Distributed, PartitionedBondsGiveTheWholeModelsBits) {
-  const std::string c = "paper_4_3_precracked_plate", dx = " --set discretization.spacing=0.02";
-  expect_partitioned_bits(c, "newton", dx);
-  expect_partitioned_bits(c, "assembled", dx + " --set solver.belos.tangent=assembled");
-  expect_partitioned_bits(c, "adr", dx + " --solver adr");
-}
-
-TEST(Distributed, PartitionedBondsWithFailureGiveTheWholeModelsBits) {
-  // With `--threads 1`, which Kokkos::initialize once took for its own option and aborted on.
-  const std::string c = "paper_4_4_crack_growth", dx = " --set discretization.spacing=0.05 --threads 1";
-  expect_partitioned_bits(c, "newton", dx);
-}
-
 // A checkpoint names broken bonds by their index in the whole model (Model::whole_start), so a
-// run stopped on one process resumes on two ranks with partitioned bonds, and the other way
-// round (docs/guide/distributed.md, "Partitioned bonds"). Case 4.4 at dx 0.05 m is killed
+// run stopped on one process resumes on two ranks' parts, and the other way round
+// (docs/guide/distributed.md, "Failure on the parts"). Case 4.4 at dx 0.05 m is killed
 // inside the write of step 5's results (PERISTAT_FAULT_KILL_IN_WRITE, as regression.Resume.*
 // does): its checkpoint holds step 4, after the first 26 bonds broke. The resumed run breaks
 // the rest in steps 5 and 6 and must end where the uninterrupted serial run ends: 1e-10, the
@@ -556,7 +452,7 @@ void expect_adr_as_accurate_as_serial(const std::string& c, const std::string& e
   EXPECT_LE(e_ranks, 2.0 * e_serial) << "two-rank ADR " << e_ranks << ", serial ADR " << e_serial;
   const nlohmann::json summary = test::read_json(dir / "mpi" / "summary.json");
   EXPECT_EQ(summary["status"], "completed");
-  EXPECT_EQ(summary["run"]["bonds_held"], "partitioned") << "solver.belos.bonds: auto";
+  EXPECT_EQ(summary["run"]["bonds_held"], "partitioned") << "a part holds some families only";
   EXPECT_EQ(listing(dir / "mpi"), listing(dir / "serial")) << "the files of a serial run, no more";
   if (!model.empty()) {
     EXPECT_EQ(summary["run"]["model"], model);
@@ -570,15 +466,14 @@ TEST(Distributed, AdrOnTwoRanksIsAsAccurateAsSerialAdr) {
 
 // ADR on the ranks' parts (docs/guide/distributed.md, "Distributed ADR"): each part holds two
 // rings of families (the assembled tangent's rows give ADR's density), updates its own
-// unknowns and imports its ghosts' from their owners. Case 4.3 (the crack's frictional pairs),
-// `part` asked (ignored by the one-process runs), as accurate as serial ADR. Case 4.4 (bonds
+// unknowns and imports its ghosts' from their owners. Case 4.3 (the crack's frictional pairs)
+// as accurate as serial ADR. Case 4.4 (bonds
 // breaking) against Newton only, to keep CI short (serial ADR takes a minute here): the same
 // damage at every particle and step, and the answer within 1e-7 of Newton's (ADR stops at
 // rtol 1e-8 of the force scale; serial ADR is 3.0e-8 from Newton here, two ranks 3.0e-8).
 TEST(Distributed, AdrOnThePartsIsAsAccurateAsSerialAdr) {
   expect_adr_as_accurate_as_serial("paper_4_3_precracked_plate",
-                                   " --set discretization.spacing=0.02 --set solver.belos.model=part",
-                                   "part");
+                                   " --set discretization.spacing=0.02", "part");
   const std::string c = "paper_4_4_crack_growth";
   const fs::path dir = test::fresh_directory("distributed_adr_part_" + c);
   const std::string run = "run " + std::string(PERISTAT_SOURCE_DIR) + "/cases/" + c +
@@ -586,7 +481,7 @@ TEST(Distributed, AdrOnThePartsIsAsAccurateAsSerialAdr) {
   const test::CliResult newton =
       test::run_cli(run + (dir / "newton").string() + " --set solver.linear=cholmod");
   const test::CliResult ranks =
-      test::run_mpi(2, run + (dir / "mpi").string() + " --solver adr --set solver.belos.model=part");
+      test::run_mpi(2, run + (dir / "mpi").string() + " --solver adr");
   ASSERT_EQ(newton.exit_code, 0) << newton.err;
   ASSERT_EQ(ranks.exit_code, 0) << ranks.out << ranks.err;
   EXPECT_EQ(test::read_json(dir / "mpi" / "summary.json")["run"]["model"], "part");
@@ -595,11 +490,6 @@ TEST(Distributed, AdrOnThePartsIsAsAccurateAsSerialAdr) {
                                             (dir / "newton" / (c + ".h5")).string() + " --json");
   ASSERT_EQ(cmp.exit_code, 0) << cmp.err;
   EXPECT_LT(test::json_number(cmp.out, "relative_l2"), 1e-7);
-}
-
-TEST(Distributed, AdrWithContactOnTwoRanksIsAsAccurateAsSerialAdr) {
-  // Case 4.3: the crack's pairs (open and slipping) stay whole on every rank, evaluated alike.
-  expect_adr_as_accurate_as_serial("paper_4_3_precracked_plate", " --set discretization.spacing=0.02");
 }
 
 TEST(Distributed, OtherSolversAreRefusedUnderMpirun) {

@@ -124,27 +124,6 @@ void check_exchanges(const Ranks& ranks) {
   for (std::size_t l = 0; l < 10; ++l) big_ids[l] = big + ids[l];
   part.share(big_ids.data());
   for (std::size_t l = 0; l < ids.size(); ++l) EXPECT_EQ(big_ids[l], big + ids[l]) << "entry " << l;
-  // GhostExchange over the whole line, every rank holding all of it.
-  std::vector<std::int64_t> reads;
-  for (int k = std::max(0, first - 2); k < std::min(n, last + 2); ++k) reads.push_back(k);
-  std::vector<double> line(static_cast<std::size_t>(n), -1.0);
-  for (int k = first; k < last; ++k) line[static_cast<std::size_t>(k)] = value(k);
-  GhostExchange ghosts(ranks, owner, reads);
-  ghosts.share(line.data());
-  for (int k = 0; k < n; ++k) {
-    const bool read = k >= first - 2 && k < last + 2;
-    EXPECT_EQ(line[static_cast<std::size_t>(k)], read ? value(k) : -1.0) << "entry " << k;
-  }
-  // OwnedExchange: every entry everywhere; an entry without owner (the last) stays as it is.
-  std::vector<int> owned_by = owner;
-  owned_by.back() = -1;
-  std::vector<double> every(static_cast<std::size_t>(n), -1.0);
-  for (int k = first; k < last; ++k) every[static_cast<std::size_t>(k)] = value(k);
-  every.back() = r;
-  OwnedExchange all(ranks, owned_by, true);
-  all.share(every.data());
-  for (int k = 0; k + 1 < n; ++k) EXPECT_EQ(every[static_cast<std::size_t>(k)], value(k)) << "entry " << k;
-  EXPECT_EQ(every.back(), r);
 }
 
 }  // namespace peristat::test

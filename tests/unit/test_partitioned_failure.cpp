@@ -1,5 +1,5 @@
-// Bond failure with partitioned bonds (issue 16; docs/guide/distributed.md, "Partitioned
-// bonds"): each rank holds some families only and proposes the pairs of its own families;
+// Bond failure on the ranks' parts (docs/guide/distributed.md, "Failure on the parts"): each
+// rank holds some families only and proposes the pairs of its own families;
 // the candidates over the criterion, the damage and the pieces of the bond graph are
 // gathered over the ranks. Ranks emulated by threads (ThreadRanks) must take one
 // process's decisions bit for bit: the same pairs broken in the same order round by round,
@@ -212,55 +212,6 @@ void expect_ranks_break_as_one_process(const Scene& scene, double stretch, doubl
   EXPECT_TRUE(whole.residual_restored);
   EXPECT_EQ(whole.broken_after_undo, whole.broken);
   EXPECT_EQ(whole.contact_pairs_after, whole.contact_pairs_before);
-  for (const int rings : {1, 2})
-    for (const auto& [cuts, ranks] :
-         {std::pair{false, 2}, std::pair{false, 3}, std::pair{true, 2}, std::pair{true, 3}}) {
-      SCOPED_TRACE(std::string(cuts ? "cuts across x" : "strips") + " on " + std::to_string(ranks) +
-                   " ranks, " + std::to_string(rings) + " ring(s)");
-      const std::vector<int> owner =
-          cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
-      ThreadNet net(ranks);
-      std::vector<Record> records(static_cast<std::size_t>(ranks));
-      std::vector<Index> held_bonds(static_cast<std::size_t>(ranks));
-      ASSERT_NO_THROW(net.run([&](const ThreadRanks& on) {
-        const int rank = on.rank();
-        const OwnedRows rows{rank, owner};
-        const Model part =
-            discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, rings); });
-        held_bonds[static_cast<std::size_t>(rank)] = part.bonds.n_bonds();
-        ProblemOptions options = problem_options(scene);
-        options.rows = rows;  // the problem shares its forces and its particles' values by these owners
-        options.matrix_free = rings == 1;
-        records[static_cast<std::size_t>(rank)] = break_save_restore(part, options, x, at_most, on);
-      }));
-      for (int rank = 0; rank < ranks; ++rank) {
-        SCOPED_TRACE("rank " + std::to_string(rank));
-        const Record& r = records[static_cast<std::size_t>(rank)];
-        if (!cuts || ranks == 2) {
-          EXPECT_LT(held_bonds[static_cast<std::size_t>(rank)], model.bonds.n_bonds());
-        }
-        ASSERT_EQ(r.rounds.size(), whole.rounds.size());
-        for (std::size_t k = 0; k < r.rounds.size(); ++k) {
-          EXPECT_EQ(r.rounds[k], whole.rounds[k]) << "round " << k << ": the pairs and their order";
-          EXPECT_EQ(r.peaks[k].ratio, whole.peaks[k].ratio) << "round " << k;
-          EXPECT_EQ(r.peaks[k].i, whole.peaks[k].i) << "round " << k;
-          EXPECT_EQ(r.peaks[k].j, whole.peaks[k].j) << "round " << k;
-        }
-        EXPECT_EQ(r.broken, whole.broken);
-        EXPECT_TRUE((r.damage.array() == whole.damage.array()).all()) << "damage, to the bit";
-        EXPECT_EQ(r.fragment_particles, whole.fragment_particles);
-        EXPECT_EQ(r.fragments, whole.fragments);
-        for (const char* key : {"failure/broken_bonds", "failure/reference_bonds"}) {
-          ASSERT_EQ(r.saved.arrays.count(key), whole.saved.arrays.count(key)) << key;
-          if (whole.saved.arrays.count(key)) {
-            EXPECT_EQ(r.saved.get(key), whole.saved.get(key)) << key;
-          }
-        }
-        EXPECT_EQ(r.restored_broken, whole.broken);
-        EXPECT_TRUE((r.restored_damage.array() == whole.damage.array()).all()) << "restored damage";
-        EXPECT_EQ(r.restored_fragment_particles, whole.fragment_particles);
-      }
-    }
   for (const auto& [cuts, ranks] : {std::pair{false, 2}, std::pair{true, 2}, std::pair{true, 3}}) {
     SCOPED_TRACE(std::string("parts, ") + (cuts ? "cuts across x" : "strips") + " on " +
                  std::to_string(ranks) + " ranks");
