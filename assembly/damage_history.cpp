@@ -28,16 +28,15 @@ std::string DamageHistory::check() {
     std::int64_t id;
     double x, y, before, after;
   };
-  const bool part = on_part(m_options);
   std::vector<Healed> found;
   for (Index i = 0; i < m_damage_now.size(); ++i) {
-    if (part && !m_options.rows.counts(i)) continue;
+    if (!m_options.rows.counts(i)) continue;
     if (m_damage_now[i] >= m_damage_accepted[i] - kDamageRoundOff) continue;
     const Vec2& X = m_model.particles.position[i];
     found = {{m_failure->global(i), X.x(), X.y(), m_damage_accepted[i], m_damage_now[i]}};
     break;
   }
-  if (part) {
+  {
     const std::vector<Healed> all = m_ranks.all_gather(found);
     found.clear();
     for (const Healed& h : all)

@@ -83,7 +83,6 @@ class EnergyBalance {
 
  private:
   const Model& m_model;
-  const ProblemOptions& m_options;
   const Ranks& m_ranks;
   bool m_contact;  ///< the contact forces are kept apart
   bool m_small_kinematics;

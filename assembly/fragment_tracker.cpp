@@ -12,7 +12,7 @@ FragmentTracker::FragmentTracker(const Model& model, const BondFailure* failure,
                                  const Ranks& ranks, ValueExchange* particle_values)
     : m_model(model), m_failure(failure), m_options(options), m_ranks(ranks) {
   if (!m_failure) return;
-  if (m_failure->partitioned())  // a rank's part (BondFailure refuses any other model holding some families)
+  if (!model.holds_every_family())  // a rank's part: its pieces joined with the other ranks'
     m_graph_parts = std::make_unique<GraphParts>(GraphParts{ranks, m_failure->share().proposes,
                                                             m_failure->share().global_id,
                                                             std::span<const int>(m_options.rows.owner), particle_values});
@@ -25,7 +25,6 @@ void FragmentTracker::update(ContactSystem* contact) {
   find_unsupported(m_model, m_failure->weights(), m_unsupported, m_component, m_graph_parts.get());
   const Index n = m_model.particles.size();
   const std::vector<Index>& free = m_model.constraints.free_index;
-  const bool part = on_part(m_options);
   m_fragment_unknowns.clear();
   m_fragment_unknown.assign(static_cast<std::size_t>(m_model.constraints.n_free), 0);
   m_fragment_components.clear();
@@ -34,7 +33,7 @@ void FragmentTracker::update(ContactSystem* contact) {
   for (Index i = 0; i < n; ++i) {
     m_fragment[i] = m_unsupported[i] && !m_initially_unsupported[i];
     if (!m_fragment[i]) continue;
-    if (!part || m_options.rows.counts(i)) {  // on a part, its own particles (summed below)
+    if (m_options.rows.counts(i)) {  // its own particles (every one in one process), summed below
       ++m_fragment_particles;
       roots.push_back(m_component[i]);
     }
@@ -48,27 +47,22 @@ void FragmentTracker::update(ContactSystem* contact) {
   }
   std::sort(roots.begin(), roots.end());
   roots.erase(std::unique(roots.begin(), roots.end()), roots.end());
-  if (part) {  // the components by global id: every rank's own particles' components, once
-    std::vector<Index> every = m_ranks.all_gather(roots);
-    std::sort(every.begin(), every.end());
-    m_fragments = static_cast<Index>(std::unique(every.begin(), every.end()) - every.begin());
-    m_fragment_particles = static_cast<Index>(m_ranks.sum(std::int64_t{m_fragment_particles}));
-  } else {
-    m_fragments = static_cast<Index>(roots.size());
-  }
+  // The components (by global id on a part): every rank's own particles' components, once.
+  std::vector<Index> every = m_ranks.all_gather(roots);
+  std::sort(every.begin(), every.end());
+  m_fragments = static_cast<Index>(std::unique(every.begin(), every.end()) - every.begin());
+  m_fragment_particles = static_cast<Index>(m_ranks.sum(std::int64_t{m_fragment_particles}));
   if (contact) contact->set_excluded(m_fragment_particles > 0 ? m_fragment : std::vector<char>{});
 }
 
 void FragmentTracker::hold(VectorXd& force) {
-  const bool part = on_part(m_options);
   Vec2 reaction = Vec2::Zero();  // bonds inside a fragment cancel: what remains is contact
   for (const Index c : m_fragment_components) {
-    if (!part || m_options.rows.counts(c / 2)) reaction[c % 2] += force[c];
+    if (m_options.rows.counts(c / 2)) reaction[c % 2] += force[c];
     force[c] = 0.0;
   }
-  // On a part: the sum over the ranks' own particles (collective: every rank knows that
-  // fragments exist).
-  if (part && m_fragment_particles > 0) m_ranks.sum_in_rank_order(std::span<double>(reaction.data(), 2));
+  // The sum over the ranks' own particles (collective: every rank knows that fragments exist).
+  if (m_fragment_particles > 0) m_ranks.sum_in_rank_order(std::span<double>(reaction.data(), 2));
   m_fragment_reaction = reaction.norm();
 }
 
@@ -77,11 +71,11 @@ Index FragmentTracker::contacts(const ContactSystem* contact) const {
   Index n = 0;
   for (std::size_t c = 0; c < m_fragment_components.size(); c += 2) {
     const Index i = m_fragment_components[c] / 2;
-    if (on_part(m_options) && !m_options.rows.counts(i)) continue;  // a part: its own particles, summed over the ranks
+    if (!m_options.rows.counts(i)) continue;  // its own particles, summed over the ranks
     for (auto* e = contact->incident_begin(i); e != contact->incident_end(i); ++e)
       if (!m_fragment[e->other] && contact->result(e->pair).status != PairStatus::open) ++n;
   }
-  return on_part(m_options) ? static_cast<Index>(m_ranks.sum(std::int64_t{n})) : n;
+  return static_cast<Index>(m_ranks.sum(std::int64_t{n}));
 }
 
 void FragmentTracker::decouple(SparseMatrix& K) const {

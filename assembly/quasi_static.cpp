@@ -47,11 +47,12 @@ std::vector<char> counted_families(const Model& model, const OwnedRows& rows) {
 }
 
 /// On a rank's part, its share of the failure decisions: it proposes the pairs of the families
-/// it counts (its own; rank 0's also those without a row).
-FailureRanks failure_ranks(const Model& model, const ProblemOptions& options, const RankExchanges& exchanges) {
-  if (model.holds_every_family()) return {};
-  return {counted_families(model, options.rows), exchanges.particle_values(), options.global_id,
-          options.n_particles_whole};
+/// it counts (its own; rank 0's also those without a row). A whole model numbers itself.
+FailureRanks failure_ranks(const ProblemOptions& options, const RankExchanges& exchanges) {
+  if (options.global_id.empty()) return {};
+  std::vector<char> proposes(options.rows.owner.size(), 0);
+  for (std::size_t p = 0; p < proposes.size(); ++p) proposes[p] = options.rows.counts(static_cast<Index>(p));
+  return {std::move(proposes), exchanges.particle_values(), options.global_id, options.n_particles_whole};
 }
 
 /// Per body, its material's kernel.
@@ -79,7 +80,7 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
                   options.failure.enabled, ranks),
       m_contact(make_contact(model, options, ranks, m_timings.contact_setup)),
       m_failure(options.failure.enabled ? std::make_unique<BondFailure>(model, options.failure, ranks,
-                                                                        failure_ranks(model, options, m_exchanges))
+                                                                        failure_ranks(options, m_exchanges))
                                         : nullptr),
       m_pattern(options.matrix_free
                     ? TangentPattern{}
@@ -113,6 +114,9 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
     for (const MirrorImage& im : model.constraints.images) m_mirror_zone[im.ghost] = m_mirror_zone[im.source] = 1;
   }
   // What a rank computes with own rows only, from the rows alone: built here, once.
+  if (!distributed() && ranks.size() > 1)
+    throw std::logic_error("QuasiStaticProblem: a whole model is one process's, not one of " +
+                           std::to_string(ranks.size()) + " ranks'");
   if (distributed() && options.global_id.empty())
     throw std::logic_error("QuasiStaticProblem: a rank of a distributed run holds its part of the model "
                            "(ProblemOptions::global_id)");
@@ -145,12 +149,8 @@ void QuasiStaticProblem::check_partition() const {
 
 Vec2 QuasiStaticProblem::reaction(std::size_t k) const {
   Vec2 f = Vec2::Zero();
-  if (!part()) {
-    for (const Index d : m_model.constraints.condition_dofs.at(k)) f[d % 2] += m_force[d];
-    return f;
-  }
-  // A part's forces are right at its own particles (and those without an owner, which rank 0
-  // counts): their sum, summed over the ranks.
+  // The forces are right at a rank's own particles (and at those without an owner, which rank
+  // 0 counts; every particle in one process): their sum, summed over the ranks.
   const OwnedRows& rows = m_options.rows;
   for (const Index d : m_model.constraints.condition_dofs.at(k))
     if (rows.counts(d / 2)) f[d % 2] += m_force[d];
@@ -227,7 +227,7 @@ std::string QuasiStaticProblem::check_converged_state(const VectorXd& x) {
     // so that the grown parts follow the faces for a while).
     const double radius = m_contact->search_radius();
     if (const std::int64_t outside =
-            m_contact->partitioned()
+            !m_contact->holds_every_particle()
                 ? m_ranks.sum(static_cast<std::int64_t>(m_contact->partners_not_held(m_u, radius).size()))
                 : 0;
         outside > 0) {
@@ -261,7 +261,7 @@ std::vector<std::string> QuasiStaticProblem::state_checks() const {
   if (m_contact) {
     checks.emplace_back("no crossed contact pair");
     checks.emplace_back("contact slide since the partner search within its reach");
-    if (m_contact->partitioned())
+    if (!m_contact->holds_every_particle())
       checks.emplace_back("every partner of a face particle held by its rank's part");
   }
   if (m_failure) checks.emplace_back("damage never decreasing");
@@ -613,8 +613,7 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
 }
 
 void QuasiStaticProblem::check_mirror_zone(const std::vector<std::pair<Index, Index>>& broken) {
-  if (m_mirror_zone.empty() && !part()) return;  // a part without mirror images still takes part
-  std::vector<double> found;                     // the bond's ends
+  std::vector<double> found;  // the bond's ends (collective: a part without mirror images takes part)
   for (const auto& [i, j] : broken) {
     if (m_mirror_zone.empty()) break;
     if (!m_mirror_zone[i] && !m_mirror_zone[j]) continue;
@@ -623,11 +622,8 @@ void QuasiStaticProblem::check_mirror_zone(const std::vector<std::pair<Index, In
     break;
   }
   // On a part, each rank sees the pairs it holds: the first rank's bond that found one.
-  if (part()) {
-    const std::vector<double> all = m_ranks.all_gather(found);  // the ends' positions
-    found.assign(all.begin(),
-                 all.begin() + std::min<std::ptrdiff_t>(4, static_cast<std::ptrdiff_t>(all.size())));
-  }
+  const std::vector<double> all = m_ranks.all_gather(found);  // the ends' positions
+  found.assign(all.begin(), all.begin() + std::min<std::ptrdiff_t>(4, static_cast<std::ptrdiff_t>(all.size())));
   if (found.empty()) return;
   m_failure->revert();
   char buf[256];

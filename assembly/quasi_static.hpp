@@ -64,10 +64,6 @@ struct ProblemOptions {
 
 /// The model is a rank's part (ProblemOptions::owned_unknowns).
 inline bool on_part(const ProblemOptions& options) { return options.owned_unknowns >= 0; }
-/// On a part, a sum of the ranks' values (collective); the value itself otherwise.
-inline double over_ranks(const ProblemOptions& options, const Ranks& ranks, double value) {
-  return on_part(options) ? ranks.sum(value) : value;
-}
 
 class QuasiStaticProblem final : public Problem,
                                  public PreconditionerSource,

@@ -269,7 +269,7 @@ double CandidateSearch::max_slide_between_searches() const {
 }
 
 std::vector<std::int64_t> CandidateSearch::partners_not_held(const VectorXd& u, double reach) const {
-  if (!m_ids.partitioned() || m_surfaces.empty()) return {};
+  if (m_ids.holds_every_particle() || m_surfaces.empty()) return {};
   // Every rank's own face particles: (surface, side, global id, current x, y).
   struct Face {
     std::int64_t surface, side, gid;

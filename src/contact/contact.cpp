@@ -145,7 +145,7 @@ void ContactSystem::evaluate(const VectorXd& u, bool want_jacobian) {
   if (want_jacobian) m_symmetric = symmetric;  // describes the last Jacobian computed
   m_min_distance = np > 0 ? dmin : 0.0;
   m_max_closure = closure;
-  if (partitioned()) reduce_over_ranks(want_jacobian);
+  reduce_over_ranks(want_jacobian);
 }
 
 void ContactSystem::reduce_over_ranks(bool want_jacobian) {
@@ -269,8 +269,7 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
       m.pair_j = gid(c.j);
     }
   }
-  if (partitioned()) {  // the largest over every rank's own pairs; of equals, the first in the whole model's
-                        // order
+  {  // the largest over every rank's own pairs; of equals, the first in the whole model's order
     struct Worst {
       double violation, opening;
       std::int64_t i, j;
@@ -311,7 +310,6 @@ CrossedPair ContactSystem::first_crossed_pair(const VectorXd& u) const {
     out = {gid(c.i), gid(c.j), p.position[c.i], p.position[c.j],
            pair_gap(c, p.position[c.j] - p.position[c.i], du).normal};
   }
-  if (!partitioned()) return out;
   // Every rank's first own crossed pair; the first of those in the whole model's order.
   struct Crossed {
     std::int64_t i, j;
@@ -364,9 +362,9 @@ bool ContactSystem::search(const VectorXd& u) {
   for (const ContactPair& c : m_search.find_partners(pairs(), u)) add_pair(c, u);
   // On a part, every rank changes its version when any rank found a pair: the solvers rebuild
   // what depends on the pairs together.
-  if (m_law.exact && partitioned()) m_state.reduce_augmentation_capped(m_ids);
+  if (m_law.exact) m_state.reduce_augmentation_capped(m_ids);
   if (m_ids.max_over_ranks(size() > before ? 1.0 : 0.0) == 0.0) return false;
-  if (partitioned()) m_state.sort_from(before, m_ids);  // the new pairs in the whole model's order too
+  m_state.sort_from(before, m_ids);  // the new pairs in the whole model's order, on every part alike
   m_counts.candidates = size();
   m_state.start_round();
   build_incidence();

@@ -118,8 +118,9 @@ class ContactSystem {
   }
   /// The radius of a partner search [m].
   double search_radius() const { return m_search.search_radius(); }
-  /// A rank's part of the model (ContactRanks given).
-  bool partitioned() const { return m_ids.partitioned(); }
+  /// This model holds every particle of the whole (a whole model, or a part that took in all):
+  /// no partner of a face can lie outside it.
+  bool holds_every_particle() const { return m_ids.holds_every_particle(); }
   /// Largest normal closure a - n.Y [m] over the pairs that carried a force in the last
   /// evaluation (0 when none did).
   double max_closure() const { return m_max_closure; }

@@ -198,10 +198,9 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
                     m_law.exact ? m_boost[k] : 0.0, m_law.exact ? m_boost_limit[k] : 0.0});
   }
   std::vector<Saved> all = ids.gather(mine);
-  // A whole model's pairs are in its order already; the parts' (in rank order) by global ids.
-  if (ids.partitioned())
-    std::sort(all.begin(), all.end(),
-              [](const Saved& a, const Saved& b) { return std::pair(a.i, a.j) < std::pair(b.i, b.j); });
+  // The parts' pairs (in rank order) by global ids: the whole model's order.
+  std::sort(all.begin(), all.end(),
+            [](const Saved& a, const Saved& b) { return std::pair(a.i, a.j) < std::pair(b.i, b.j); });
   std::vector<double> pairs, slip, multiplier, boost, boost_limit;  // the file holds doubles
   for (const Saved& x : all) {
     pairs.insert(pairs.end(), {static_cast<double>(x.i), static_cast<double>(x.j), x.nx, x.ny, x.gap0, x.stiffness});

@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 #include <numbers>
+#include <numeric>
 #include <stdexcept>
 #include <tuple>
 
@@ -18,7 +19,7 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options, cons
     : m_model(model),
       m_options(options),
       m_ranks(ranks),
-      m_share(model.holds_every_family() ? FailureRanks{} : std::move(share)),
+      m_share(std::move(share)),
       m_min_sin(std::sin(options.skew_min_angle * std::numbers::pi / 180.0)),
       m_weight(model.bonds.weight) {
   const Bonds& bonds = model.bonds;
@@ -39,23 +40,39 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options, cons
     }
   }
   m_ratio.assign(bonds.neighbour.size(), 0.0);
-  if (partitioned() && (m_share.proposes.size() != static_cast<std::size_t>(n) || !m_share.share ||
-                        model.whole_start.size() != static_cast<std::size_t>(n) + 1))
-    throw std::logic_error(
-        "BondFailure: a model holding some families only needs its rank's share (FailureRanks)");
-  if (partitioned() && !part())
-    throw std::logic_error("BondFailure: a model holding some families only must be a rank's part (global ids)");
-  if (part()) {
-    if (m_share.global_id.size() != static_cast<std::size_t>(n) || m_share.n_particles_whole <= 0)
-      throw std::logic_error("BondFailure: a rank's part needs the global ids and the whole particle count");
-    m_by_global.reserve(static_cast<std::size_t>(n));
-    for (Index i = 0; i < n; ++i) m_by_global.emplace_back(global(i), i);
-    std::sort(m_by_global.begin(), m_by_global.end());
+  number_particles(n);
+}
+
+void BondFailure::number_particles(Index n) {
+  const Model& model = m_model;
+  if (m_share.global_id.empty()) {  // a whole model: one process's, numbered by itself
+    if (!model.holds_every_family())
+      throw std::logic_error("BondFailure: a model holding some families only must be a rank's part (global ids)");
+    if (m_ranks.size() > 1)
+      throw std::logic_error("BondFailure: a model without global ids is one process's, not one of " +
+                             std::to_string(m_ranks.size()) + " ranks'");
+    m_share.proposes.assign(static_cast<std::size_t>(n), 1);
+    m_share.global_id.resize(static_cast<std::size_t>(n));
+    std::iota(m_share.global_id.begin(), m_share.global_id.end(), std::int64_t{0});
+    m_share.n_particles_whole = n;
   }
+  if (m_share.proposes.size() != static_cast<std::size_t>(n) ||
+      m_share.global_id.size() != static_cast<std::size_t>(n) || m_share.n_particles_whole <= 0 ||
+      (!model.holds_every_family() && !m_share.share))
+    throw std::logic_error(
+        "BondFailure: a rank's part needs its share (FailureRanks: proposers, global ids, the particle exchange)");
+  // A whole model holds every family, and its bonds are the whole model's.
+  m_held = model.holds_every_family() ? std::vector<char>(static_cast<std::size_t>(n), 1) : model.family_held;
+  m_whole_start = model.whole_start.empty() ? std::vector<std::int64_t>(model.bonds.start.begin(), model.bonds.start.end())
+                                            : model.whole_start;
+  if (m_whole_start.size() != static_cast<std::size_t>(n) + 1)
+    throw std::logic_error("BondFailure: a part needs the whole model's family starts");
+  m_by_global.reserve(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) m_by_global.emplace_back(global(i), i);
+  std::sort(m_by_global.begin(), m_by_global.end());
 }
 
 Index BondFailure::local(std::int64_t g) const {
-  if (!part()) return static_cast<Index>(g);
   const auto it = std::lower_bound(m_by_global.begin(), m_by_global.end(), std::pair(g, Index{-1}));
   return it != m_by_global.end() && it->first == g ? it->second : -1;
 }
@@ -82,37 +99,12 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
       for (Index b = b0; b < b0 + nb; ++b) m_ratio[b] = bond_stretch(bonds.xi[b], eta[b]) / critical;
     }
   }
-  if (partitioned()) return break_partitioned(at_most);
-  // Candidates: intact pairs (b < reverse) whose larger ratio of the two directions exceeds 1.
-  m_over.clear();
-  m_peak = Peak{};
-  for (Index b = 0; b < bonds.n_bonds(); ++b) {
-    const Index r = bonds.reverse[b];
-    if (b > r || m_weight[b] == 0.0) continue;
-    if (p.fictitious[bonds.neighbour[b]] && p.fictitious[bonds.neighbour[r]]) continue;
-    const double ratio = std::max(m_ratio[b], m_ratio[r]);
-    if (ratio > m_peak.ratio) {
-      const Index i = bonds.neighbour[r], j = bonds.neighbour[b];
-      m_peak = Peak{ratio, i, j, p.position[i] + 0.5 * Vec2(p.position[j] - p.position[i])};
-    }
-    if (ratio > 1.0) m_over.emplace_back(ratio, b);
-  }
-  if (m_over.empty()) return m_round;
-  std::sort(m_over.begin(), m_over.end(), std::greater<>());
-  const std::size_t count = pairs_to_break(m_over.size(), at_most);
-  for (std::size_t k = 0; k < count; ++k) {
-    const Index b = m_over[k].second, r = bonds.reverse[b];
-    break_pair(bonds.neighbour[r], b, bonds.neighbour[b], r);
-  }
-  reselect_references();
-  return m_round;
-}
-
-const std::vector<std::pair<Index, Index>>& BondFailure::break_partitioned(Index at_most) {
+  // The pairs over the criterion, proposed by the ranks that hold their first particle's
+  // family and gathered on every rank (one process: its own), broken alike everywhere.
   gather_candidates();
   if (m_candidates.empty()) return m_round;
-  // Every rank sorts every rank's candidates as one process sorts its bonds: by ratio, then
-  // by the whole model's bond index b = whole_start[i] + k, that is by (i, k), both descending.
+  // Every rank sorts every rank's candidates by ratio, then by the whole model's bond index
+  // b = whole_start[i] + k, that is by (i, k), both descending.
   std::sort(m_candidates.begin(), m_candidates.end(), [](const Candidate& a, const Candidate& b) {
     return std::tuple(a.ratio, a.i, a.k) > std::tuple(b.ratio, b.i, b.k);
   });
@@ -151,7 +143,7 @@ void BondFailure::gather_candidates() {
         peak = RankPeak{ratio, gi, k, gj, at.x(), at.y()};
       }
       if (ratio <= 1.0) continue;
-      mine.push_back({ratio, gi, k, gj, r - bonds.start[j], m_model.whole_start[static_cast<std::size_t>(i)] + k});
+      mine.push_back({ratio, gi, k, gj, r - bonds.start[j], m_whole_start[static_cast<std::size_t>(i)] + k});
     }
   }
   m_candidates = m_ranks.all_gather(mine);
@@ -171,14 +163,14 @@ void BondFailure::gather_candidates() {
 
 void BondFailure::break_candidate(const Candidate& x) {
   const Bonds& bonds = m_model.bonds;
-  const std::vector<char>& held = m_model.family_held;
+  const std::vector<char>& held = m_held;
   const Index i = local(x.i), j = local(x.j);
   const Index bi = i >= 0 && held[static_cast<std::size_t>(i)] ? bonds.start[i] + x.k : -1;
   const Index bj = j >= 0 && held[static_cast<std::size_t>(j)] ? bonds.start[j] + x.kr : -1;
   PERISTAT_ASSERT(bi < 0 || bonds.neighbour[bi] == j);
   PERISTAT_ASSERT(bj < 0 || bonds.neighbour[bj] == i);
   m_broken_whole.push_back(x.whole);
-  if (part() && bi < 0 && bj < 0) {  // far from this part: counted, nothing held
+  if (bi < 0 && bj < 0) {  // far from this part: counted, nothing held
     ++m_round_pairs;
     ++m_broken;
     return;
@@ -229,7 +221,7 @@ void BondFailure::revert() {
   const Bonds& bonds = m_model.bonds;
   for (const auto& [particle, b] : m_round_bonds) m_weight[b] = bonds.weight[b];
   m_broken -= m_round_pairs;
-  if (partitioned()) m_broken_whole.resize(m_broken_whole.size() - static_cast<std::size_t>(m_round_pairs));
+  m_broken_whole.resize(m_broken_whole.size() - static_cast<std::size_t>(m_round_pairs));
   for (auto it = m_round_references.rbegin(); it != m_round_references.rend(); ++it)
     m_reference_bond[it->first] = it->second;
   commit();
@@ -247,36 +239,27 @@ void BondFailure::damage(VectorXd& d) const {
     }
     d[i] = all > 0.0 ? 1.0 - intact / all : 0.0;
   }
-  // A family this rank does not hold has damage 0 here: its owner's value replaces it.
-  if (partitioned()) m_share.share->share(d.data());
+  // A family this rank does not hold has damage 0 here: its owner's value replaces it (a
+  // model holding every family has no exchange).
+  if (m_share.share) m_share.share->share(d.data());
 }
 
 void BondFailure::save(StateArchive& archive) const {
-  const Bonds& bonds = m_model.bonds;
-  std::vector<double> broken;
-  if (partitioned()) {
-    std::vector<std::int64_t> sorted = m_broken_whole;
-    std::sort(sorted.begin(), sorted.end());
-    broken.assign(sorted.begin(), sorted.end());
-  } else {
-    for (Index b = 0; b < bonds.n_bonds(); ++b)
-      if (b < bonds.reverse[b] && m_weight[b] == 0.0 && bonds.weight[b] != 0.0) broken.push_back(b);
-  }
-  archive.put("failure/broken_bonds", std::move(broken));
+  // The broken pairs by the whole model's index of their first bond, ascending.
+  std::vector<std::int64_t> sorted = m_broken_whole;
+  std::sort(sorted.begin(), sorted.end());
+  archive.put("failure/broken_bonds", std::vector<double>(sorted.begin(), sorted.end()));
   if (m_reference_bond.empty()) return;
-  if (!partitioned()) {
-    archive.put("failure/reference_bonds", {m_reference_bond.begin(), m_reference_bond.end()});
-    return;
-  }
-  // On a part: the whole model's index of each reference bond, from the rank that proposes
-  // its family, to rank 0 by global id.
+  // The whole model's index of each reference bond, from the rank that proposes its family,
+  // to rank 0 by global id.
+  const Bonds& bonds = m_model.bonds;
   std::vector<std::int64_t> ids, values;
   for (Index i = 0; i < m_model.particles.size(); ++i) {
     if (!m_share.proposes[static_cast<std::size_t>(i)]) continue;
     ids.push_back(global(i));
-    values.push_back(m_reference_bond[i] < 0 ? -1
-                                             : m_model.whole_start[static_cast<std::size_t>(i)] +
-                                                   m_reference_bond[i] - bonds.start[i]);
+    values.push_back(m_reference_bond[i] < 0
+                         ? -1
+                         : m_whole_start[static_cast<std::size_t>(i)] + m_reference_bond[i] - bonds.start[i]);
   }
   const std::vector<std::int64_t> table = m_ranks.gather_rows_on_root(
       std::span<const std::int64_t>(ids), std::span<const std::int64_t>(values), 1, m_share.n_particles_whole);
@@ -300,7 +283,7 @@ std::vector<BondFailure::Candidate> BondFailure::restored_pairs(const std::vecto
   std::vector<std::pair<std::int64_t, Index>> first;
   for (Index i = 0; i < m_model.particles.size(); ++i)
     if (m_share.proposes[static_cast<std::size_t>(i)] && bonds.family_size(i) > 0)
-      first.emplace_back(m_model.whole_start[static_cast<std::size_t>(i)], i);
+      first.emplace_back(m_whole_start[static_cast<std::size_t>(i)], i);
   std::sort(first.begin(), first.end());
   std::vector<Candidate> mine;  // ratio: the pair's position in the checkpoint
   for (std::size_t at = 0; at < broken.size(); ++at) {
@@ -330,31 +313,17 @@ std::vector<BondFailure::Candidate> BondFailure::restored_pairs(const std::vecto
 
 std::vector<std::pair<Index, Index>> BondFailure::restore(const StateArchive& archive) {
   const Bonds& bonds = m_model.bonds;
-  const Index nb = bonds.n_bonds();
-  const std::vector<double>& broken = archive.get("failure/broken_bonds");
-  if (!partitioned()) {
-    for (const double v : broken) {
-      const Index b = StateArchive::index(v, 0, nb, "failure/broken_bonds");
-      break_pair(bonds.neighbour[bonds.reverse[b]], b, bonds.neighbour[b], bonds.reverse[b]);
-    }
-  } else {
-    for (const Candidate& x : restored_pairs(broken)) break_candidate(x);
-  }
+  for (const Candidate& x : restored_pairs(archive.get("failure/broken_bonds"))) break_candidate(x);
   if (!m_reference_bond.empty()) {
-    const std::vector<double>& r =
-        archive.get("failure/reference_bonds",
-                    part() ? m_share.n_particles_whole : static_cast<std::int64_t>(m_reference_bond.size()));
+    const std::vector<double>& r = archive.get("failure/reference_bonds", m_share.n_particles_whole);
     for (std::size_t i = 0; i < m_reference_bond.size(); ++i) {
       const double ri = r[static_cast<std::size_t>(global(static_cast<Index>(i)))];
       if (ri < 0) {
         m_reference_bond[i] = -1;
-      } else if (!partitioned()) {
-        m_reference_bond[i] = StateArchive::index(ri, 0, nb, "failure/reference_bonds");
-      } else if (m_model.family_held[i]) {  // the other families' references are never read here
+      } else if (m_held[i]) {  // the other families' references are never read here
         const auto l = static_cast<Index>(i);
-        const std::int64_t first = m_model.whole_start[i];
-        const std::int64_t w =
-            whole_index(ri, first, first + bonds.family_size(l), "failure/reference_bonds");
+        const std::int64_t first = m_whole_start[i];
+        const std::int64_t w = whole_index(ri, first, first + bonds.family_size(l), "failure/reference_bonds");
         m_reference_bond[i] = bonds.start[l] + static_cast<Index>(w - first);
       }
     }
@@ -369,8 +338,9 @@ std::size_t BondFailure::memory_bytes() const {
   return (m_critical.capacity() + m_weight.capacity() + m_ratio.capacity()) * sizeof(double) +
          m_reference_bond.capacity() * sizeof(Index) +
          m_round_references.capacity() * sizeof(std::pair<Index, Index>) +
-         m_broken_whole.capacity() * sizeof(std::int64_t) +
-         m_by_global.capacity() * sizeof(std::pair<std::int64_t, Index>);
+         (m_broken_whole.capacity() + m_whole_start.capacity()) * sizeof(std::int64_t) +
+         m_by_global.capacity() * sizeof(std::pair<std::int64_t, Index>) + m_held.capacity() +
+         m_share.proposes.capacity() + m_share.global_id.capacity() * sizeof(std::int64_t);
 }
 
 }  // namespace peristat

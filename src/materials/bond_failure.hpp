@@ -86,13 +86,9 @@ class BondFailure {
   Index reference(Index i) const { return m_reference_bond.empty() ? -1 : m_reference_bond[i]; }
   /// Damage of each particle, 1 - sum of intact bond weights / sum of all (N).
   void damage(VectorXd& d) const;
-  /// The model holds some families only (the decisions are taken with the other ranks).
-  bool partitioned() const { return !m_model.holds_every_family(); }
-  /// The model is a rank's part (FailureRanks::global_id).
-  bool part() const { return !m_share.global_id.empty(); }
   /// Particle i's index in the whole model, and the part's particle of a whole index (-1: not
-  /// in the part).
-  std::int64_t global(Index i) const { return part() ? m_share.global_id[static_cast<std::size_t>(i)] : i; }
+  /// in the part). The identity on a whole model.
+  std::int64_t global(Index i) const { return m_share.global_id[static_cast<std::size_t>(i)]; }
   Index local(std::int64_t g) const;
   const FailureRanks& share() const { return m_share; }
   std::size_t memory_bytes() const;
@@ -127,12 +123,14 @@ class BondFailure {
   /// Zeroes the directions this process holds and records the pair in the round.
   void break_pair(Index i, Index bi, Index j, Index bj);
   void reselect_references();
-  const std::vector<std::pair<Index, Index>>& break_partitioned(Index at_most);
+  /// Numbers the particles: a part's global ids, or the identity (one process); every
+  /// family's whole index, and which families are held.
+  void number_particles(Index n);
   /// The largest ratio of the pairs this rank proposes, then every rank's candidates into
   /// m_candidates (in rank order) and the peak over the ranks into m_peak.
   void gather_candidates();
-  /// Partitioned restore: each pair of the checkpoint resolved by the rank proposing its first
-  /// particle's family, then every pair in the checkpoint's order.
+  /// Restore: each pair of the checkpoint resolved by the rank proposing its first particle's
+  /// family, then every pair in the checkpoint's order.
   std::vector<Candidate> restored_pairs(const std::vector<double>& broken) const;
 
   const Model& m_model;
@@ -145,12 +143,13 @@ class BondFailure {
   std::vector<std::pair<Index, Index>> m_round_references;  ///< (particle, reference before the last round)
   std::vector<double> m_weight;                  ///< per bond, 0 once broken
   std::vector<double> m_ratio;                   ///< per bond: criterion value / critical (scratch)
-  std::vector<std::pair<double, Index>> m_over;  ///< scratch: (ratio, bond) over the criterion
   std::vector<std::pair<Index, Index>> m_round;  ///< pairs broken by the last round
   std::vector<std::pair<Index, Index>> m_round_bonds;  ///< their directions held here: (particle, bond)
-  std::vector<Candidate> m_candidates;                 ///< partitioned, scratch: every rank's candidates
-  std::vector<std::int64_t> m_broken_whole;            ///< partitioned: every broken pair's whole index
-  std::vector<std::pair<std::int64_t, Index>> m_by_global;  ///< part: (global id, particle), sorted
+  std::vector<Candidate> m_candidates;                 ///< scratch: every rank's candidates
+  std::vector<std::int64_t> m_broken_whole;            ///< every broken pair's whole index
+  std::vector<std::pair<std::int64_t, Index>> m_by_global;  ///< (global id, particle), sorted
+  std::vector<char> m_held;                   ///< per particle: its family is held here
+  std::vector<std::int64_t> m_whole_start;    ///< per particle (N + 1): its family's first whole bond index
   Index m_round_pairs = 0;                                  ///< pairs broken by the last round, every rank's
   Index m_broken = 0;
   Peak m_peak;
