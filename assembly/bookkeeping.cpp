@@ -8,8 +8,7 @@ RankShare::RankShare(const Model& model, const OwnedRows& rows) {
   m_force_needed.assign(static_cast<std::size_t>(n), 0);
   m_family_needed.assign(static_cast<std::size_t>(n), 0);
   for (Index q = 0; q < n; ++q) {
-    const int owner = rows.owner[static_cast<std::size_t>(q)];
-    if (owner != rows.rank && owner >= 0) continue;
+    if (!rows.computes(q)) continue;
     m_force_needed[static_cast<std::size_t>(q)] = 1;
     m_family_needed[static_cast<std::size_t>(q)] = 1;
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b)

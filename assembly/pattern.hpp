@@ -28,6 +28,11 @@ struct OwnedRows {
   bool contains(Index p) const { return owner.empty() || owner[static_cast<std::size_t>(p)] == rank; }
   /// counted_by() for particle p; every particle when all().
   bool counts(Index p) const { return owner.empty() || counted_by(owner[static_cast<std::size_t>(p)], rank); }
+  /// This rank computes particle p's forces: its own, and those without an owner (every rank
+  /// computes those alike); every particle when all().
+  bool computes(Index p) const {
+    return owner.empty() || owner[static_cast<std::size_t>(p)] == rank || owner[static_cast<std::size_t>(p)] < 0;
+  }
 };
 
 /// The owners of the particles' rows on `ranks` ranks: the nodes (the particles that have an

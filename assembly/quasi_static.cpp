@@ -114,14 +114,15 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
     for (const MirrorImage& im : model.constraints.images) m_mirror_zone[im.ghost] = m_mirror_zone[im.source] = 1;
   }
   // What a rank computes with own rows only, from the rows alone: built here, once.
-  if (!distributed() && ranks.size() > 1)
+  if (options.rows.all() && ranks.size() > 1)
     throw std::logic_error("QuasiStaticProblem: a whole model is one process's, not one of " +
                            std::to_string(ranks.size()) + " ranks'");
-  if (distributed() && options.global_id.empty())
+  if (!options.rows.all() && options.global_id.empty())
     throw std::logic_error("QuasiStaticProblem: a rank of a distributed run holds its part of the model "
                            "(ProblemOptions::global_id)");
-  if (distributed()) m_share = RankShare(model, options.rows);
-  if (partitioned()) check_partition();
+  // What this rank computes (every family and force of a whole model), from the rows alone.
+  m_share = RankShare(model, options.rows);
+  if (!model.holds_every_family()) check_partition();
 }
 
 void QuasiStaticProblem::check_partition() const {
@@ -364,7 +365,7 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
 }
 
 void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
-  m_action.apply(hessians(), m_contact.get(), m_options.rows, distributed() ? &m_share : nullptr,
+  m_action.apply(hessians(), m_contact.get(), m_options.rows, &m_share,
                  m_fragments.unknowns(), v, y);
 }
 
@@ -381,22 +382,19 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
   const Index n = p.size();
-  // Partitioned: the energy of the rank's own families and of those without a row (which every
-  // rank computes), to be summed over the ranks once each; a neighbour's family counts on its
-  // owner.
-  double energy = 0.0, own_energy = 0.0, unowned_energy = 0.0;
-  // (Own rows only: the rank's rows of a distributed ADR step, no energy and no exchange.)
-  const bool restrict = restricted(), split = partitioned() && !m_own_rows_only;
-  const std::vector<int>& owner = m_options.rows.owner;
-  const int rank = m_options.rows.rank;
+  // The families this rank's rows read (every one of a whole model). The energy of the rank's
+  // own families and of those without a row (which every rank computes), summed over the ranks
+  // once each; a neighbour's family counts on its owner.
+  double own_energy = 0.0, unowned_energy = 0.0;
+  const OwnedRows& rows = m_options.rows;
   const std::size_t scratch = static_cast<std::size_t>(omp_get_max_threads()) * m_largest_family;
   if (m_eta_scratch.size() < scratch) m_eta_scratch.resize(scratch);  // more threads than at the start
-#pragma omp parallel reduction(+ : energy, own_energy, unowned_energy)
+#pragma omp parallel reduction(+ : own_energy, unowned_energy)
   {
     Vec2* eta = m_eta_scratch.data() + static_cast<std::size_t>(omp_get_thread_num()) * m_largest_family;
 #pragma omp for schedule(static)
     for (Index i = 0; i < n; ++i) {
-      if (restrict && !m_share.family_needed(i)) continue;
+      if (!m_share.family_needed(i)) continue;
       const Index b0 = bonds.start[i], nb = bonds.family_size(i);
       family_displacements(i, eta);
       const FamilyOutputs out{std::span(m_t).subspan(b0, nb), std::span(m_direction).subspan(b0, nb),
@@ -406,14 +404,10 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
           m_correction.weights().subspan(b0, nb), std::span<const Vec2>(eta, static_cast<std::size_t>(nb)), out,
           want_tangent);
       const double e = p.volume[i] * res.energy_density;
-      energy += e;
-      if (split) {
-        const int o = owner[static_cast<std::size_t>(i)];
-        if (o == rank)
-          own_energy += e;
-        else if (o < 0)
-          unowned_energy += e;
-      }
+      if (rows.contains(i))
+        own_energy += e;
+      else if (rows.computes(i))  // no owner
+        unowned_energy += e;
       if (want_tangent) {
         Vec2 s = Vec2::Zero();
         for (Index b = b0; b < b0 + nb; ++b) s -= m_s[b];
@@ -422,13 +416,11 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
       }
     }
   }
-  // Own rows only: a part of the families, not the energy of the model.
-  // (Those without a row count on rank 0, inside the sum: every rank gets the same bits, whatever
-  // its thread count, so that the energy check decides alike on every rank.)
-  if (split)
-    m_energy = m_ranks.sum(own_energy + (rank == 0 ? unowned_energy : 0.0));
-  else
-    m_energy = m_own_rows_only ? std::numeric_limits<double>::quiet_NaN() : energy;
+  // Own rows only (a distributed ADR step): a part of the families, not the energy of the
+  // model. (Those without a row count on rank 0, inside the sum: every rank gets the same bits,
+  // whatever its thread count, so that the energy check decides alike on every rank.)
+  m_energy = m_own_rows_only ? std::numeric_limits<double>::quiet_NaN()
+                             : m_ranks.sum(rows.rank == 0 ? own_energy + unowned_energy : own_energy);
 }
 
 void QuasiStaticProblem::bond_forces(bool want_tangent) {
@@ -442,11 +434,10 @@ void QuasiStaticProblem::gather_forces() {
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
   const Index n = p.size();
-  const bool restrict = restricted();
 #pragma omp parallel for schedule(static)
   for (Index q = 0; q < n; ++q) {
     Vec2 f = Vec2::Zero();
-    if (restrict && !m_share.force_needed(q)) {
+    if (!m_share.force_needed(q)) {
       m_force[2 * q] = m_force[2 * q + 1] = 0.0;  // another rank's: its families are not computed here
       continue;
     }
@@ -468,22 +459,20 @@ void QuasiStaticProblem::expand_state(const VectorXd& x) {
 
 UnknownSpace QuasiStaticProblem::unknowns() const {
   const Index n = m_model.constraints.n_free;
-  return part() ? UnknownSpace(n, m_options.owned_unknowns, m_ranks) : UnknownSpace(n);
+  // A whole model owns every unknown; a part its first owned_unknowns.
+  return UnknownSpace(n, m_options.owned_unknowns >= 0 ? m_options.owned_unknowns : n, m_ranks);
 }
 
 double QuasiStaticProblem::force_norm() const {
-  // A part's forces are its own particles' (and those without an owner, alike on every rank).
-  if (!m_own_rows_only && !part()) return m_force.norm();
-  // Each rank's own particles, summed over the ranks, and the particles without a row (every
-  // rank computes those alike), added once.
+  // Each rank's own particles (every one of a whole model), summed over the ranks, and the
+  // particles without a row (every rank computes those alike), added once.
   const OwnedRows& rows = m_options.rows;
   double own = 0.0, unowned = 0.0;
   for (Index q = 0; q < m_model.particles.size(); ++q) {
-    const int owner = rows.owner[static_cast<std::size_t>(q)];
     const double f2 = m_force[2 * q] * m_force[2 * q] + m_force[2 * q + 1] * m_force[2 * q + 1];
-    if (owner == rows.rank)
+    if (rows.contains(q))
       own += f2;
-    else if (owner < 0)
+    else if (rows.computes(q))  // no owner
       unowned += f2;
   }
   return std::sqrt(m_ranks.sum(own) + unowned);
@@ -491,7 +480,6 @@ double QuasiStaticProblem::force_norm() const {
 
 bool QuasiStaticProblem::set_evaluation_mode(EvaluationMode mode) {
   if (mode == EvaluationMode::touching_closed && !m_contact) return false;
-  if (mode == EvaluationMode::own_rows_only && !distributed()) return false;
   if (m_contact) m_contact->set_touching_closed(mode == EvaluationMode::touching_closed);
   m_own_rows_only = mode == EvaluationMode::own_rows_only;
   return true;

@@ -62,8 +62,6 @@ struct ProblemOptions {
   std::vector<std::int64_t> global_unknown;
 };
 
-/// The model is a rank's part (ProblemOptions::owned_unknowns).
-inline bool on_part(const ProblemOptions& options) { return options.owned_unknowns >= 0; }
 
 class QuasiStaticProblem final : public Problem,
                                  public PreconditionerSource,
@@ -217,15 +215,6 @@ class QuasiStaticProblem final : public Problem,
   void gather_forces();
   /// The norm of m_force over every component; with own rows only, summed over the ranks.
   double force_norm() const;
-  /// A rank of a distributed run: its rows are some of the model's (its model is its part).
-  bool distributed() const { return !m_options.rows.all(); }
-  /// The model holds some families only (Model::family_held, a rank's part): every
-  /// evaluation computes the families m_share names.
-  bool partitioned() const { return !m_model.holds_every_family(); }
-  /// The families and forces evaluated are those m_share names.
-  bool restricted() const { return m_own_rows_only || partitioned(); }
-  /// The model is a rank's part (ProblemOptions::owned_unknowns).
-  bool part() const { return on_part(m_options); }
   /// m_u from the state x: on a part, x's ghost tail imported first (RankExchanges::ghosts()).
   void expand_state(const VectorXd& x);
   /// The families' forces (and with want_tangent their Hessians' factors) at m_u into
@@ -259,7 +248,7 @@ class QuasiStaticProblem final : public Problem,
   bool m_small_kinematics;                               ///< every body linearised: the bond tangent is constant
   /// The kernel's bond weights (omega_b w_b, 0 once broken) and weighted volumes.
   SurfaceCorrection m_correction;
-  /// Distributed: what this rank computes with own rows only (built at construction).
+  /// What this rank computes: the families and forces its rows read (every one of a whole model).
   RankShare m_share;
   EnergyBalance m_balance;
   DamageHistory m_damage;
