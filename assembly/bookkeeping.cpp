@@ -8,6 +8,7 @@ RankShare::RankShare(const Model& model, const OwnedRows& rows) {
   m_force_needed.assign(static_cast<std::size_t>(n), 0);
   m_family_needed.assign(static_cast<std::size_t>(n), 0);
   for (Index q = 0; q < n; ++q) {
+    if (!rows.contains(q)) m_other_particles.push_back(q);
     if (!rows.computes(q)) continue;
     m_force_needed[static_cast<std::size_t>(q)] = 1;
     m_family_needed[static_cast<std::size_t>(q)] = 1;
@@ -20,7 +21,8 @@ RankShare::RankShare(const Model& model, const OwnedRows& rows) {
 }
 
 std::size_t RankShare::memory_bytes() const {
-  return m_force_needed.capacity() + m_family_needed.capacity() + m_other_unknowns.capacity() * sizeof(Index);
+  return m_force_needed.capacity() + m_family_needed.capacity() +
+         (m_other_unknowns.capacity() + m_other_particles.capacity()) * sizeof(Index);
 }
 
 std::vector<Index> read_unknowns(const Constraints& cons, std::vector<char>& read) {

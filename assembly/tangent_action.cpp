@@ -119,8 +119,7 @@ void TangentAction::apply(const FamilyHessians& h, const ContactSystem* contact,
   // Distributed: this rank's rows only, from the families they read (as the own-rows residual).
   multiply(h, contact, rows, share);
   if (share)
-    for (Index q = 0; q < n; ++q)
-      if (!rows.contains(q)) m_y_full[2 * q] = m_y_full[2 * q + 1] = 0.0;
+    for (const Index q : share->other_particles()) m_y_full[2 * q] = m_y_full[2 * q + 1] = 0.0;
   m_model.constraints.gather(m_y_full, y);
   for (const Index f : fragment_unknowns) y[f] = m_fragment_diagonal * v[f];
   if (share)
