@@ -354,7 +354,7 @@ TEST(Distributed, AssembledTangentOnTwoRanksEqualsSerial) {
   expect_same_answer(p);
   // Each rank assembles only its rows of the tangent; summary.json counts them over the
   // ranks, which must give the one-process tangent's count exactly (the ranks own every
-  // row once; unit.Assembly.OwnedRows* check the entries themselves).
+  // row once; unit.ModelPart.PartMatricesAreTheWholeRows* check the entries themselves).
   const std::string scene = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
   const test::CliResult one =
       test::run_cli("run " + scene + " --quiet --out " + (p.dir / "one").string() +
@@ -420,7 +420,7 @@ TEST(Distributed, ACheckpointResumesOnAnotherNumberOfRanks) {
 }
 
 // Distributed ADR (docs/guide/distributed.md): each rank relaxes its own unknowns, from the
-// residual of its rows (unit.Assembly.OwnedRows* prove those rows bit for bit), and shares
+// residual of its rows (unit.ModelPart.PartRowsAreTheWholeRows* prove those rows bit for bit), and shares
 // them every pseudo-time step. Only the sums of the residual norm and of the damping's
 // Rayleigh quotient change order, and ADR's iteration count is sensitive to that round-off:
 // the serial run with its quotient summed backwards took 284 + 69 iterations on the tension
