@@ -25,7 +25,7 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem, const M
     s.largest_rank_particles = ranks.max(std::int64_t{p.size()});
   }
   s.bonds = static_cast<long long>(model.n_bonds_whole /
-                                   2);  // a rank with partitioned bonds holds some families only
+                                   2);  // a rank's part holds some families only
   s.cut_bonds = model.n_cut_bonds;
   s.unknowns = part ? static_cast<Index>(part->n_unknowns_whole) : model.constraints.n_free;
   s.prescribed = 2 * s.particles - s.unknowns;

@@ -14,7 +14,7 @@ struct ModelSize {
   double memory_bytes = 0.0;  ///< model + problem state + one tangent (factorisation excluded)
   SurfaceCorrectionMethod correction = SurfaceCorrectionMethod::none;
   SurfaceCorrectionStats correction_stats;  ///< of the factors computed when the problem was built
-  /// Under mpirun with partitioned bonds: the most directed bonds one rank holds (of 2 x bonds).
+  /// Under mpirun (each rank its part, some families only): the most directed bonds one rank holds (of 2 x bonds).
   bool bonds_partitioned = false;
   long long largest_rank_bonds = 0;
   /// Under mpirun (every rank its part): the most particles one rank's part holds.
