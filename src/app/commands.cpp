@@ -1,14 +1,17 @@
 #include "app/commands.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <functional>
 #include <memory>
 #include <optional>
 
 #include <omp.h>
+#include <unistd.h>
 
 #include "app/interrupt.hpp"
 #include "app/model_size.hpp"
@@ -101,6 +104,32 @@ void check_same_run(const StateArchive& checkpoint, const std::string& path, con
   }
 }
 
+/// Refuses (InputError, before anything is built) an output directory that cannot be one:
+/// a path that names a file, a path under a file, or a directory that cannot be written into.
+/// Nothing is created here (rank 0 creates the directory when it opens the record).
+void check_output_directory(const std::string& out) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  const fs::path dir = fs::absolute(fs::path(out), error);
+  // The path itself, then its nearest existing ancestor: a directory that this process can write into.
+  for (fs::path at = dir; !at.empty(); at = at.parent_path()) {
+    const fs::file_status status = fs::status(at, error);
+    if (!fs::exists(status)) {
+      if (at == at.parent_path()) break;
+      continue;
+    }
+    if (!fs::is_directory(status))
+      throw InputError("--out: '" + out + "' " +
+                       (at == dir ? std::string("is a file, not a directory")
+                                  : "lies under '" + at.string() + "', which is a file, not a directory") +
+                       "; name a directory (it is created if missing)");
+    if (::access(at.c_str(), W_OK | X_OK) != 0)
+      throw InputError("--out: cannot write into '" + at.string() + "' (" + std::strerror(errno) + ")" +
+                       (at == dir ? "" : ", where '" + out + "' would be created"));
+    return;
+  }
+}
+
 /// This process's model: under mpirun the rank's part of it, else the whole model.
 struct ProcessModel {
   Model model;
@@ -144,6 +173,8 @@ class Run {
     std::vector<Override> overrides = parse_overrides(m_args.overrides);
     if (!m_args.solver.empty()) overrides.push_back({"solver.type", m_args.solver});
     m_scene = peristat::parse_scene(m_args.scene, overrides);
+    m_out = m_args.out.empty() ? "results/" + m_scene.name : m_args.out;
+    check_output_directory(m_out);  // every rank alike: one message, exit 2, before any work
   }
 
   /// The choices of the run, once (`auto` becomes a solver here, from the size estimate,
@@ -203,7 +234,6 @@ class Run {
   /// With --resume, the state of the last converged step of the checkpoint (the same scene and
   /// options only); else the unloaded state.
   void resume_or_start() {
-    m_out = m_args.out.empty() ? "results/" + m_scene.name : m_args.out;
     m_checkpoint_path = m_out + "/" + m_scene.name + ".checkpoint.h5";
     m_checkpointed = m_args.resume;
     start_from_checkpoint(true);

@@ -3,7 +3,9 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <regex>
 #include <sstream>
@@ -384,6 +386,27 @@ TEST(ExitCodes, ProbeOfAMissingFileIsBadInput) {
   const auto r = test::run_cli("probe /nonexistent/result.h5 --line 0 0 1 1");
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("/nonexistent/result.h5"), std::string::npos) << r.err;
+}
+
+// `--out` at a file, or under one, is the user's mistake: exit 2 with one message naming the
+// path, before anything is built, and the file is left as it was (not "internal error", exit 1).
+TEST(ExitCodes, AnOutputPathThatIsAFileIsBadInput) {
+  const std::filesystem::path dir = test::fresh_directory("exit_codes_out_file");
+  const std::filesystem::path file = dir / "a_file";
+  std::ofstream(file) << "keep me\n";
+  for (const std::filesystem::path& out : {file, file / "sub"}) {
+    SCOPED_TRACE(out.string());
+    const auto r = test::run_cli("run " + kTension + " --quiet --out " + out.string() +
+                                 " --set discretization.spacing=5e-3");
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("--out"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(out.string()), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("is a file, not a directory"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
+    std::ifstream in(file);
+    const std::string kept((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(kept, "keep me\n") << "the file is left as it was";
+  }
 }
 
 }  // namespace
