@@ -43,6 +43,8 @@ void complete_owners(const Model& model, std::vector<int>& owner) {
   }
   for (int& o : owner)
     if (o < 0) o = 0;
+  for (const MirrorImage& im : model.constraints.images)
+    owner[static_cast<std::size_t>(im.ghost)] = owner[static_cast<std::size_t>(im.source)];
 }
 
 namespace {

@@ -48,7 +48,9 @@ std::vector<int> strip_owners(const Constraints& constraints, int ranks);
 /// table); a particle that no step reaches goes to rank 0. It has no row: its owner computes
 /// its force (reactions, force scale) and holds its family, so that a rank holds the layers
 /// near its part only, not every layer of the model (docs/guide/distributed.md, "Who owns the
-/// fictitious layers"). Reads the particles and the stencil, not the bonds.
+/// fictitious layers"). A mirror ghost then takes its source's owner: its displacement is
+/// its source's image, right only where the source's is (the results rank 0 gathers are each
+/// particle's owner's). Reads the particles, the stencil and the images, not the bonds.
 void complete_owners(const Model& model, std::vector<int>& owner);
 
 /// Particle-level column structure plus the map to the free-dof matrix.

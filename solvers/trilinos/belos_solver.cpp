@@ -51,7 +51,7 @@ class BelosSolver final : public LinearSolver {
   void analyzePattern(const SparseMatrix& A) override {
     m_info = Eigen::Success;
     if (uses_preconditioner_matrix()) {  // a new pattern of P too; with a matrix-free tangent it comes first
-      m_P = SparseMatrix();
+      release(m_P);
       if (m_system) m_system->preconditioner(m_P);
       m_P_fresh = true;
     }
@@ -75,14 +75,12 @@ class BelosSolver final : public LinearSolver {
     m_reuse.renew();
   }
 
+  /// The assembled tangent's copy takes A; a due preconditioner is built (with P at this state).
   void factorize(const SparseMatrix& A) override {
     m_info = Eigen::Success;
     if (m_copy.matrix.is_null()) analyzePattern(A);
     if (m_info != Eigen::Success) return;
-    // P at this state (the last evaluation's, like A), unless analyzePattern() just assembled it.
-    if (uses_preconditioner_matrix() && !m_P_fresh && m_system) m_system->preconditioner(m_P);
-    m_P_fresh = false;
-    m_copy.fill(matrix_free() ? m_P : A);
+    if (!matrix_free()) m_copy.fill(A);
     if (m_reuse.due()) build_preconditioner();
   }
 
@@ -132,12 +130,20 @@ class BelosSolver final : public LinearSolver {
     return parallel::max_over_ranks(owned) == 0.0;
   }
 
+  /// A new preconditioner from P at the state of the last evaluation (like A's), as in one
+  /// process (factor_krylov.cpp): the old hierarchy goes first, from the Belos problem too (the
+  /// set-up would otherwise hold two: 0.14 GB of a 1.52 GB peak, 700 x 700 on four ranks); P is
+  /// assembled, copied, and dropped before the set-up unless the bond factor reads it (54 MB of a
+  /// rank's peak).
   void build_preconditioner() {
     m_reuse.built();
-    // Until the new one is built. The old hierarchy goes first, from the Belos problem too: the
-    // set-up would otherwise hold two (700 x 700 on four ranks: 0.14 GB of the 1.52 GB peak).
     m_preconditioners.drop(false);
     if (!m_problem.is_null()) m_problem->setRightPrec(Teuchos::null);
+    const bool bond_factor = m_options.preconditioner == BelosPreconditioner::bond_factor;
+    if (uses_preconditioner_matrix() && !m_P_fresh && m_system) m_system->preconditioner(m_P);
+    m_P_fresh = false;
+    if (matrix_free()) m_copy.fill(m_P);
+    if (!bond_factor) release(m_P);
     ++m_builds;
     m_info = m_preconditioners.build(m_options.preconditioner, m_copy, m_layout, m_muelu_parameters,
                                      m_P.rows() > 0 ? &m_P : nullptr);
@@ -210,7 +216,8 @@ class BelosSolver final : public LinearSolver {
   RCP<const Teuchos::Comm<int>> m_comm;
   UnknownLayout m_layout;
   std::shared_ptr<LinearSystem> m_system;  ///< the tangent's action (matrix-free) and the bond matrix
-  /// The bond matrix, at the state of the last factorize() (bond_factor, a matrix-free tangent).
+  /// The bond matrix (bond_factor, a matrix-free tangent): from analyzePattern() to the next
+  /// build, and kept after it for the bond factor only.
   SparseMatrix m_P;
   bool m_P_fresh = false;  ///< analyzePattern() filled m_P at this state: factorize() need not again
   TpetraCopy m_copy;  ///< of the tangent, or with a matrix-free tangent of the bond matrix

@@ -64,7 +64,7 @@ class MueLuCycle final : public Preconditioner {
     release_factor();
     if (m_copy.matrix.is_null()) analyzePattern(P);
     m_copy.fill(P);
-    P = SparseMatrix();
+    release(P);
     m_loaded = true;
   }
   void set_up_loaded() override {

@@ -12,6 +12,14 @@
 
 namespace peristat {
 
+/// Blocks of 1 MiB and more come from the kernel and go back to it when freed (glibc's
+/// mmap threshold, fixed). Left to itself glibc raises the threshold after the first large
+/// free, up to 32 MiB, and the arrays freed later stay in the process as holes in its heap:
+/// the 700 x 700 plate on four ranks peaked at 1.03-1.06 GB a rank, 0.94-0.98 GB with the
+/// threshold fixed (docs/guide/distributed.md, "Memory"). Call once, at the program's start;
+/// a no-op outside glibc.
+void return_large_blocks() noexcept;
+
 /// Advises the kernel to back [data, data + bytes) with huge pages: the 2 MB-aligned part
 /// of it, for ranges of at least 4 MB; a no-op where the kernel does not support the advice.
 void advise_huge_pages(void* data, std::size_t bytes) noexcept;

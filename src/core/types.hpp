@@ -14,4 +14,11 @@ using Mat2 = Eigen::Matrix2d;
 using VectorXd = Eigen::VectorXd;
 using SparseMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, Index>;
 
+/// Empties `m` and gives its storage back: assigning an empty matrix keeps the allocation
+/// (Eigen 3.4's CompressedStorage only clears its size).
+inline void release(SparseMatrix& m) {
+  SparseMatrix empty;
+  m.swap(empty);
+}
+
 }  // namespace peristat

@@ -11,6 +11,7 @@
 #include "app/commands.hpp"
 #include "app/linear_solvers.hpp"
 #include "core/error.hpp"
+#include "core/huge_pages.hpp"
 #include "core/version.hpp"
 #include "parallel/mpi/mpi_ranks.hpp"
 
@@ -117,6 +118,7 @@ int main(int argc, char** argv) {
   using namespace peristat;
   // Under mpirun: MPI starts now, and the ranks other than 0 print nothing (they run the same
   // model; docs/guide/distributed.md).
+  return_large_blocks();  // before anything is allocated: freed arrays leave no holes (huge_pages.hpp)
   const parallel::Session mpi;
   register_linear_solvers();  // belos and the bond_amg V-cycle behind the linear-solver seam
   silence_other_ranks();
