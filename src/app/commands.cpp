@@ -130,30 +130,25 @@ void check_output_directory(const std::string& out) {
   }
 }
 
-/// This process's model: under mpirun the rank's part of it, else the whole model.
+/// This process's part of the model: a rank's under mpirun; one process's is the whole model,
+/// numbered by itself (whole_as_part()). Both run the same paths.
 struct ProcessModel {
-  Model model;
-  std::optional<ModelPart> part;
-  const Model& held() const { return part ? part->model : model; }
-  const ModelPart* part_or_null() const { return part ? &*part : nullptr; }
+  ModelPart part;
+  const Model& held() const { return part.model; }
 };
 
-/// The model the plan says this process holds (RunPlan::model); a part keeps the `extra`
-/// particles too (global ids: the partners of faces that slid towards it).
+/// The part this process holds (RunPlan::model); a rank's part keeps the `extra` particles too
+/// (global ids: the partners of faces that slid towards it).
 ProcessModel process_model(const Scene& scene, const RunPlan& plan, const Ranks& ranks,
                            const std::vector<std::int64_t>& extra = {}) {
-  ProcessModel m;
-  if (plan.model.part)
-    m.part.emplace(part_model(scene, plan.model.rings, ranks.rank(), ranks.size(), extra));
-  else
-    m.model = discretise(scene);
-  return m;
+  if (ranks.size() == 1) return {whole_as_part(discretise(scene))};
+  return {part_model(scene, plan.model.rings, ranks.rank(), ranks.size(), extra)};
 }
 
-/// The problem's options for this process: on a part, its rows and global ids.
+/// The problem's options for this process's part: its rows and global ids.
 ProblemOptions process_problem_options(const Scene& scene, const RunPlan& plan, const ProcessModel& m,
                                        const Ranks& ranks) {
-  return m.part ? part_problem_options(scene, plan, *m.part, ranks.rank()) : problem_options(scene, plan);
+  return part_problem_options(scene, plan, m.part, ranks.rank());
 }
 
 /// What `run` and `check` print of how the model is spread over the ranks.
@@ -212,7 +207,7 @@ class Run {
   /// The problem on it, and its size.
   void build_problem() {
     make_problem();
-    if ((m_plan.ranks > 1 || m_model.part) && !m_args.quiet && m_root)
+    if (m_plan.ranks > 1 && !m_args.quiet && m_root)
       std::printf("peristat: %s\n", held_text(m_plan).c_str());
   }
 
@@ -220,14 +215,14 @@ class Run {
   void make_problem() {
     m_problem = std::make_unique<QuasiStaticProblem>(
         m_model.held(), process_problem_options(m_scene, m_plan, m_model, *m_ranks), *m_ranks);
-    m_size = measure(m_model.held(), *m_problem, m_model.part_or_null());
+    m_size = measure(m_model.held(), *m_problem, &m_model.part);
   }
 
   /// The step solver (Newton and its linear solver, or ADR), and the whole model's view that
   /// rank 0 writes (gathered from the parts on a part).
   void make_solver() {
-    m_solver = make_step_solver(m_scene, m_plan, *m_problem, m_linear, m_model.part_or_null());
-    m_view = std::make_unique<WholeView>(m_model.held(), m_model.part_or_null(), *m_ranks);
+    m_solver = make_step_solver(m_scene, m_plan, *m_problem, m_linear, &m_model.part);
+    m_view = std::make_unique<WholeView>(m_model.part, *m_ranks);
     m_method = m_linear ? "Newton, linear solver " + m_linear->name() : std::string("ADR");
   }
 
@@ -385,7 +380,7 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   const ProcessModel pm = process_model(scene, plan, *ranks);
   const Model& model = pm.held();
   const QuasiStaticProblem problem(model, process_problem_options(scene, plan, pm, *ranks), *ranks);
-  const ModelSize size = measure(model, problem, pm.part_or_null());
+  const ModelSize size = measure(model, problem, &pm.part);
   if (!ranks->root()) return exit_success;
   std::printf("%s: scene '%s' is valid\n", scene_path.c_str(), scene.name.c_str());
   std::printf("  bodies         %zu, materials %zu, pre-cracks %zu, conditions %zu\n", scene.bodies.size(),
@@ -394,7 +389,7 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
               model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
   print_size(size);
   if (!plan.linear_auto.empty()) std::printf("  solver.linear  auto: %s\n", plan.linear_auto.c_str());
-  if (ranks->size() > 1 || pm.part) std::printf("  ranks          %s\n", held_text(plan).c_str());
+  if (ranks->size() > 1) std::printf("  ranks          %s\n", held_text(plan).c_str());
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
               estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,
               estimate.available_bytes / 1e6);

@@ -21,7 +21,7 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem, const M
       }
     s.particles = static_cast<Index>(ranks.sum(std::int64_t{own}));
     s.fictitious = static_cast<Index>(ranks.sum(std::int64_t{own_fictitious}));
-    s.part = true;
+    s.part = ranks.size() > 1;  // "in parts": one process's part is the whole model
     s.largest_rank_particles = ranks.max(std::int64_t{p.size()});
   }
   s.bonds = static_cast<long long>(model.n_bonds_whole /
@@ -35,7 +35,7 @@ ModelSize measure(const Model& model, const QuasiStaticProblem& problem, const M
   s.correction = problem.surface_correction().method();
   s.correction_stats = problem.surface_correction().stats();
   if (!model.holds_every_family()) {  // each rank counted its own families
-    s.bonds_partitioned = true;
+    s.bonds_partitioned = ranks.size() > 1;
     s.largest_rank_bonds = ranks.max(std::int64_t{model.bonds.n_bonds()});
     SurfaceCorrectionStats& c = s.correction_stats;
     c.families = static_cast<decltype(c.families)>(ranks.sum(static_cast<std::int64_t>(c.families)));

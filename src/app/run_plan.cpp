@@ -26,16 +26,16 @@ PreconditionerKind resolved_preconditioner(PreconditionerKind asked, LinearSolve
 }
 
 /// Under mpirun every rank holds its own part of the model and the rings of families around it
-/// (part_rings()); one process holds the whole model.
+/// (part_rings()); one process's part is the whole model.
 ModelChoice model_choice(const Scene& scene, const RunPlan& plan) {
-  if (plan.ranks <= 1) return {false, 0, "one process"};
+  if (plan.ranks <= 1) return {0, "one process: the whole model, one part"};
   const int rings = part_rings(plan);
   std::string reason = rings == 1 ? "each rank holds its own particles, the families of their neighbours, and "
                                     "vectors over their unknowns only"
                                   : "each rank holds its own particles, the families of two rings around "
                                     "them (an assembled tangent), and vectors over their unknowns only";
   if (scene.contact.enabled) reason += "; the parts grow when the contact faces slide past them";
-  return {true, rings, reason};
+  return {rings, reason};
 }
 
 /// `auto` shortens the bond preconditioner's radius of a matrix-free tangent on large models;

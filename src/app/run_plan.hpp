@@ -36,13 +36,12 @@ inline constexpr double kShortBondsAbove = 500000.0;
 /// smaller than the assembled cg path on every case measured). docs/performance.md.
 LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks);
 
-/// What a rank holds of the model, and why. Under mpirun every rank holds its part: its own
+/// What a rank holds of the model, and why. Every rank holds its part: under mpirun its own
 /// particles, and the families of one ring of particles around them for Newton's matrix-free
 /// tangent, two for an assembled tangent (belos's `assembled`, or ADR's for its density);
-/// docs/guide/distributed.md. One process holds the whole model.
+/// docs/guide/distributed.md. One process's part is the whole model.
 struct ModelChoice {
-  bool part = false;
-  int rings = 0;  ///< on a part: stencils around its particles whose families it holds
+  int rings = 0;  ///< under mpirun: stencils around a part's particles whose families it holds
   std::string reason;
 };
 

@@ -141,7 +141,8 @@ UnknownLayout part_unknown_layout(const ModelPart& part, const Ranks& ranks) {
 
 std::unique_ptr<StepSolver> make_step_solver(const Scene& scene, const RunPlan& plan, QuasiStaticProblem& problem,
                                              std::unique_ptr<LinearSolver>& linear, const ModelPart* part) {
-  if (part && plan.newton() && plan.linear != LinearSolverKind::belos)
+  if (part && part->n_particles_whole != part->model.particles.size() && plan.newton() &&
+      plan.linear != LinearSolverKind::belos)
     throw std::logic_error("make_step_solver: a rank's part of the model runs Newton with belos or ADR");
   if (!plan.newton())
     return std::make_unique<AdrSolver>(problem, scene.solver.adr, problem.pseudo_velocity_input(),

@@ -150,8 +150,7 @@ StepRecorder::StepRecorder(const std::string& dir, const Scene& scene, const Qua
           run_info_json(scene, size, linear, threads, problem.state_checks()));
     return;
   }
-  if (!writes && !view.gathers()) return;
-  ParticleTable table = view.particle_table(scene);  // collective on the parts
+  ParticleTable table = view.particle_table(scene);  // collective
   if (writes)
     m_writer =
         std::make_unique<ResultsWriter>(dir, scene.name, scene.text, std::move(table),
@@ -167,7 +166,6 @@ void StepRecorder::rebind(const QuasiStaticProblem& problem, const WholeView& vi
 void StepRecorder::gather_contact_fields(const ContactSystem& contact) {
   contact.contact_force(m_contact_force);
   contact.particle_states(m_contact_state);
-  if (!m_view->gathers()) return;
   // A part's own particles' values, the whole model's on rank 0 (the states exact in doubles).
   VectorXd mine = m_contact_force, whole;
   m_view->particle_values(mine, 2, m_contact_force);
@@ -208,7 +206,6 @@ void StepRecorder::add_step_warnings(const StepReport& s) {
 }
 
 void StepRecorder::record(const StepReport& s, const VectorXd& x) {
-  if (!m_writer && !m_view->gathers()) return;
   double step_contact_seconds = 0.0;  // since the previous step (recorded or not)
   // Collective on the parts: every rank counts, rank 0 writes.
   if (m_problem->failure() && m_problem->contact()) m_fragment_contacts = m_problem->fragment_contacts();
@@ -227,17 +224,14 @@ void StepRecorder::gather_step_fields(const VectorXd& x) {
   // The fields and the reactions, the whole model's: collective on the parts, so every rank
   // computes them; rank 0 alone writes.
   m_problem->expand(x, m_u);
-  if (m_view->gathers()) m_view->particle_values(m_u, 2, m_u_whole);
+  m_view->particle_values(m_u, 2, m_u_whole);
   m_reactions.clear();
   for (std::size_t k = 0; k < m_scene.boundary.size(); ++k) m_reactions.push_back(m_problem->reaction(k));
   const ContactSystem* contact = m_problem->contact();
   if (contact) gather_contact_fields(*contact);  // the commit evaluated the pairs at this state
   if (m_problem->failure()) {                     // the committed state's
-    m_damage = m_problem->damage();
-    if (m_view->gathers()) {
-      const VectorXd mine = m_damage;
-      m_view->particle_values(mine, 1, m_damage);
-    }
+    const VectorXd mine = m_problem->damage();
+    m_view->particle_values(mine, 1, m_damage);
   }
 }
 
@@ -250,7 +244,7 @@ void StepRecorder::write_record(const StepReport& s, double step_contact_seconds
   rec.active_set_iterations = s.active_set_changes;
   rec.residual_norm = s.final_residual;
   rec.wall_seconds = s.wall_seconds;
-  rec.displacement = m_view->gathers() ? &m_u_whole : &m_u;
+  rec.displacement = &m_u_whole;
   rec.residual_history = s.residuals;
   rec.counts = {{"substeps", s.substeps},
                 {"cutbacks", s.cutbacks},

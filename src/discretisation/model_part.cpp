@@ -1,6 +1,7 @@
 #include "discretisation/model_part.hpp"
 
 #include <algorithm>
+#include <numeric>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -210,6 +211,27 @@ ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int ra
   copy_particles(whole, order, part.model);
   part_constraints(whole.constraints, order, local, part);
   part_bonds(whole, order, local, held, part.model);
+  return part;
+}
+
+ModelPart whole_as_part(Model&& whole) {
+  if (!whole.holds_every_family()) throw std::logic_error("whole_as_part: a model holding every family");
+  const Index n = whole.particles.size(), n_free = whole.constraints.n_free;
+  ModelPart part;
+  part.n_owned = n;
+  part.n_owned_unknowns = n_free;
+  part.n_particles_whole = n;
+  part.n_unknowns_whole = n_free;
+  part.global_id.resize(static_cast<std::size_t>(n));
+  std::iota(part.global_id.begin(), part.global_id.end(), std::int64_t{0});
+  part.owner.assign(static_cast<std::size_t>(n), 0);
+  part.global_unknown.resize(static_cast<std::size_t>(n_free));
+  std::iota(part.global_unknown.begin(), part.global_unknown.end(), std::int64_t{0});
+  // As extract_part() leaves a part holding every family: each held, each family's first bond
+  // its own index.
+  whole.family_held.assign(static_cast<std::size_t>(n), 1);
+  whole.whole_start.assign(whole.bonds.start.begin(), whole.bonds.start.end());
+  part.model = std::move(whole);
   return part;
 }
 

@@ -43,4 +43,10 @@ struct ModelPart {
 ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int rank,
                        const std::vector<char>& held, const std::vector<std::int64_t>& extra = {});
 
+/// One process's model as the one part of one rank: `whole` itself (moved, not copied), every
+/// particle and unknown its own, numbered by itself (identity global ids), every family held.
+/// The part extract_part() cuts for one rank, without the copy (a one-process run and a rank's
+/// run take the same paths: docs/guide/distributed.md, "The partitioned model").
+ModelPart whole_as_part(Model&& whole);
+
 }  // namespace peristat

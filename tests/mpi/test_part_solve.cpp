@@ -195,8 +195,7 @@ TEST(WholeView, RankZeroGathersTheWholeModelFromTheParts) {
   // and its ghosts' entries. RCB on a tall plate: the parts are not ranges of the whole's order.
   const Parted p = parted_plate(24, 40, BelosPartition::rcb);
   const int rank = ranks().rank();
-  const WholeView view(p.part.model, &p.part, ranks());
-  EXPECT_TRUE(view.gathers());
+  const WholeView view(p.part, ranks());
   ASSERT_EQ(view.particles(), static_cast<std::size_t>(p.whole.particles.size()));
   const ParticleTable table = view.particle_table(p.scene);
   const Particles& whole = p.whole.particles;

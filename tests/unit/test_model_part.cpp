@@ -363,20 +363,64 @@ TEST(ModelPart, OwnedLayersLeaveEachPartTheLayersNearIt) {
   }
 }
 
+// One process runs its whole model as one part (whole_as_part: the model moved in, not
+// copied). It must be exactly the part extract_part() cuts for one rank owning every particle
+// and holding every family, so that one process and a rank take the same paths: every table
+// compared entry for entry (exact: both only copy).
+TEST(ModelPart, TheWholeModelAsOnePartIsTheOneRankPart) {
+  for (const Scene& scene : {mirror_plate(), cracked_plate()}) {
+    const Model whole = discretise(scene);
+    const auto n = static_cast<std::size_t>(whole.particles.size());
+    const ModelPart cut = extract_part(whole, std::vector<int>(n, 0), 0, std::vector<char>(n, 1));
+    Model copy = whole;
+    const ModelPart moved = whole_as_part(std::move(copy));
+    EXPECT_EQ(moved.n_owned, cut.n_owned);
+    EXPECT_EQ(moved.n_owned_unknowns, cut.n_owned_unknowns);
+    EXPECT_EQ(moved.n_particles_whole, cut.n_particles_whole);
+    EXPECT_EQ(moved.n_unknowns_whole, cut.n_unknowns_whole);
+    EXPECT_EQ(moved.global_id, cut.global_id);
+    EXPECT_EQ(moved.owner, cut.owner);
+    EXPECT_EQ(moved.global_unknown, cut.global_unknown);
+    const Model &a = moved.model, &b = cut.model;
+    EXPECT_EQ(a.family_held, b.family_held);
+    EXPECT_EQ(a.whole_start, b.whole_start);
+    EXPECT_EQ(a.n_bonds_whole, b.n_bonds_whole);
+    EXPECT_EQ(a.n_cut_bonds, b.n_cut_bonds);
+    EXPECT_EQ(a.bonds.start, b.bonds.start);
+    EXPECT_EQ(a.bonds.neighbour, b.bonds.neighbour);
+    EXPECT_EQ(a.bonds.reverse, b.bonds.reverse);
+    EXPECT_EQ(a.bonds.weight, b.bonds.weight);
+    EXPECT_EQ(a.particles.position, b.particles.position);
+    EXPECT_EQ(a.constraints.free_index, b.constraints.free_index);
+    EXPECT_EQ(a.constraints.value, b.constraints.value);
+    EXPECT_EQ(a.constraints.images.size(), b.constraints.images.size());
+    EXPECT_FALSE(a.holds_every_family()) << "held family by family, as a rank's part";
+  }
+}
+
 TEST(CompleteOwners, ALayerParticleTakesTheOwnerOfANearbyNode) {
   // A particle without a row one stencil step from a node takes the owner of such a node; a
-  // deeper one (the mirror layers are 8 deep) that of a particle one step nearer, so each has a
-  // particle of its owner within its stencil: no rank is handed a layer far from its part.
+  // deeper one that of a particle one step nearer, so each has a particle of its owner within
+  // its stencil: no rank is handed a layer far from its part. A mirror ghost (the mirror layers
+  // are 8 deep) takes its source's owner instead: its displacement is the source's image, and
+  // the results are written from each particle's owner (the source is within 16 spacings).
   for (const Scene& scene : {mirror_plate(), cracked_plate()}) {
     const Model model = discretise(scene);
     const std::vector<int> nodes_only = y_cut_owners(model, 4), every = completed(model, nodes_only);
     const Particles& p = model.particles;
-    Index next_to_nodes = 0;
+    std::vector<Index> source(static_cast<std::size_t>(p.size()), -1);
+    for (const MirrorImage& im : model.constraints.images) source[static_cast<std::size_t>(im.ghost)] = im.source;
+    Index next_to_nodes = 0, ghosts = 0;
     for (Index q = 0; q < p.size(); ++q) {
       const int o = every[static_cast<std::size_t>(q)];
       ASSERT_GE(o, 0);
       if (nodes_only[static_cast<std::size_t>(q)] >= 0) {
         ASSERT_EQ(o, nodes_only[static_cast<std::size_t>(q)]) << "a node keeps its owner";
+        continue;
+      }
+      if (const Index s = source[static_cast<std::size_t>(q)]; s >= 0) {
+        ASSERT_EQ(o, every[static_cast<std::size_t>(s)]) << "mirror ghost " << q << " is owned with its source";
+        ++ghosts;
         continue;
       }
       bool near_node = false, near_node_of_owner = false, near_same_owner = false;
@@ -394,7 +438,8 @@ TEST(CompleteOwners, ALayerParticleTakesTheOwnerOfANearbyNode) {
       else
         EXPECT_TRUE(near_same_owner) << "particle " << q;
     }
-    EXPECT_GT(next_to_nodes, 0);
+    // Every layer of the mirror plate is a mirror ghost; the cracked plate's are fictitious layers.
+    EXPECT_GT(model.constraints.has_images() ? ghosts : next_to_nodes, 0);
   }
 }
 
