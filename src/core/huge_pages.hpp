@@ -16,8 +16,8 @@ namespace peristat {
 /// mmap threshold, fixed). Left to itself glibc raises the threshold after the first large
 /// free, up to 32 MiB, and the arrays freed later stay in the process as holes in its heap:
 /// the 700 x 700 plate on four ranks peaked at 1.03-1.06 GB a rank, 0.94-0.98 GB with the
-/// threshold fixed (docs/guide/distributed.md, "Memory"). Call once, at the program's start;
-/// a no-op outside glibc.
+/// threshold fixed (docs/guide/distributed.md, the 700 x 700 plate under "Measured"). Call
+/// once, at the program's start; a no-op outside glibc.
 void return_large_blocks() noexcept;
 
 /// Advises the kernel to back [data, data + bytes) with huge pages: the 2 MB-aligned part
