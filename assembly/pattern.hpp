@@ -35,24 +35,6 @@ struct OwnedRows {
   }
 };
 
-/// The owners of the particles' rows on `ranks` ranks: the nodes (the particles that have an
-/// unknown, in particle order) in strips of equal count (strip_start()), or split by
-/// Zoltan2's recursive coordinate bisection of their positions (`rcb`, app/setup.hpp). A
-/// particle without an unknown has no row and no owner (-1) until complete_owners(). The
-/// Tpetra adapter numbers its rows by the same owners (UnknownLayout::owner).
-std::vector<int> strip_owners(const Constraints& constraints, int ranks);
-
-/// Gives every particle without an owner (-1: fictitious layers, mirror ghosts) the owner of
-/// the nearest owned particle, counted in steps of the bond stencil (a breadth-first search
-/// from every owned particle at once, in particle order, so that every rank computes the same
-/// table); a particle that no step reaches goes to rank 0. It has no row: its owner computes
-/// its force (reactions, force scale) and holds its family, so that a rank holds the layers
-/// near its part only, not every layer of the model (docs/guide/distributed.md, "Who owns the
-/// fictitious layers"). A mirror ghost then takes its source's owner: its displacement is
-/// its source's image, right only where the source's is (the results rank 0 gathers are each
-/// particle's owner's). Reads the particles, the stencil and the images, not the bonds.
-void complete_owners(const Model& model, std::vector<int>& owner);
-
 /// Particle-level column structure plus the map to the free-dof matrix.
 struct TangentPattern {
   // Column particle p couples to row particles row_particle[col_start[p] .. col_start[p+1]-1],

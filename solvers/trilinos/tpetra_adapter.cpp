@@ -9,7 +9,6 @@
 
 #include <omp.h>
 
-#include "core/partition.hpp"
 
 namespace peristat::tpetra {
 

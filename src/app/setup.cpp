@@ -10,7 +10,6 @@
 #include "solvers/newton.hpp"
 #include "app/unknown_share.hpp"
 #include "parallel/exchange.hpp"
-#include "solvers/trilinos/partition.hpp"
 
 namespace peristat {
 
@@ -30,26 +29,10 @@ OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks
   OwnedRows rows;
   if (ranks <= 1) return rows;
   rows.rank = rank;
-  if (scene.solver.linear.belos.partition == BelosPartition::strips) {
-    rows.owner = strip_owners(model.constraints, ranks);
-    complete_owners(model, rows.owner);
-    return rows;
-  }
-  // rcb: the nodes' positions, bisected; then the particles without an unknown, by proximity.
-  const Constraints& cons = model.constraints;
-  std::vector<double> x, y;
-  std::vector<Index> node_particle;
-  for (Index p = 0; p < model.particles.size(); ++p)
-    if (cons.free_index[2 * p] >= 0 || cons.free_index[2 * p + 1] >= 0) {
-      node_particle.push_back(p);
-      x.push_back(model.particles.position[p].x());
-      y.push_back(model.particles.position[p].y());
-    }
-  const std::vector<int> part = rcb_parts(x, y, ranks);
-  rows.owner.assign(static_cast<std::size_t>(model.particles.size()), -1);
-  for (std::size_t k = 0; k < node_particle.size(); ++k)
-    rows.owner[static_cast<std::size_t>(node_particle[k])] = part[k];
-  complete_owners(model, rows.owner);
+  const LatticeCensus census = take_census(scene, false);
+  const LatticePartition partition(census, ranks, scene.solver.linear.belos.partition);
+  rows.owner.reserve(model.particles.lattice.size());
+  for (const auto& l : model.particles.lattice) rows.owner.push_back(partition.owner(l[0], l[1]));
   return rows;
 }
 
@@ -76,14 +59,9 @@ UnknownLayout unknown_layout(const Model& model, Index n_unknowns) {
 }
 
 ModelPart part_model(const Scene& scene, int rings, int rank, int ranks, const std::vector<std::int64_t>& extra) {
-  OwnedRows rows;
-  const Model whole = discretise(scene, [&](const Model& unbonded) {
-    rows = owned_rows(scene, unbonded, rank, ranks);
-    if (rows.owner.empty())
-      rows = OwnedRows{0, std::vector<int>(static_cast<std::size_t>(unbonded.particles.size()), 0)};
-    return families_to_hold(unbonded, rows, rings);
-  });
-  return extract_part(whole, rows.owner, rank, whole.family_held, extra);
+  const LatticeCensus census = take_census(scene, true);
+  const LatticePartition partition(census, std::max(ranks, 1), scene.solver.linear.belos.partition);
+  return build_part(scene, census, partition, rank, rings, extra);
 }
 
 ModelPart part_model(const Scene& scene, int rank, int ranks) {

@@ -20,10 +20,10 @@ ProblemOptions problem_options(const Scene& scene, const RunPlan& plan);
 /// The same for the scene as it stands (scene_plan(): `auto` unresolved assembles the tangent).
 ProblemOptions problem_options(const Scene& scene);
 
-/// The rows rank `rank` of `ranks` assembles (ProblemOptions::rows): by
-/// solver.belos.partition, strips or Zoltan2's RCB of the particles that have an unknown,
-/// then the particles without one by proximity (complete_owners(); every rank computes the
-/// same owners). Every row when ranks <= 1.
+/// The rows rank `rank` of `ranks` assembles (ProblemOptions::rows): each particle of `model`
+/// (the scene's whole model) owned as LatticePartition::owner() says, by
+/// solver.belos.partition (every rank computes the same owners from the census). Every row
+/// when ranks <= 1.
 OwnedRows owned_rows(const Scene& scene, const Model& model, int rank, int ranks);
 
 /// The families a rank with `rows` evaluates: its particles and those without a row, and every
@@ -34,10 +34,10 @@ std::vector<char> families_to_hold(const Model& model, const OwnedRows& rows, in
 UnknownLayout unknown_layout(const Model& model, Index n_unknowns);
 
 /// This rank's part of the model (docs/guide/distributed.md, "The partitioned model"): the
-/// owners by solver.belos.partition (owned_rows(), every particle owned), the whole model
-/// discretised with only the families the part holds (`rings` of them around its particles:
-/// part_rings()), the part extracted from it with the `extra` particles (global ids:
-/// PartsOutgrown's) and the whole model freed.
+/// scene's census (take_census(), a few bytes per lattice point), its regions by
+/// solver.belos.partition, and the part built from them (build_part(): `rings` of families
+/// around its particles, part_rings(), and the `extra` particles, PartsOutgrown's). No rank
+/// builds the whole model.
 ModelPart part_model(const Scene& scene, int rings, int rank, int ranks, const std::vector<std::int64_t>& extra = {});
 /// The same with the rings of the run the scene would make on `ranks` (make_run_plan()).
 ModelPart part_model(const Scene& scene, int rank, int ranks);

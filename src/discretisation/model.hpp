@@ -4,7 +4,6 @@
 #pragma once
 
 #include <array>
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -125,14 +124,6 @@ struct Model {
 /// bodies overlap, a condition selects no particle, or two conditions prescribe the same
 /// component of one particle.
 Model discretise(const ModelDescription& scene);
-
-/// Chooses the families to hold (Model::family_held) from a model whose particles, constraints
-/// and stencil are built and whose bonds are not; an empty result holds every family.
-using FamilySelector = std::function<std::vector<char>(const Model&)>;
-
-/// discretise() holding only the families `select` names: the bonds of the others are never
-/// built (the whole model's counts, n_bonds_whole and n_cut_bonds, are still those of every family).
-Model discretise(const ModelDescription& scene, const FamilySelector& select);
 
 /// The particles within the stencil of a particle in `seeds` (the seeds among them): a
 /// superset of the seeds and their bond neighbours, from lattice offsets alone.

@@ -1,5 +1,7 @@
 #include "discretisation/model_part.hpp"
 
+#include "discretisation/model_builder.hpp"
+
 #include <algorithm>
 #include <numeric>
 #include <limits>
@@ -184,7 +186,124 @@ void part_bonds(const Model& whole, const std::vector<Index>& order, const std::
         b.reverse[static_cast<std::size_t>(pb)] = bond_of[static_cast<std::size_t>(wr)];
 }
 
+
+/// The points of a part: those of the window around the rank's region that the rank owns,
+/// holds or keeps, as flags over the window (docs/guide/distributed.md, "The partitioned model").
+class PartWindow {
+ public:
+  PartWindow(const LatticeCensus& census, const LatticePartition& partition, int rank, int rings, int margin)
+      : m_census(census) {
+    const LatticeBox& region = partition.region(rank);
+    m_box.lo = {std::max(region.lo[0] - margin, census.i0), std::max(region.lo[1] - margin, census.j0)};
+    m_box.hi = {std::min(region.hi[0] + margin, census.i0 + census.ni - 1),
+                std::min(region.hi[1] + margin, census.j0 + census.nj - 1)};
+    m_nj = m_box.hi[1] - m_box.lo[1] + 1;
+    const std::size_t size = static_cast<std::size_t>(m_box.hi[0] - m_box.lo[0] + 1) * static_cast<std::size_t>(m_nj);
+    m_owned.assign(size, 0);
+    for (int i = m_box.lo[0]; i <= m_box.hi[0]; ++i)
+      for (int j = m_box.lo[1]; j <= m_box.hi[1]; ++j)
+        if (census.at(i, j).exists() && partition.owner(i, j) == rank) m_owned[index(i, j)] = 1;
+    m_held = m_owned;
+    for (int ring = 0; ring < rings; ++ring) m_held = widened(m_held);
+    m_kept = widened(m_held);
+    // The sources of the ghosts kept (a ghost's displacement is its source's image).
+    std::array<int, 2> s{};
+    for (int i = m_box.lo[0]; i <= m_box.hi[0]; ++i)
+      for (int j = m_box.lo[1]; j <= m_box.hi[1]; ++j)
+        if (m_kept[index(i, j)] && census.source_of(i, j, s)) m_kept[checked(s[0], s[1])] = 1;
+  }
+
+  bool contains(int i, int j) const { return m_box.contains(i, j); }
+  bool owned(int i, int j) const { return contains(i, j) && m_owned[index(i, j)]; }
+  bool held(int i, int j) const { return contains(i, j) && m_held[index(i, j)]; }
+  bool kept(int i, int j) const { return contains(i, j) && m_kept[index(i, j)]; }
+
+ private:
+  const LatticeCensus& m_census;
+  LatticeBox m_box;
+  int m_nj = 0;
+  std::vector<char> m_owned, m_held, m_kept;
+
+  std::size_t index(int i, int j) const {
+    return static_cast<std::size_t>(i - m_box.lo[0]) * static_cast<std::size_t>(m_nj) +
+           static_cast<std::size_t>(j - m_box.lo[1]);
+  }
+  std::size_t checked(int i, int j) const {
+    if (!contains(i, j)) throw std::logic_error("build_part: the window misses a particle the part keeps");
+    return index(i, j);
+  }
+  /// The flagged points and every particle within the stencil of one (within_stencil()'s).
+  std::vector<char> widened(const std::vector<char>& seeds) const {
+    std::vector<char> near = seeds;
+    for (int i = m_box.lo[0]; i <= m_box.hi[0]; ++i)
+      for (int j = m_box.lo[1]; j <= m_box.hi[1]; ++j) {
+        if (!seeds[index(i, j)]) continue;
+        for (const auto& o : m_census.stencil.offset)
+          if (m_census.at(i + o[0], j + o[1]).exists()) near[checked(i + o[0], j + o[1])] = 1;
+      }
+    return near;
+  }
+};
+
+/// The lattice points (census linear indices, sorted) of the `extra` particles and of the
+/// sources of the ghosts among them.
+std::vector<std::size_t> extra_points(const LatticeCensus& census, std::vector<std::int64_t> extra) {
+  std::vector<std::size_t> points;
+  if (extra.empty()) return points;
+  std::sort(extra.begin(), extra.end());
+  extra.erase(std::unique(extra.begin(), extra.end()), extra.end());
+  const std::vector<KeptPoint> found = number_points(census, [&](int, int, std::int64_t id) {
+    return std::binary_search(extra.begin(), extra.end(), id);
+  });
+  if (found.size() != extra.size()) throw std::logic_error("build_part: an extra particle is not in the model");
+  std::array<int, 2> s{};
+  for (const KeptPoint& k : found) {
+    points.push_back(census.linear(k.i, k.j));
+    if (census.source_of(k.i, k.j, s)) points.push_back(census.linear(s[0], s[1]));
+  }
+  std::sort(points.begin(), points.end());
+  points.erase(std::unique(points.begin(), points.end()), points.end());
+  return points;
+}
+
 }  // namespace
+
+ModelPart build_part(const ModelDescription& scene, const LatticeCensus& census, const LatticePartition& partition,
+                     int rank, int rings, const std::vector<std::int64_t>& extra) {
+  // The window's margin around the region: an owned ghost's source lies within 2 mirror
+  // depths of it, the held families `rings` stencils further, their neighbours one more,
+  // the sources of the ghosts among those 2 mirror depths more.
+  const int reach = census.stencil.reach;
+  const int mirror = mirror_layers(scene.discretization.horizon_factor);
+  const PartWindow window(census, partition, rank, rings, 4 * mirror + (rings + 1) * reach + 1);
+  const std::vector<std::size_t> outside = extra_points(census, extra);
+  std::vector<KeptPoint> kept = number_points(census, [&](int i, int j, std::int64_t) {
+    return window.kept(i, j) || std::binary_search(outside.begin(), outside.end(), census.linear(i, j));
+  });
+  for (KeptPoint& k : kept) {
+    k.owned = window.owned(k.i, k.j);
+    k.held = window.held(k.i, k.j);
+  }
+  // The part's order: the owned particles, then the others, each by number.
+  std::sort(kept.begin(), kept.end(), [](const KeptPoint& a, const KeptPoint& b) {
+    return a.owned != b.owned ? a.owned : a.id < b.id;
+  });
+  ModelPart part;
+  part.model = model_of(scene, census, kept, false, &part.global_unknown);
+  part.n_owned = static_cast<Index>(std::count_if(kept.begin(), kept.end(), [](const KeptPoint& k) { return k.owned; }));
+  const std::vector<Index>& free = part.model.constraints.free_index;
+  for (Index l = 0; l < part.n_owned; ++l)
+    part.n_owned_unknowns += (free[2 * static_cast<std::size_t>(l)] >= 0) + (free[2 * static_cast<std::size_t>(l) + 1] >= 0);
+  part.n_particles_whole = census.n_particles();
+  part.n_unknowns_whole = census.n_unknowns();
+  part.global_id.reserve(kept.size());
+  part.owner.reserve(kept.size());
+  for (const KeptPoint& k : kept) {
+    part.global_id.push_back(k.id);
+    part.owner.push_back(partition.owner(k.i, k.j));
+  }
+  return part;
+}
 
 std::size_t ModelPart::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "discretisation/lattice_partition.hpp"
 #include "discretisation/model.hpp"
 
 namespace peristat {
@@ -42,6 +43,16 @@ struct ModelPart {
 /// otherwise, or when a particle `rank` owns is not held.
 ModelPart extract_part(const Model& whole, const std::vector<int>& owner, int rank,
                        const std::vector<char>& held, const std::vector<std::int64_t>& extra = {});
+
+/// Rank `rank`'s part of the scene's model, built from the census alone (no process holds
+/// particles it does not keep): the particles `partition` gives the rank (LatticePartition::
+/// owner()), the families of every particle within `rings` stencils of them, every neighbour
+/// of those, the `extra` particles (global ids: contact partners that slid towards the part,
+/// PartsOutgrown) and the source of every mirror ghost kept. The part extract_part() cuts
+/// from the whole model with the same owners, particle for particle. `census` must have
+/// counted the families (take_census()).
+ModelPart build_part(const ModelDescription& scene, const LatticeCensus& census, const LatticePartition& partition,
+                     int rank, int rings, const std::vector<std::int64_t>& extra = {});
 
 /// One process's model as the one part of one rank: `whole` itself (moved, not copied), every
 /// particle and unknown its own, numbered by itself (identity global ids), every family held.

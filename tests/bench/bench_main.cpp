@@ -21,6 +21,9 @@
 //       run by Newton with belos on each rank's part of the model (the partitioned model,
 //       stages 1-2, below the command line): per rank, the particles and unknowns it holds,
 //       the resident memory once the part is built and at the end, the peak, and the times.
+//   peristat_bench build SCENE P [--set KEY=VALUE]...   the growth of the peak resident memory
+//       and the time while one process builds rank 0's part of P from the census (P = 1: the
+//       whole model, discretise()), one line; run once per P (the peak only grows).
 #include <algorithm>
 #include <memory>
 #include <cstdio>
@@ -280,6 +283,16 @@ double resident_mb() {
   return static_cast<double>(resident) * 4096.0 / 1e6;
 }
 
+int build(const std::string& path, int ranks, const std::vector<Override>& overrides) {
+  const Scene scene = parse_scene(path, overrides);
+  const double peak_before = peak_mb(), t0 = wall_seconds();
+  const Model model = ranks <= 1 ? discretise(scene) : part_model(scene, 0, ranks).model;
+  const double seconds = wall_seconds() - t0, growth = peak_mb() - peak_before;
+  std::printf("build ranks=%d particles=%d bonds=%d model_MB=%.1f peak_growth_MB=%.1f seconds=%.2f\n", ranks,
+              model.particles.size(), model.bonds.n_bonds(), model.memory_bytes() / 1e6, growth, seconds);
+  return 0;
+}
+
 int part_newton(const std::string& path, const std::vector<Override>& overrides) {
   const parallel::Session mpi;
   const std::unique_ptr<Ranks> on = parallel::process_ranks();
@@ -344,6 +357,8 @@ int main(int argc, char** argv) {
     return partition(argv[2], std::atoi(argv[3]), overrides_from(argc, argv, 4));
   if (argc >= 3 && std::strcmp(argv[1], "part-newton") == 0)
     return part_newton(argv[2], overrides_from(argc, argv, 3));
+  if (argc >= 4 && std::strcmp(argv[1], "build") == 0)
+    return build(argv[2], std::atoi(argv[3]), overrides_from(argc, argv, 4));
   if (argc >= 4 && std::strcmp(argv[1], "parts") == 0)
     return parts(argv[2], std::atoi(argv[3]), overrides_from(argc, argv, 4));
   std::fprintf(stderr,

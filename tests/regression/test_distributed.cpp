@@ -111,7 +111,7 @@ TEST(Distributed, TensionPlateOnTwoRanksEqualsSerial) {
 // Every particle of the results file, the fictitious ones included, as the serial run wrote
 // it. A mirror ghost's displacement is its source's image, right only on a rank that holds the
 // source's: rank 0 gathers each particle's row from its owner, so the ghost is owned with its
-// source (complete_owners). Before that, 4 ranks wrote 0 for 68 of the 800 ghosts of this plate
+// source (LatticePartition::owner()). Before that, 4 ranks wrote 0 for 68 of the 800 ghosts of this plate
 // (3 ranks: 38); `peristat compare` reads the real particles only and saw no difference.
 // Tolerance: 1e-8 of the largest displacement, expect_same_answer's bound.
 TEST(Distributed, EveryParticleOnFourRanksIsWrittenAsSerial) {

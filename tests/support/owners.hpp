@@ -13,4 +13,14 @@ namespace peristat::test {
 /// gives the strips by particle index).
 std::vector<int> x_cut_owners(const Model& model, int ranks);
 
+/// The nodes (the particles that have an unknown, in particle order) in `ranks` ranges of
+/// equal count; -1 for the particles without an unknown.
+std::vector<int> strip_owners(const Constraints& constraints, int ranks);
+
+/// Gives every particle without an owner (-1) the owner of the nearest owned particle, counted
+/// in steps of the bond stencil (breadth-first from every owned particle at once, in particle
+/// order); one that no step reaches goes to rank 0. A mirror ghost then takes its source's
+/// owner. Owners unlike LatticePartition's regions, for the parts' tests.
+void complete_owners(const Model& model, std::vector<int>& owner);
+
 }  // namespace peristat::test

@@ -116,4 +116,21 @@ std::string large_slide_yaml(const std::string& slide, const std::string& contac
          contact + "\nloading: {steps: 12}\n" + extra;
 }
 
+Scene mirror_grip_plate() {
+  PlateSpec spec;
+  spec.nx = 44;
+  spec.ny = 40;
+  spec.boundary = mirror_tension_boundary(1e-3, spec);
+  return scene_from_yaml(plate_yaml(spec));
+}
+
+Scene slanted_crack_plate() {
+  PlateSpec spec;
+  spec.nx = 24;
+  spec.ny = 36;
+  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n  - {body: plate, edge: right, ux: 1.0e-5}\n";
+  spec.cracks = "  - {from: [0.0051, 0.0063], to: [0.0187, 0.0297]}\n";
+  return scene_from_yaml(plate_yaml(spec));
+}
+
 }  // namespace peristat::test

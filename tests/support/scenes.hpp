@@ -57,4 +57,13 @@ std::string notch_yaml(double pull, bool failure, const std::string& solver = "{
 std::string large_slide_yaml(const std::string& slide, const std::string& contact,
                              const std::string& extra = "");
 
+/// A 44 x 40 plate between mirror grips (a 0.1 % stretch): for the ranks' parts, every part
+/// holds the mirror layers near it and the rings around them (6 columns into the plate), and
+/// 44 x 40 leaves the middle strip of three and each of four bands across y short of the whole.
+Scene mirror_grip_plate();
+
+/// A 24 x 36 plate held on its left edge by fictitious layers and pulled on its right, cut by a
+/// slanted pre-crack that crosses every split of the parts' tests.
+Scene slanted_crack_plate();
+
 }  // namespace peristat::test

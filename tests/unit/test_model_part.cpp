@@ -19,6 +19,7 @@
 #include "parallel/thread_ranks.hpp"
 #include "support/finite_difference.hpp"
 #include "support/owners.hpp"
+#include "support/same_part.hpp"
 #include "support/scenes.hpp"
 
 namespace peristat {
@@ -46,45 +47,24 @@ struct Split {
 };
 
 std::vector<int> completed(const Model& model, std::vector<int> owner) {
-  complete_owners(model, owner);
+  test::complete_owners(model, owner);
   return owner;
 }
 
 /// Owners of the nodes only (every part holds every particle without a row, as the parts of
-/// ranks whose owners have -1), and owners of every particle (complete_owners(), a run's).
+/// ranks whose owners have -1), and owners of every particle (test::complete_owners(); a run's
+/// are LatticePartition's regions, tests/unit/test_census.cpp).
 std::vector<Split> splits(const Model& model) {
-  return {{"strips on 2 ranks", strip_owners(model.constraints, 2)},
-          {"strips on 3 ranks", strip_owners(model.constraints, 3)},
+  return {{"strips on 2 ranks", test::strip_owners(model.constraints, 2)},
+          {"strips on 3 ranks", test::strip_owners(model.constraints, 3)},
           {"cuts across y on 2 ranks", y_cut_owners(model, 2)},
           {"cuts across y on 4 ranks", y_cut_owners(model, 4)},
-          {"strips on 3 ranks, every particle owned", completed(model, strip_owners(model.constraints, 3))},
+          {"strips on 3 ranks, every particle owned", completed(model, test::strip_owners(model.constraints, 3))},
           {"cuts across y on 4 ranks, every particle owned", completed(model, y_cut_owners(model, 4))}};
 }
 
 int ranks_of(const std::vector<int>& owner) {
   return 1 + *std::max_element(owner.begin(), owner.end());
-}
-
-Scene mirror_plate() {
-  test::PlateSpec spec;
-  // Every part holds the mirror layers of both grips and the rings around them (6 columns
-  // into the plate on each side), and its own band with its rings: 44 x 40 leaves the middle
-  // strip of three and each of four bands across y short of the whole.
-  spec.nx = 44;
-  spec.ny = 40;
-  spec.boundary = test::mirror_tension_boundary(1e-3, spec);
-  return test::scene_from_yaml(test::plate_yaml(spec));
-}
-
-/// A plate held on its left edge by fictitious layers, cut by a slanted pre-crack that crosses
-/// every split above (no contact: pairs across ranks are stage 3).
-Scene cracked_plate() {
-  test::PlateSpec spec;
-  spec.nx = 24;
-  spec.ny = 36;
-  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n  - {body: plate, edge: right, ux: 1.0e-5}\n";
-  spec.cracks = "  - {from: [0.0051, 0.0063], to: [0.0187, 0.0297]}\n";
-  return test::scene_from_yaml(test::plate_yaml(spec));
 }
 
 // The parts hold the whole model: each particle with unknowns is owned by one part, and
@@ -292,16 +272,16 @@ void expect_part_matrices_equal_the_whole(const Scene& scene) {
 }
 
 TEST(ModelPart, PartMatricesAreTheWholeRowsWithMirrorGrips) {
-  expect_part_matrices_equal_the_whole(mirror_plate());
+  expect_part_matrices_equal_the_whole(test::mirror_grip_plate());
 }
 
 TEST(ModelPart, PartMatricesAreTheWholeRowsWithAPreCrack) {
-  expect_part_matrices_equal_the_whole(cracked_plate());
+  expect_part_matrices_equal_the_whole(test::slanted_crack_plate());
 }
 
 /// The cracked plate pressed across its crack: the faces are contact candidates (friction 0.3).
 Scene cracked_plate_with_contact() {
-  Scene scene = cracked_plate();
+  Scene scene = test::slanted_crack_plate();
   scene.contact.enabled = true;
   scene.contact.cracks = true;
   scene.contact.friction = 0.3;
@@ -327,30 +307,30 @@ TEST(ModelPart, PartRowsAreTheWholeRowsWithContact) {
 }
 
 TEST(ModelPart, PartsMapOntoTheWholeModelWithMirrorGrips) {
-  const Model whole = discretise(mirror_plate());
+  const Model whole = discretise(test::mirror_grip_plate());
   ASSERT_TRUE(whole.constraints.has_images());
   expect_parts_map_onto_the_whole(whole);
 }
 
 TEST(ModelPart, PartsMapOntoTheWholeModelWithAPreCrack) {
-  const Model whole = discretise(cracked_plate());
+  const Model whole = discretise(test::slanted_crack_plate());
   ASSERT_GT(whole.n_cut_bonds, 0);
   expect_parts_map_onto_the_whole(whole);
 }
 
 TEST(ModelPart, PartRowsAreTheWholeRowsWithMirrorGrips) {
-  expect_part_rows_equal_the_whole(mirror_plate());
+  expect_part_rows_equal_the_whole(test::mirror_grip_plate());
 }
 
 TEST(ModelPart, PartRowsAreTheWholeRowsWithAPreCrack) {
-  expect_part_rows_equal_the_whole(cracked_plate());
+  expect_part_rows_equal_the_whole(test::slanted_crack_plate());
 }
 
 TEST(ModelPart, OwnedLayersLeaveEachPartTheLayersNearIt) {
   // Every particle without a row owned by one rank (complete_owners()): a part holds the mirror
   // layers near its own particles, not both grips' whole layers. On four bands across y of the
   // mirror plate every part must shrink; measured: 1896 -> 1516 particles of the largest part.
-  const Model whole = discretise(mirror_plate());
+  const Model whole = discretise(test::mirror_grip_plate());
   const std::vector<int> nodes_only = y_cut_owners(whole, 4), every = completed(whole, nodes_only);
   for (int rank = 0; rank < 4; ++rank) {
     const ModelPart before =
@@ -368,84 +348,21 @@ TEST(ModelPart, OwnedLayersLeaveEachPartTheLayersNearIt) {
 // and holding every family, so that one process and a rank take the same paths: every table
 // compared entry for entry (exact: both only copy).
 TEST(ModelPart, TheWholeModelAsOnePartIsTheOneRankPart) {
-  for (const Scene& scene : {mirror_plate(), cracked_plate()}) {
+  for (const Scene& scene : {test::mirror_grip_plate(), test::slanted_crack_plate()}) {
     const Model whole = discretise(scene);
     const auto n = static_cast<std::size_t>(whole.particles.size());
     const ModelPart cut = extract_part(whole, std::vector<int>(n, 0), 0, std::vector<char>(n, 1));
     Model copy = whole;
     const ModelPart moved = whole_as_part(std::move(copy));
-    EXPECT_EQ(moved.n_owned, cut.n_owned);
-    EXPECT_EQ(moved.n_owned_unknowns, cut.n_owned_unknowns);
-    EXPECT_EQ(moved.n_particles_whole, cut.n_particles_whole);
-    EXPECT_EQ(moved.n_unknowns_whole, cut.n_unknowns_whole);
-    EXPECT_EQ(moved.global_id, cut.global_id);
-    EXPECT_EQ(moved.owner, cut.owner);
-    EXPECT_EQ(moved.global_unknown, cut.global_unknown);
-    const Model &a = moved.model, &b = cut.model;
-    EXPECT_EQ(a.family_held, b.family_held);
-    EXPECT_EQ(a.whole_start, b.whole_start);
-    EXPECT_EQ(a.n_bonds_whole, b.n_bonds_whole);
-    EXPECT_EQ(a.n_cut_bonds, b.n_cut_bonds);
-    EXPECT_EQ(a.bonds.start, b.bonds.start);
-    EXPECT_EQ(a.bonds.neighbour, b.bonds.neighbour);
-    EXPECT_EQ(a.bonds.reverse, b.bonds.reverse);
-    EXPECT_EQ(a.bonds.weight, b.bonds.weight);
-    EXPECT_EQ(a.particles.position, b.particles.position);
-    EXPECT_EQ(a.constraints.free_index, b.constraints.free_index);
-    EXPECT_EQ(a.constraints.value, b.constraints.value);
-    EXPECT_EQ(a.constraints.images.size(), b.constraints.images.size());
+    test::expect_same_part(moved, cut);
+    const Model& a = moved.model;
     EXPECT_FALSE(a.holds_every_family()) << "held family by family, as a rank's part";
   }
 }
 
-TEST(CompleteOwners, ALayerParticleTakesTheOwnerOfANearbyNode) {
-  // A particle without a row one stencil step from a node takes the owner of such a node; a
-  // deeper one that of a particle one step nearer, so each has a particle of its owner within
-  // its stencil: no rank is handed a layer far from its part. A mirror ghost (the mirror layers
-  // are 8 deep) takes its source's owner instead: its displacement is the source's image, and
-  // the results are written from each particle's owner (the source is within 16 spacings).
-  for (const Scene& scene : {mirror_plate(), cracked_plate()}) {
-    const Model model = discretise(scene);
-    const std::vector<int> nodes_only = y_cut_owners(model, 4), every = completed(model, nodes_only);
-    const Particles& p = model.particles;
-    std::vector<Index> source(static_cast<std::size_t>(p.size()), -1);
-    for (const MirrorImage& im : model.constraints.images) source[static_cast<std::size_t>(im.ghost)] = im.source;
-    Index next_to_nodes = 0, ghosts = 0;
-    for (Index q = 0; q < p.size(); ++q) {
-      const int o = every[static_cast<std::size_t>(q)];
-      ASSERT_GE(o, 0);
-      if (nodes_only[static_cast<std::size_t>(q)] >= 0) {
-        ASSERT_EQ(o, nodes_only[static_cast<std::size_t>(q)]) << "a node keeps its owner";
-        continue;
-      }
-      if (const Index s = source[static_cast<std::size_t>(q)]; s >= 0) {
-        ASSERT_EQ(o, every[static_cast<std::size_t>(s)]) << "mirror ghost " << q << " is owned with its source";
-        ++ghosts;
-        continue;
-      }
-      bool near_node = false, near_node_of_owner = false, near_same_owner = false;
-      for (const auto& off : model.stencil.offset) {
-        const Index j = model.lattice_index.at(p.lattice[q][0] + off[0], p.lattice[q][1] + off[1]);
-        if (j < 0) continue;
-        const int node_owner = nodes_only[static_cast<std::size_t>(j)];
-        near_node = near_node || node_owner >= 0;
-        near_node_of_owner = near_node_of_owner || node_owner == o;
-        near_same_owner = near_same_owner || every[static_cast<std::size_t>(j)] == o;
-      }
-      next_to_nodes += near_node;
-      if (near_node)
-        EXPECT_TRUE(near_node_of_owner) << "particle " << q;
-      else
-        EXPECT_TRUE(near_same_owner) << "particle " << q;
-    }
-    // Every layer of the mirror plate is a mirror ghost; the cracked plate's are fictitious layers.
-    EXPECT_GT(model.constraints.has_images() ? ghosts : next_to_nodes, 0);
-  }
-}
-
 TEST(ModelPart, RefusesAnOwnedParticleWhoseFamilyIsNotHeld) {
-  const Model whole = discretise(cracked_plate());
-  const std::vector<int> owner = strip_owners(whole.constraints, 2);
+  const Model whole = discretise(test::slanted_crack_plate());
+  const std::vector<int> owner = test::strip_owners(whole.constraints, 2);
   std::vector<char> held = families_to_hold(whole, OwnedRows{0, owner}, 1);
   const auto owned = std::find(owner.begin(), owner.end(), 0) - owner.begin();
   held[static_cast<std::size_t>(owned)] = 0;

@@ -125,9 +125,8 @@ void expect_parts_break_as_one_process(const Scene& scene, const Model& model, c
   ASSERT_NO_THROW(net.run([&](const ThreadRanks& on) {
     const int rank = on.rank();
     const OwnedRows rows{rank, owner};
-    const Model bonded = discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, 1); });
     ModelPart& part = parts[static_cast<std::size_t>(rank)];
-    part = extract_part(bonded, owner, rank, bonded.family_held);
+    part = extract_part(model, owner, rank, families_to_hold(model, rows, 1));
     ProblemOptions options = problem_options(scene);
     set_part(options, part, rank);
     options.matrix_free = true;
@@ -217,7 +216,7 @@ void expect_ranks_break_as_one_process(const Scene& scene, double stretch, doubl
                  std::to_string(ranks) + " ranks");
     expect_parts_break_as_one_process(
         scene, model, x, at_most, whole,
-        cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks), ranks);
+        cuts ? test::x_cut_owners(model, ranks) : test::strip_owners(model.constraints, ranks), ranks);
   }
 }
 
@@ -287,7 +286,7 @@ TEST(PartitionedFailure, PiecesAcrossThePartsAreThoseOfOneProcess) {
   for (const auto& [cuts, ranks] : {std::pair{true, 2}, std::pair{true, 3}, std::pair{false, 2}}) {
     SCOPED_TRACE(std::string(cuts ? "cuts across x" : "strips") + " on " + std::to_string(ranks) + " ranks");
     const std::vector<int> owner =
-        cuts ? test::x_cut_owners(model, ranks) : strip_owners(model.constraints, ranks);
+        cuts ? test::x_cut_owners(model, ranks) : test::strip_owners(model.constraints, ranks);
     ThreadNet net(ranks);
     std::vector<ModelPart> parts(static_cast<std::size_t>(ranks));
     std::vector<std::vector<char>> part_unsupported(static_cast<std::size_t>(ranks));
@@ -295,9 +294,8 @@ TEST(PartitionedFailure, PiecesAcrossThePartsAreThoseOfOneProcess) {
     ASSERT_NO_THROW(net.run([&](const ThreadRanks& on) {
       const int rank = on.rank();
       const OwnedRows rows{rank, owner};
-      const Model bonded = discretise(scene, [&](const Model& m) { return families_to_hold(m, rows, 1); });
       ModelPart& part = parts[static_cast<std::size_t>(rank)];
-      part = extract_part(bonded, owner, rank, bonded.family_held);
+      part = extract_part(model, owner, rank, families_to_hold(model, rows, 1));
       std::vector<char> counted;
       for (const int o : part.owner) counted.push_back(counted_by(o, rank));
       OwnedEntriesExchange exchange(on, part.global_id, part.owner, static_cast<std::size_t>(part.n_owned));
