@@ -14,7 +14,7 @@ FragmentTracker::FragmentTracker(const Model& model, const BondFailure* failure,
   if (!m_failure) return;
   if (!model.holds_every_family())  // a rank's part: its pieces joined with the other ranks'
     m_graph_parts = std::make_unique<GraphParts>(GraphParts{ranks, m_failure->share().proposes,
-                                                            m_failure->share().global_id,
+                                                            m_failure->ids().ids(),
                                                             std::span<const int>(m_options.rows.owner), particle_values});
   find_unsupported(model, m_failure->weights(), m_initially_unsupported, m_component, m_graph_parts.get());
   m_fragment.assign(model.particles.size(), 0);

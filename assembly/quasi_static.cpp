@@ -20,16 +20,15 @@ namespace peristat {
 
 namespace {
 std::unique_ptr<ContactSystem> make_contact(const Model& model, const ProblemOptions& options, const Ranks& ranks,
-                                            double& seconds) {
+                                            const GlobalIds& ids, double& seconds) {
   if (!options.contact.enabled) return nullptr;
   // On a part, its share of the pairs: the pairs that touch its own particles, by global id.
   ContactRanks share;
   if (!options.global_id.empty()) {
-    share.global_id = options.global_id;
+    share.ids = &ids;
     share.counted.resize(options.rows.owner.size());
     for (std::size_t p = 0; p < share.counted.size(); ++p)
       share.counted[p] = counted_by(options.rows.owner[p], options.rows.rank);
-    share.n_particles_whole = options.n_particles_whole;
   }
   const double t0 = wall_seconds();
   auto contact = std::make_unique<ContactSystem>(model, options.contact, ranks, std::move(share));
@@ -48,11 +47,18 @@ std::vector<char> counted_families(const Model& model, const OwnedRows& rows) {
 
 /// On a rank's part, its share of the failure decisions: it proposes the pairs of the families
 /// it counts (its own; rank 0's also those without a row). A whole model numbers itself.
-FailureRanks failure_ranks(const ProblemOptions& options, const RankExchanges& exchanges) {
+FailureRanks failure_ranks(const ProblemOptions& options, const RankExchanges& exchanges, const GlobalIds& ids) {
   if (options.global_id.empty()) return {};
   std::vector<char> proposes(options.rows.owner.size(), 0);
   for (std::size_t p = 0; p < proposes.size(); ++p) proposes[p] = options.rows.counts(static_cast<Index>(p));
-  return {std::move(proposes), exchanges.particle_values(), options.global_id, options.n_particles_whole};
+  return {std::move(proposes), exchanges.particle_values(), &ids};
+}
+
+/// A part's particles by global id (ProblemOptions::global_id), with the map back, built once
+/// for contact and failure; none for a whole model (they number it by itself).
+GlobalIds global_ids(const ProblemOptions& options) {
+  if (options.global_id.empty() || !(options.contact.enabled || options.failure.enabled)) return {};
+  return GlobalIds(options.global_id, options.n_particles_whole);
 }
 
 /// Per body, its material's kernel.
@@ -78,9 +84,10 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
       m_exchanges(model,
                   RankLayout{m_options.rows, m_options.owned_unknowns, m_options.global_id, m_options.global_unknown},
                   options.failure.enabled, ranks),
-      m_contact(make_contact(model, options, ranks, m_timings.contact_setup)),
+      m_ids(global_ids(options)),
+      m_contact(make_contact(model, options, ranks, m_ids, m_timings.contact_setup)),
       m_failure(options.failure.enabled ? std::make_unique<BondFailure>(model, options.failure, ranks,
-                                                                        failure_ranks(options, m_exchanges))
+                                                                        failure_ranks(options, m_exchanges, m_ids))
                                         : nullptr),
       m_pattern(options.matrix_free
                     ? TangentPattern{}
@@ -653,7 +660,7 @@ std::size_t QuasiStaticProblem::memory_bytes() const {
       m_correction.memory_bytes() + bytes(m_changed_families) + bytes(m_eta) + bytes(m_eta_scratch) +
       bytes(m_direction) + bytes(m_s) + bytes(m_t) + bytes(m_kbond) + bytes(m_s_self) + bytes(m_beta_volume) +
       static_cast<std::size_t>(m_u.size() + m_force.size() + m_velocity.size()) * sizeof(double) +
-      m_pattern.memory_bytes() + m_share.memory_bytes() + m_balance.memory_bytes() + m_damage.memory_bytes() +
+      m_pattern.memory_bytes() + m_ids.memory_bytes() + m_share.memory_bytes() + m_balance.memory_bytes() + m_damage.memory_bytes() +
       m_fragments.memory_bytes() + m_action.memory_bytes();
   if (m_failure) total += m_failure->memory_bytes();
   if (m_preconditioner) total += m_preconditioner->memory_bytes();

@@ -23,6 +23,7 @@
 #include "assembly/rank_exchanges.hpp"
 #include "assembly/tangent_action.hpp"
 #include "contact/contact.hpp"
+#include "core/global_ids.hpp"
 #include "core/options.hpp"
 #include "discretisation/model.hpp"
 #include "materials/bond_failure.hpp"
@@ -240,6 +241,7 @@ class QuasiStaticProblem final : public Problem,
   const Ranks& m_ranks;
   RankExchanges m_exchanges;  ///< before the physics objects: they read the exchanges
   Timings m_timings;                         ///< declared first: m_contact's initialiser sets it
+  GlobalIds m_ids;                           ///< the particles by global id, for contact and failure
   std::unique_ptr<ContactSystem> m_contact;  ///< null without contact: no candidates, no cost
   std::unique_ptr<BondFailure> m_failure;    ///< null without failure: no checks, no state
   TangentPattern m_pattern;

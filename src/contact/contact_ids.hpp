@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/global_ids.hpp"
 #include "core/types.hpp"
 #include "parallel/ranks.hpp"
 
@@ -22,9 +23,8 @@ namespace peristat {
 /// takes the same decisions. Empty (no global ids): the model is whole, and ContactIds makes
 /// its identity numbering.
 struct ContactRanks {
-  std::vector<std::int64_t> global_id;  ///< per particle of the part: its index in the whole model
+  const GlobalIds* ids = nullptr;  ///< the part's particles in the whole model (owned by the caller)
   std::vector<char> counted;  ///< per particle: this rank's own (the forces it adds, the pairs it owns)
-  std::int64_t n_particles_whole = 0;
 };
 
 /// Global ids of a model's particles: ContactRanks' on a part, the identity on a whole model
@@ -39,15 +39,15 @@ class ContactIds {
 
   /// Every particle of the whole model is here (a whole model, or a part that took in all):
   /// no partner can be missing.
-  bool holds_every_particle() const { return m_n == m_share.n_particles_whole; }
+  bool holds_every_particle() const { return ids().holds_every_particle(); }
   /// The particle's index in the whole model.
-  std::int64_t gid(Index i) const { return m_share.global_id[static_cast<std::size_t>(i)]; }
+  std::int64_t gid(Index i) const { return ids()[i]; }
   /// This rank's own particle (every particle of a whole model).
   bool counted(Index i) const { return m_share.counted[static_cast<std::size_t>(i)] != 0; }
   /// The particle with global id g, or -1 when the model does not hold it.
-  Index local_of(std::int64_t g) const;
+  Index local_of(std::int64_t g) const { return ids().local_of(g); }
   /// Particles in the whole model.
-  std::int64_t n_particles_whole() const { return m_share.n_particles_whole; }
+  std::int64_t n_particles_whole() const { return ids().n_whole(); }
 
   /// Every rank's `mine` concatenated in rank order, on every rank (collective).
   template <class T>
@@ -68,8 +68,8 @@ class ContactIds {
  private:
   ContactRanks m_share;
   const Ranks& m_ranks;
-  Index m_n = 0;
-  std::vector<std::pair<std::int64_t, Index>> m_by_global;  ///< (global id, particle), sorted
+  GlobalIds m_own;  ///< a whole model's identity numbering (no ContactRanks::ids)
+  const GlobalIds& ids() const { return m_share.ids ? *m_share.ids : m_own; }
 };
 
 }  // namespace peristat

@@ -78,8 +78,8 @@ enum class BelosPreconditioner {
 
 /// solver.belos.partition: which rows each MPI rank owns (docs/guide/distributed.md).
 enum class BelosPartition {
-  strips,  ///< the particles with an unknown, in lattice order, in P ranges of equal count
-  rcb      ///< Zoltan2's recursive coordinate bisection of those particles' positions
+  strips,  ///< the lattice in P slabs across x, each with an equal count of particles with an unknown
+  rcb      ///< the lattice bisected recursively across its longer extent, equal counts (LatticePartition)
 };
 
 /// solver.belos.tangent: how Belos applies the tangent (docs/guide/distributed.md).

@@ -45,19 +45,16 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options, cons
 
 void BondFailure::number_particles(Index n) {
   const Model& model = m_model;
-  if (m_share.global_id.empty()) {  // a whole model: one process's, numbered by itself
+  if (!m_share.ids) {  // a whole model: one process's, numbered by itself
     if (!model.holds_every_family())
       throw std::logic_error("BondFailure: a model holding some families only must be a rank's part (global ids)");
     if (m_ranks.size() > 1)
       throw std::logic_error("BondFailure: a model without global ids is one process's, not one of " +
                              std::to_string(m_ranks.size()) + " ranks'");
     m_share.proposes.assign(static_cast<std::size_t>(n), 1);
-    m_share.global_id.resize(static_cast<std::size_t>(n));
-    std::iota(m_share.global_id.begin(), m_share.global_id.end(), std::int64_t{0});
-    m_share.n_particles_whole = n;
+    m_own = GlobalIds(n);
   }
-  if (m_share.proposes.size() != static_cast<std::size_t>(n) ||
-      m_share.global_id.size() != static_cast<std::size_t>(n) || m_share.n_particles_whole <= 0 ||
+  if (m_share.proposes.size() != static_cast<std::size_t>(n) || ids().size() != n || ids().n_whole() <= 0 ||
       (!model.holds_every_family() && !m_share.share))
     throw std::logic_error(
         "BondFailure: a rank's part needs its share (FailureRanks: proposers, global ids, the particle exchange)");
@@ -67,14 +64,6 @@ void BondFailure::number_particles(Index n) {
                                             : model.whole_start;
   if (m_whole_start.size() != static_cast<std::size_t>(n) + 1)
     throw std::logic_error("BondFailure: a part needs the whole model's family starts");
-  m_by_global.reserve(static_cast<std::size_t>(n));
-  for (Index i = 0; i < n; ++i) m_by_global.emplace_back(global(i), i);
-  std::sort(m_by_global.begin(), m_by_global.end());
-}
-
-Index BondFailure::local(std::int64_t g) const {
-  const auto it = std::lower_bound(m_by_global.begin(), m_by_global.end(), std::pair(g, Index{-1}));
-  return it != m_by_global.end() && it->first == g ? it->second : -1;
 }
 
 const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(std::span<const Vec2> eta,
@@ -262,7 +251,7 @@ void BondFailure::save(StateArchive& archive) const {
                          : m_whole_start[static_cast<std::size_t>(i)] + m_reference_bond[i] - bonds.start[i]);
   }
   const std::vector<std::int64_t> table = m_ranks.gather_rows_on_root(
-      std::span<const std::int64_t>(ids), std::span<const std::int64_t>(values), 1, m_share.n_particles_whole);
+      std::span<const std::int64_t>(ids), std::span<const std::int64_t>(values), 1, this->ids().n_whole());
   archive.put("failure/reference_bonds", {table.begin(), table.end()});  // the file holds doubles
 }
 
@@ -315,7 +304,7 @@ std::vector<std::pair<Index, Index>> BondFailure::restore(const StateArchive& ar
   const Bonds& bonds = m_model.bonds;
   for (const Candidate& x : restored_pairs(archive.get("failure/broken_bonds"))) break_candidate(x);
   if (!m_reference_bond.empty()) {
-    const std::vector<double>& r = archive.get("failure/reference_bonds", m_share.n_particles_whole);
+    const std::vector<double>& r = archive.get("failure/reference_bonds", ids().n_whole());
     for (std::size_t i = 0; i < m_reference_bond.size(); ++i) {
       const double ri = r[static_cast<std::size_t>(global(static_cast<Index>(i)))];
       if (ri < 0) {
@@ -339,8 +328,7 @@ std::size_t BondFailure::memory_bytes() const {
          m_reference_bond.capacity() * sizeof(Index) +
          m_round_references.capacity() * sizeof(std::pair<Index, Index>) +
          (m_broken_whole.capacity() + m_whole_start.capacity()) * sizeof(std::int64_t) +
-         m_by_global.capacity() * sizeof(std::pair<std::int64_t, Index>) + m_held.capacity() +
-         m_share.proposes.capacity() + m_share.global_id.capacity() * sizeof(std::int64_t);
+         m_held.capacity() + m_share.proposes.capacity() + m_own.memory_bytes();
 }
 
 }  // namespace peristat

@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/global_ids.hpp"
 #include "core/options.hpp"
 #include "core/state_archive.hpp"
 #include "discretisation/model.hpp"
@@ -32,11 +33,9 @@ struct FailureRanks {
   /// Per particle values (N): copies the owners' entries into the ranks that hold them; the
   /// entries of particles without a row stay as each rank computed them. Owned by the caller.
   ValueExchange* share = nullptr;
-  /// On a rank's part of the model (discretisation/model_part.hpp): per particle of the part,
-  /// its index in the whole model, and the whole model's particle count. Empty: the model's
-  /// particles are the whole model's.
-  std::vector<std::int64_t> global_id;
-  std::int64_t n_particles_whole = 0;
+  /// On a rank's part of the model (discretisation/model_part.hpp): its particles' numbers in
+  /// the whole model (owned by the caller). Null: the model's particles are the whole model's.
+  const GlobalIds* ids = nullptr;
 };
 
 class BondFailure {
@@ -52,7 +51,7 @@ class BondFailure {
   /// max(value / critical) over its two directions exceeds 1; the most critical
   /// `fraction` of those (at least one), at most `at_most` when at_most > 0. Pairs between
   /// two fictitious particles never break. Returns the pairs broken (i, j), each once; on a
-  /// part (FailureRanks::global_id) those of which it holds a direction, by the part's indices
+  /// part (FailureRanks::ids) those of which it holds a direction, by the part's indices
   /// (broken() counts every rank's).
   const std::vector<std::pair<Index, Index>>& break_over_criterion(std::span<const Vec2> eta, Index at_most);
   /// The pairs of the last round (broken, or restored by revert()).
@@ -88,8 +87,9 @@ class BondFailure {
   void damage(VectorXd& d) const;
   /// Particle i's index in the whole model, and the part's particle of a whole index (-1: not
   /// in the part). The identity on a whole model.
-  std::int64_t global(Index i) const { return m_share.global_id[static_cast<std::size_t>(i)]; }
-  Index local(std::int64_t g) const;
+  std::int64_t global(Index i) const { return ids()[i]; }
+  Index local(std::int64_t g) const { return ids().local_of(g); }
+  const GlobalIds& ids() const { return m_share.ids ? *m_share.ids : m_own; }
   const FailureRanks& share() const { return m_share; }
   std::size_t memory_bytes() const;
   /// The committed state (broken pairs, skew references) into / from a checkpoint
@@ -147,7 +147,7 @@ class BondFailure {
   std::vector<std::pair<Index, Index>> m_round_bonds;  ///< their directions held here: (particle, bond)
   std::vector<Candidate> m_candidates;                 ///< scratch: every rank's candidates
   std::vector<std::int64_t> m_broken_whole;            ///< every broken pair's whole index
-  std::vector<std::pair<std::int64_t, Index>> m_by_global;  ///< (global id, particle), sorted
+  GlobalIds m_own;  ///< a whole model's identity numbering (no FailureRanks::ids)
   std::vector<char> m_held;                   ///< per particle: its family is held here
   std::vector<std::int64_t> m_whole_start;    ///< per particle (N + 1): its family's first whole bond index
   Index m_round_pairs = 0;                                  ///< pairs broken by the last round, every rank's
