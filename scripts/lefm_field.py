@@ -25,6 +25,12 @@ KOLOSOV = (3 - NU) / (1 + NU)
 BULK_2D = E / (2 * (1 - NU))
 
 
+def set_poisson(nu):
+    """Poisson's ratio of the field and of the criteria (plane stress), for runs that change it."""
+    global NU, MU, KOLOSOV, BULK_2D
+    NU, MU, KOLOSOV, BULK_2D = nu, E / (2 * (1 + nu)), (3 - nu) / (1 + nu), E / (2 * (1 - nu))
+
+
 def critical(criterion, g_c, delta):
     if criterion == "skew":
         return math.sqrt(75 * math.pi * g_c / (64 * MU * delta))
