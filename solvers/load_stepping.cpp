@@ -178,23 +178,21 @@ std::string after_failed_attempt(Problem& problem, StepSolver& solver, const Loa
                                  const std::string& last) {
   const int k = step.step;
   if (step.substeps + step.cutbacks > kMaxAttemptsPerStep) {
-    char buf[320];
+    char buf[224];
     std::snprintf(buf, sizeof buf,
                   "load step %d/%d stopped at load factor %.6g after %d sub-steps and %d cut-backs: the "
-                  "increment keeps failing %d halvings deep (last attempt: %s)",
-                  k, n, lambda, step.substeps, step.cutbacks, halvings, last.c_str());
+                  "increment keeps failing %d halvings deep (last attempt: ",
+                  k, n, lambda, step.substeps, step.cutbacks, halvings);
     problem.set_load_factor(lambda);
-    return buf;
+    return buf + last + ")";  // the reason whole, however long
   }
   problem.set_load_factor(lambda);
   solver.invalidate_factorization();
   if (halvings > loading.max_cutbacks || !solver.cutback_helps()) {
-    char buf[256];
-    std::snprintf(buf, sizeof buf,
-                  "load step %d/%d did not converge at load factor %.6g after %d cut-backs "
-                  "(last attempt: %s)",
-                  k, n, next, step.cutbacks - 1, last.c_str());
-    return buf;
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "load step %d/%d did not converge at load factor %.6g after %d cut-backs "
+                  "(last attempt: ", k, n, next, step.cutbacks - 1);
+    return buf + last + ")";  // the reason whole, however long
   }
   return {};
 }

@@ -157,6 +157,34 @@ TEST(LoadStepping, NonFiniteStateIsNeverAccepted) {
   EXPECT_NE(r.message.find("non-finite value"), std::string::npos) << r.message;
 }
 
+// A solver whose every attempt fails with a long reason (a factorisation's advice runs to
+// 300 characters): the run's message must carry the reason whole, its last words and the
+// closing parenthesis included, not cut at a fixed buffer (it was, at 256 characters).
+class LongReasonSolver final : public StepSolver {
+ public:
+  SolveReport solve(VectorXd&, IterationObserver* = nullptr) override {
+    SolveReport r;
+    r.converged = false;
+    r.reason = std::string(300, 'x') + " the end of the reason";
+    return r;
+  }
+  double residual_tolerance(double force_scale) const override { return 1e-10 * force_scale; }
+};
+
+TEST(LoadStepping, TheStopMessageKeepsTheWholeReason) {
+  ScalarProblem p(10.0);
+  LongReasonSolver solver;
+  Loading loading;
+  loading.steps = 1;
+  loading.max_cutbacks = 1;
+  VectorXd x = VectorXd::Zero(1);
+  LoadSteppingObserver quiet;
+  const RunReport r = run_load_steps(p, solver, x, loading, quiet);
+  EXPECT_FALSE(r.completed);
+  EXPECT_NE(r.message.find("did not converge"), std::string::npos) << r.message;
+  EXPECT_NE(r.message.find(std::string(300, 'x') + " the end of the reason)"), std::string::npos) << r.message;
+}
+
 TEST(LoadStepping, ClaimedConvergenceIsCheckedWithTheTrueResidual) {
   ScalarProblem p(10.0);
   const RunReport r = run_lying(p, false);
