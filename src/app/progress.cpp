@@ -87,7 +87,8 @@ void ProgressObserver::multipliers_updated(double violation, int update) {
   check_interrupt();
   if (!m_printer.m_verbose) return;
   std::printf(
-      "  exact contact: largest closure %.3e of a pair's normal distance; multiplier update %d, "
+      "  exact contact: largest violation %.3e of a pair's normal distance (closure, gap under load or "
+      "stuck slip); multiplier update %d, "
       "solving again\n",
       violation, update);
   std::fflush(stdout);

@@ -73,6 +73,8 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                       {"radius_factor", c.radius_factor},
                                       {"stiffness", c.stiffness}};
     if (c.enforcement == ContactEnforcement::exact) contact["closure_tolerance"] = c.closure_tolerance;
+    if (c.enforcement == ContactEnforcement::exact && c.friction > 0.0 && !c.velocity_sign)
+      contact["stick"] = c.exact_stick ? "exact" : "penalty";
     info["contact"] = contact;
   }
   return info.dump();

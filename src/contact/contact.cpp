@@ -19,6 +19,7 @@ ContactLaw ContactSystem::law_of(const ContactOptions& o, double spacing) {
   law.tangential_factor = o.tangential_factor;
   law.velocity_sign = o.velocity_sign && o.friction > 0.0;
   law.exact = o.enforcement == ContactEnforcement::exact;
+  law.stick_multiplier = law.exact && o.exact_stick;
   law.window = spacing;
   return law;
 }
@@ -220,7 +221,7 @@ void ContactSystem::particle_states(std::vector<int>& out) const {
 Mat2 ContactSystem::preconditioner_block(Index k) const {
   const PairResult& r = m_result[k];
   if (r.status == PairStatus::open) return Mat2::Zero();
-  return closed_pair_block(pairs()[k], m_state.boost(k), m_law.tangential_factor,
+  return closed_pair_block(pairs()[k], m_state.boost(k), m_law.stick_scale(m_state.boost(k)),
                            r.status == PairStatus::stick);
 }
 
@@ -230,7 +231,7 @@ double ContactSystem::stiffness_bound(Index k) const {
     const double ca = m_state.boost(k) * c.stiffness;
     double b = ca / c.gap0;
     if (m_law.gate > 0.0) b += (multiplier(k) + ca) / (m_law.gate * m_law.window);
-    if (m_law.friction > 0.0) b += m_law.tangential_factor * c.stiffness / c.gap0;
+    if (m_law.friction > 0.0) b += m_law.stick_scale(m_state.boost(k)) * c.stiffness / c.gap0;
     return b;
   }
   double b = c.stiffness * (1.0 / c.gap0 + 1.0 / m_law.radius);
@@ -251,6 +252,7 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
   const std::vector<ContactPair>& pairs = m_state.pairs();
   const Index np = size();
   // Facing pairs (the kernel's exact branch): within one spacing across and along.
+  // Under exact stick a stuck pair's slip from its anchor, |w - w_p| / a, is a violation too.
   std::vector<double> closure(np, 0.0), violation(np, 0.0);
   std::vector<char> facing(np, 0);
   for (Index k = 0; k < np; ++k) {
@@ -261,6 +263,8 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
     facing[k] = 1;
     closure[k] = 1.0 - g.normal / c.gap0;
     violation[k] = m_result[k].normal_force > 0.0 ? std::abs(closure[k]) : std::max(0.0, closure[k]);
+    if (m_result[k].status == PairStatus::stick)
+      violation[k] = std::max(violation[k], m_state.stick_violation(k, c.tangent().dot(du)));
     if (!counted(c.i)) continue;  // on a part: another rank's pair (updated alike below)
     if (m_result[k].normal_force > 0.0) m.opening = std::max(m.opening, -closure[k]);
     if (violation[k] > m.violation) {
@@ -295,7 +299,7 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
     m.status = MultiplierUpdate::Status::exhausted;
     return m;
   }
-  m.updates = m_state.update_multipliers(facing, closure, violation, m_closure_tolerance);
+  m.updates = m_state.update_multipliers(facing, closure, violation, m_result, m_closure_tolerance);
   m.status = MultiplierUpdate::Status::updated;
   return m;
 }

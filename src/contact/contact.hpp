@@ -26,7 +26,8 @@ struct MultiplierUpdate {
   enum class Status { satisfied, updated, exhausted };
   Status status = Status::satisfied;
   /// Largest constraint violation over the facing pairs: the closure (a - n.Y) / a of any
-  /// pair, or the opening -(a - n.Y) / a of a pair that still carries a force.
+  /// pair, the opening -(a - n.Y) / a of a pair that still carries a force, or (exact stick)
+  /// the slip |w - w_p| / a of a stuck pair from its anchor.
   double violation = 0.0;
   /// Largest opening -(a - n.Y) / a of a facing pair that carries a force (a force across a
   /// gap: the multipliers' complementarity error).
@@ -100,8 +101,9 @@ class ContactSystem {
   void start_trial(double ratio);
   /// Exact enforcement, at the converged state u of the current multipliers: satisfied when
   /// every facing pair's violation is within contact.closure_tolerance (its closure s, or
-  /// |s| while it carries a force: no penetration, and no force across a gap); otherwise each
-  /// facing pair's multiplier becomes max(0, lambda + C s) (Uzawa) and the caller solves
+  /// |s| while it carries a force: no penetration, and no force across a gap; with friction,
+  /// the slip of a stuck pair from its anchor); otherwise each facing pair's multiplier
+  /// becomes max(0, lambda + C s) (Uzawa), its tangential one its friction force, and the caller solves
   /// again, up to contact.max_multiplier_updates times (then `exhausted`). Penalty: satisfied.
   MultiplierUpdate update_multipliers(const VectorXd& u);
   /// The first candidate that has crossed at u (n.Y < 0 while facing, `crossed()`), or -1.

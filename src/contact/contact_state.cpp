@@ -45,6 +45,12 @@ void ContactState::start(std::vector<ContactPair> pairs) {
   const Index np = size();
   if (m_law.tracks_slip()) m_slip.assign(np, 0.0);
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
+  if (m_law.exact_stick()) {
+    m_tangential_multiplier.assign(np, 0.0);
+    m_tangential_multiplier_committed.assign(np, 0.0);
+    m_limit_sign.assign(np, 0.0);
+    m_limit_sign_committed.assign(np, 0.0);
+  }
   if (m_law.exact) {
     m_multiplier.assign(np, 0.0);
     m_multiplier_committed.assign(np, 0.0);
@@ -64,6 +70,12 @@ void ContactState::append(const ContactPair& c, const VectorXd& u) {
   if (m_law.tracks_slip())
     m_slip.push_back(c.tangent().dot(Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1])));
   if (m_law.velocity_sign) m_tangential_velocity.push_back(0.0);
+  if (m_law.exact_stick()) {
+    m_tangential_multiplier.push_back(0.0);
+    m_tangential_multiplier_committed.push_back(0.0);
+    m_limit_sign.push_back(0.0);
+    m_limit_sign_committed.push_back(0.0);
+  }
   if (m_law.exact) {
     m_multiplier.push_back(0.0);
     m_multiplier_committed.push_back(0.0);
@@ -89,6 +101,10 @@ void ContactState::sort_from(Index first, const ContactIds& ids) {
   };
   reorder(m_pairs);
   reorder(m_slip);
+  reorder(m_tangential_multiplier);
+  reorder(m_tangential_multiplier_committed);
+  reorder(m_limit_sign);
+  reorder(m_limit_sign_committed);
   reorder(m_tangential_velocity);
   reorder(m_multiplier);
   reorder(m_multiplier_committed);
@@ -103,6 +119,12 @@ bool ContactState::drop_last_round() {
   m_pairs.resize(n);
   if (m_law.tracks_slip()) m_slip.resize(n);
   if (m_law.velocity_sign) m_tangential_velocity.resize(n);
+  if (m_law.exact_stick()) {
+    m_tangential_multiplier.resize(n);
+    m_tangential_multiplier_committed.resize(n);
+    m_limit_sign.resize(n);
+    m_limit_sign_committed.resize(n);
+  }
   if (m_law.exact) {
     m_multiplier.resize(n);
     m_multiplier_committed.resize(n);
@@ -131,17 +153,29 @@ void ContactState::start_trial(double ratio) {
   if (!m_law.exact) return;
   const Index np = size();
   for (Index k = 0; k < np; ++k) m_multiplier[k] = ratio * m_multiplier_committed[k];
+  if (m_law.exact_stick()) {
+    m_limit_sign = m_limit_sign_committed;  // a pair at the limit stays there: its force follows F
+    for (Index k = 0; k < np; ++k) m_tangential_multiplier[k] = ratio * m_tangential_multiplier_committed[k];
+  }
   std::fill(m_last_violation.begin(), m_last_violation.end(), 0.0);
   m_multiplier_updates = 0;
 }
 
 int ContactState::update_multipliers(const std::vector<char>& facing, const std::vector<double>& closure,
-                                     const std::vector<double>& violation, double closure_tolerance) {
+                                     const std::vector<double>& violation, const std::vector<PairResult>& result,
+                                     double closure_tolerance) {
   // Uzawa: lambda <- max(0, lambda + C_k s). A pair whose violation above the tolerance fell
   // by less than kAugmentationReduction since the last update gets a stiffer augmentation
   // (method of multipliers, Bertsekas 1982, sec. 2.2): C_k = boost_k C, boost_k *= kBoost.
+  // Exact stick, the same step along t (Simo and Laursen 1992), with the anchor w_p fixed at
+  // the committed slip through the increment (backward Euler, as the penalty return map): a
+  // stuck pair's multiplier takes the force mu + k_t (w - w_p) it carries, so the next solve
+  // pulls its slip back; a sliding pair goes to the limit, +-f_c F at whatever F becomes; an
+  // open pair carries nothing.
   const Index np = size();
+  const bool stick = m_law.exact_stick();
   for (Index k = 0; k < np; ++k) {
+    if (stick) set_tangential(k, facing[k] ? result[k] : PairResult{});
     if (!facing[k]) {
       m_multiplier[k] = 0.0;
       continue;
@@ -158,6 +192,23 @@ int ContactState::update_multipliers(const std::vector<char>& facing, const std:
   return ++m_multiplier_updates;
 }
 
+void ContactState::set_tangential(Index k, const PairResult& r) {
+  switch (r.status) {
+    case PairStatus::stick:  // the force it carries
+      m_tangential_multiplier[k] = r.tangential;
+      m_limit_sign[k] = 0.0;
+      break;
+    case PairStatus::slip:  // at the limit
+      m_tangential_multiplier[k] = 0.0;
+      m_limit_sign[k] = r.tangential > 0.0 ? 1.0 : (r.tangential < 0.0 ? -1.0 : 0.0);
+      break;
+    case PairStatus::open:  // nothing
+      m_tangential_multiplier[k] = 0.0;
+      m_limit_sign[k] = 0.0;
+      break;
+  }
+}
+
 void ContactState::commit_trial() {
   m_round_start = size();
   m_multiplier_committed = m_multiplier;
@@ -167,10 +218,23 @@ void ContactState::commit_trial() {
 void ContactState::update_slip(const VectorXd& u, const std::vector<PairResult>& result) {
   if (!m_law.tracks_slip()) return;
   const Index np = size();
+  const bool stick = m_law.exact_stick();
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = m_pairs[k];
     const double w = c.tangent().dot(Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1]));
     const PairResult& r = result[k];
+    if (stick) {
+      // A stuck pair keeps its anchor and multiplier (its slip from the anchor is within the
+      // tolerance, and the next step pulls it back); a sliding pair stays at the limit from
+      // where it is, an open one carries nothing from where it is.
+      if (r.status != PairStatus::stick) {
+        set_tangential(k, r);
+        m_slip[k] = w;
+      }
+      m_tangential_multiplier_committed[k] = m_tangential_multiplier[k];
+      m_limit_sign_committed[k] = m_limit_sign[k];
+      continue;
+    }
     const double kt = m_law.tangential_factor * c.stiffness / c.gap0;
     if (r.status == PairStatus::open)
       m_slip[k] = w;  // an open pair stores no tangential force
@@ -186,7 +250,7 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
   const bool friction = m_law.tracks_slip();
   struct Saved {
     std::int64_t i, j;
-    double nx, ny, gap0, stiffness, slip, multiplier, boost, boost_limit;
+    double nx, ny, gap0, stiffness, slip, multiplier, boost, boost_limit, tangential_multiplier, limit_sign;
   };
   std::vector<Saved> mine;
   mine.reserve(m_pairs.size());
@@ -195,13 +259,15 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
     if (!ids.counted(c.i)) continue;  // on a part: another rank's pair
     mine.push_back({ids.gid(c.i), ids.gid(c.j), c.normal.x(), c.normal.y(), c.gap0, c.stiffness,
                     friction ? m_slip[k] : 0.0, m_law.exact ? m_multiplier_committed[k] : 0.0,
-                    m_law.exact ? m_boost[k] : 0.0, m_law.exact ? m_boost_limit[k] : 0.0});
+                    m_law.exact ? m_boost[k] : 0.0, m_law.exact ? m_boost_limit[k] : 0.0,
+                    m_law.exact_stick() ? m_tangential_multiplier_committed[k] : 0.0,
+                    m_law.exact_stick() ? m_limit_sign_committed[k] : 0.0});
   }
   std::vector<Saved> all = ids.gather(mine);
   // The parts' pairs (in rank order) by global ids: the whole model's order.
   std::sort(all.begin(), all.end(),
             [](const Saved& a, const Saved& b) { return std::pair(a.i, a.j) < std::pair(b.i, b.j); });
-  std::vector<double> pairs, slip, multiplier, boost, boost_limit;  // the file holds doubles
+  std::vector<double> pairs, slip, multiplier, boost, boost_limit, tangential, limit_sign;  // the file holds doubles
   for (const Saved& x : all) {
     pairs.insert(pairs.end(), {static_cast<double>(x.i), static_cast<double>(x.j), x.nx, x.ny, x.gap0, x.stiffness});
     if (friction) slip.push_back(x.slip);
@@ -209,6 +275,10 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
       multiplier.push_back(x.multiplier);
       boost.push_back(x.boost);
       boost_limit.push_back(x.boost_limit);
+    }
+    if (m_law.exact_stick()) {
+      tangential.push_back(x.tangential_multiplier);
+      limit_sign.push_back(x.limit_sign);
     }
   }
   archive.put("contact/pairs", std::move(pairs));
@@ -218,6 +288,10 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
     archive.put("contact/boost", std::move(boost));
     archive.put("contact/boost_limit", std::move(boost_limit));
     archive.put("contact/augmentation_capped", m_augmentation_capped ? 1.0 : 0.0);
+  }
+  if (m_law.exact_stick()) {
+    archive.put("contact/tangential_multiplier", std::move(tangential));
+    archive.put("contact/tangential_limit_sign", std::move(limit_sign));
   }
 }
 
@@ -232,8 +306,14 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
   const std::vector<double>& multiplier = m_law.exact ? archive.get("contact/multiplier", rows) : none;
   const std::vector<double>& boost = m_law.exact ? archive.get("contact/boost", rows) : none;
   const std::vector<double>& boost_limit = m_law.exact ? archive.get("contact/boost_limit", rows) : none;
+  const std::vector<double>& tangential =
+      m_law.exact_stick() ? archive.get("contact/tangential_multiplier", rows) : none;
+  const std::vector<double>& limit_sign =
+      m_law.exact_stick() ? archive.get("contact/tangential_limit_sign", rows) : none;
   m_pairs.clear();
   m_slip.clear();
+  m_tangential_multiplier_committed.clear();
+  m_limit_sign_committed.clear();
   m_multiplier_committed.clear();
   m_boost.clear();
   m_boost_limit.clear();
@@ -257,6 +337,10 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
     m_pairs.push_back(c);
     const auto row = static_cast<std::size_t>(k);
     if (friction) m_slip.push_back(slip[row]);
+    if (m_law.exact_stick()) {
+      m_tangential_multiplier_committed.push_back(tangential[row]);
+      m_limit_sign_committed.push_back(limit_sign[row]);
+    }
     if (m_law.exact) {
       m_multiplier_committed.push_back(multiplier[row]);
       m_boost.push_back(boost[row]);
@@ -265,6 +349,10 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
   }
   const Index np = size();
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
+  if (m_law.exact_stick()) {
+    m_tangential_multiplier = m_tangential_multiplier_committed;
+    m_limit_sign = m_limit_sign_committed;
+  }
   if (m_law.exact) {
     m_multiplier = m_multiplier_committed;
     m_last_violation.assign(np, 0.0);
@@ -277,7 +365,9 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
 
 std::size_t ContactState::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  return bytes(m_pairs) + bytes(m_slip) + bytes(m_tangential_velocity) + bytes(m_multiplier) +
+  return bytes(m_pairs) + bytes(m_slip) + bytes(m_tangential_multiplier) +
+         bytes(m_tangential_multiplier_committed) + bytes(m_limit_sign) + bytes(m_limit_sign_committed) +
+         bytes(m_tangential_velocity) + bytes(m_multiplier) +
          bytes(m_multiplier_committed) + bytes(m_boost) + bytes(m_last_violation) + bytes(m_boost_limit);
 }
 

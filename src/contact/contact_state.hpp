@@ -6,6 +6,7 @@
 // checkpoint path by global id: a whole model is the case of identity ids.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -26,8 +27,10 @@ class ContactState {
   Index size() const { return static_cast<Index>(m_pairs.size()); }
   /// The history pair k's kernel reads.
   PairHistory history(Index k) const {
+    const bool stick = m_law.exact_stick();
     return {m_law.tracks_slip() ? m_slip[k] : 0.0, m_law.exact ? m_multiplier[k] : 0.0,
-            m_law.velocity_sign ? m_tangential_velocity[k] : 0.0, m_law.exact ? m_boost[k] : 1.0};
+            m_law.velocity_sign ? m_tangential_velocity[k] : 0.0, m_law.exact ? m_boost[k] : 1.0,
+            stick ? m_tangential_multiplier[k] : 0.0, stick ? m_limit_sign[k] : 0.0};
   }
   /// The augmentation stiffness / C of pair k (1 under penalty).
   double boost(Index k) const { return m_law.exact ? m_boost[k] : 1.0; }
@@ -55,15 +58,24 @@ class ContactState {
   /// Velocity-sign law only: the relative tangential pseudo-velocity of every pair from the
   /// full pseudo-velocity v (2N).
   void set_velocity(const VectorXd& v);
-  /// Exact enforcement: the trial multipliers from the committed ones scaled by `ratio`;
-  /// the update count restarts. No-op for penalty.
+  /// Exact enforcement: the trial multipliers from the committed ones scaled by `ratio`
+  /// (under exact stick the tangential ones too; a pair at the limit stays there); the update
+  /// count restarts. No-op for penalty.
   void start_trial(double ratio);
   /// Multiplier updates made in the current trial.
   int updates() const { return m_multiplier_updates; }
-  /// Exact enforcement, one Uzawa update of every pair (per pair: facing, closure s and
-  /// violation at the converged state); returns the updates made in this trial.
+  /// Exact enforcement, one Uzawa update of every pair (per pair: facing, closure s,
+  /// violation and the kernel's result at the converged state); returns the updates made in this trial. Under exact stick a stuck
+  /// pair's multiplier takes its force, a sliding pair goes to the limit (+-f_c F at the
+  /// current F), an open pair's goes to zero; anchors move only at commit.
   int update_multipliers(const std::vector<char>& facing, const std::vector<double>& closure,
-                         const std::vector<double>& violation, double closure_tolerance);
+                         const std::vector<double>& violation, const std::vector<PairResult>& result,
+                         double closure_tolerance);
+  /// Exact stick: the slip of a stuck pair from its anchor, |w - w_p| / a, at the tangential
+  /// offset w (0 for the other laws).
+  double stick_violation(Index k, double offset) const {
+    return m_law.exact_stick() ? std::abs(offset - m_slip[k]) / m_pairs[k].gap0 : 0.0;
+  }
   /// Accepts the trial: the round's pairs stay, the multipliers are committed.
   void commit_trial();
   /// Return-map friction: the slip of every pair at the converged u from its evaluation there.
@@ -83,12 +95,18 @@ class ContactState {
   double boost_limit(const ContactPair& c) const;
   /// Exact enforcement: the boost a new pair starts with (the cap by default).
   double initial_boost(const ContactPair& c);
+  /// Exact stick: pair k's tangential multiplier and limit sign from its state r.
+  void set_tangential(Index k, const PairResult& r);
 
   const ContactLaw& m_law;
   const PairStiffness& m_stiffness;
   std::vector<ContactPair> m_pairs;
   Index m_round_start = 0;                    ///< first pair of the last add_broken_bonds() round
   std::vector<double> m_slip;                 ///< committed w_p per pair (empty without friction)
+  std::vector<double> m_tangential_multiplier;            ///< per pair, trial mu (exact stick only)
+  std::vector<double> m_tangential_multiplier_committed;  ///< per pair, mu of the last converged state
+  std::vector<double> m_limit_sign;            ///< per pair, trial PairHistory::limit_sign (exact stick)
+  std::vector<double> m_limit_sign_committed;  ///< per pair, limit_sign of the last converged state
   std::vector<double> m_tangential_velocity;  ///< per pair, velocity-sign law only
   std::vector<double> m_multiplier;            ///< per pair, trial lambda (exact enforcement only)
   std::vector<double> m_multiplier_committed;  ///< per pair, lambda of the last converged state

@@ -34,12 +34,12 @@ double PairStiffness::operator()(Index i, Index j) const {
   return with_modulus(i, j, m_exact ? 0.0 : m_modulus_override);
 }
 
-Mat2 closed_pair_block(const ContactPair& pair, double normal_scale, double tangential_factor, bool stick) {
+Mat2 closed_pair_block(const ContactPair& pair, double normal_scale, double stick_scale, bool stick) {
   const double kn = pair.stiffness / pair.gap0;
   Mat2 S = (normal_scale * kn) * pair.normal * pair.normal.transpose();
   if (stick) {
     const Vec2 t = pair.tangent();
-    S += (tangential_factor * kn) * t * t.transpose();
+    S += (stick_scale * kn) * t * t.transpose();
   }
   return S;
 }
@@ -53,7 +53,7 @@ void close_if_touching(const ContactPair& pair, const Vec2& X, const Vec2& du, d
     if (pair.gap0 > law.window * (1.0 + kLatticeRoundOff) || std::abs(pair.tangent().dot(Y)) >= law.window ||
         s < -kLatticeRoundOff)
       return;
-    out.J = closed_pair_block(pair, boost, law.tangential_factor, stick);
+    out.J = closed_pair_block(pair, boost, law.stick_scale(boost), stick);
   } else if (law.normal == NormalLaw::paper) {
     if (yn <= 0.0 || Y.norm() > law.radius * (1.0 + kLatticeRoundOff) || s < -kLatticeRoundOff) return;
     out.J = closed_pair_block(pair, 1.0, law.tangential_factor, stick);
@@ -178,15 +178,21 @@ void add_friction(const ContactPair& pair, const Vec2& du, double F, const Vec2&
     if (want_jacobian) out.J += (sign * law.friction) * t * dF.transpose();
     out.g += out.tangential * t;
   } else if (law.friction > 0.0) {
-    // A return map on w - w_p (eq 14).
+    // A return map on w - w_p (eq 14); under exact stick the trial adds the multiplier mu, or
+    // +-f_c F for a pair that slid at its last update (limit_sign).
     const Vec2 t = pair.tangent();
-    const double kt = law.tangential_factor * pair.stiffness / pair.gap0;
-    const double trial = kt * (t.dot(du) - history.slip);
+    const double kt = law.stick_scale(history.boost) * pair.stiffness / pair.gap0;
+    const bool at_limit = history.limit_sign != 0.0;
+    const double base = at_limit ? history.limit_sign * law.friction * F : history.tangential_multiplier;
+    const double trial = base + kt * (t.dot(du) - history.slip);
     const double limit = law.friction * F;
     if (std::abs(trial) <= limit) {
       out.status = PairStatus::stick;
       out.tangential = trial;
-      if (want_jacobian) out.J += kt * t * t.transpose();
+      if (want_jacobian) {
+        out.J += kt * t * t.transpose();
+        if (at_limit) out.J += (history.limit_sign * law.friction) * t * dF.transpose();
+      }
     } else {
       const double sign = trial > 0.0 ? 1.0 : -1.0;
       out.tangential = sign * limit;

@@ -50,17 +50,32 @@ struct ContactLaw {
   /// at most `window`, where phi is 1 while the tangential offset |t.Y| is below
   /// (1 - gate) window and falls linearly to 0 at `window` (the two cells stop overlapping).
   bool exact = false;
+  bool stick_multiplier = true;  ///< exact enforcement: stick is a multiplier too (contact.stick)
   double window = 0.0;  ///< one lattice spacing [m]
   /// Coulomb friction with a slip history (friction > 0, not the velocity-sign law).
   bool tracks_slip() const { return friction > 0.0 && !velocity_sign; }
+  /// Exact stick (docs/theory/contact.md section 8): under exact enforcement a stuck pair's
+  /// tangential force is a multiplier, updated with the normal one until the pair's slip from
+  /// its anchor is within the closure tolerance; k_t only sets the rate.
+  bool exact_stick() const { return exact && stick_multiplier && tracks_slip(); }
+  /// k_t / (C / a): tangential_factor, times the pair's augmentation boost under exact stick
+  /// (there k_t is the augmentation's rate, not a compliance).
+  double stick_scale(double boost) const { return tangential_factor * (exact_stick() ? boost : 1.0); }
 };
 
 /// What a pair remembers between evaluations.
 struct PairHistory {
-  double slip = 0.0;                 ///< committed plastic slip w_p (return-map friction)
+  /// Return-map friction: the anchor w_p the stick force is measured from (the committed
+  /// plastic slip; under exact stick the trial anchor of the current multiplier round).
+  double slip = 0.0;
   double multiplier = 0.0;           ///< lambda [N], exact enforcement only
   double tangential_velocity = 0.0;  ///< t . (v_j - v_i), velocity-sign friction only
   double boost = 1.0;                ///< augmentation stiffness / C, exact enforcement only
+  double tangential_multiplier = 0.0;  ///< mu [N] along t, exact stick only
+  /// Exact stick: +-1 when the pair slid at its last update; its multiplier is then +-f_c F at
+  /// the current normal force F (it stays at the limit while F changes), and
+  /// tangential_multiplier is unused.
+  double limit_sign = 0.0;
 };
 
 /// Output of the pair kernel. g is the pair's internal force dPi/d(u_j - u_i): the force on
@@ -78,10 +93,11 @@ PairResult contact_pair(const ContactPair& pair, const Vec2& X, const Vec2& du, 
                         const ContactLaw& law, bool want_jacobian);
 
 /// The stiffness of a closed pair at full gate along its interface normal, (normal_scale C/a)
-/// n n^T, plus k_t t t^T when it sticks: the preconditioner's block of a pair in contact and
-/// the predictor's Jacobian of a touching one (normal_scale: the augmentation boost, 1 under
-/// penalty, 0 when the law's normal term lies elsewhere).
-Mat2 closed_pair_block(const ContactPair& pair, double normal_scale, double tangential_factor, bool stick);
+/// n n^T, plus (stick_scale C/a) t t^T when it sticks: the preconditioner's block of a pair in
+/// contact and the predictor's Jacobian of a touching one (normal_scale: the augmentation
+/// boost, 1 under penalty, 0 when the law's normal term lies elsewhere; stick_scale:
+/// ContactLaw::stick_scale).
+Mat2 closed_pair_block(const ContactPair& pair, double normal_scale, double stick_scale, bool stick);
 
 /// ContactSystem::set_touching_closed(): an open pair that touches gets the stiffness of a
 /// closed pair at full gate, stuck when the law has friction; its force stays zero.

@@ -204,12 +204,16 @@ struct ContactOptions {
   /// f_c F_n against the sign of the pseudo-velocity; ADR only).
   bool velocity_sign = false;
   ContactEnforcement enforcement = ContactEnforcement::penalty;
+  /// exact enforcement with friction: stick is a multiplier too (true, the default), or the
+  /// penalty k_t = tangential_factor C / a (`stick: penalty`).
+  bool exact_stick = true;
   /// exact: largest accepted closure (a - n.Y) / a of a pair in contact, in (0, 1).
   double closure_tolerance = 1e-3;
   /// exact: multiplier updates allowed per load increment before the attempt counts as failed.
   int max_multiplier_updates = 30;
   SourceLocation friction_law_where;
   SourceLocation enforcement_where;
+  SourceLocation stick_where;
   SourceLocation where;
 };
 

@@ -322,7 +322,7 @@ ContactInterface read_interface(const Field& field, const std::vector<ParsedBody
 ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& bodies) {
   const Map m = checked_map(field, {"enabled", "friction", "radius_factor", "normal", "stiffness",
                                     "tangential_factor", "gate", "cracks", "interfaces", "friction_law",
-                                    "enforcement", "closure_tolerance", "max_multiplier_updates"});
+                                    "enforcement", "stick", "closure_tolerance", "max_multiplier_updates"});
   ContactOptions c;
   c.enabled = true;
   if (auto f = m.find("enabled")) c.enabled = schema::boolean(*f);
@@ -345,6 +345,16 @@ ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& b
                                                                         : ContactEnforcement::penalty;
     c.enforcement_where = f->where();
   }
+  bool stick_given = false;
+  if (auto f = m.find("stick")) {
+    c.exact_stick = schema::choice(*f, {"exact", "penalty"}) == "exact";
+    c.stick_where = f->where();
+    stick_given = true;
+  }
+  if (stick_given && c.exact_stick && c.enforcement != ContactEnforcement::exact)
+    throw InputError(c.stick_where,
+                     "stick: exact needs enforcement: exact (the stick multipliers are updated with the normal ones; "
+                     "docs/theory/contact.md section 8)");
   if (auto f = m.find("closure_tolerance")) {
     c.closure_tolerance = schema::number(*f);
     if (!(c.closure_tolerance > 0.0 && c.closure_tolerance < 1.0))

@@ -93,7 +93,8 @@ TEST(ContactKernel, JacobianMatchesFiniteDifferencesInEveryState) {
 
 // The same central differences (same tolerance and argument) for the exact-enforcement
 // branch (docs/theory/contact.md, section 8): F = phi(|t.Y|) max(0, lambda + b C s) with a
-// multiplier lambda and a boost b, in the full window and on its ramp, sticking and slipping,
+// multiplier lambda and a boost b, in the full window and on its ramp, sticking and slipping
+// (with the tangential multiplier of exact stick, and at the limit),
 // and for a pair that has crossed (n.Y < 0); and for the penalty law's crossed branch, whose
 // gate reads |t.Y| instead of |Y| (section 2).
 TEST(ContactKernel, ExactAndCrossedBranchesMatchFiniteDifferences) {
@@ -111,10 +112,20 @@ TEST(ContactKernel, ExactAndCrossedBranchesMatchFiniteDifferences) {
     Vec2 du;      ///< (t, n) components in units of dx
     double slip;  ///< committed slip w_p in units of dx
     PairStatus status;
+    double tangential_multiplier = 0.0;  ///< mu [N] (exact stick)
+    double limit_sign = 0.0;             ///< +-1: the pair is at the limit +-f_c F (exact stick)
   };
   const std::vector<ExactCase> cases = {
       {"exact, window, stick", true, 0.5, 40.0, {0.0105, -0.001}, 0.01, PairStatus::stick},
       {"exact, window, slip", true, 0.2, 40.0, {0.3, -0.002}, 0.01, PairStatus::slip},
+      // Exact stick: a stuck pair's multiplier mu adds to k_t (w - w_p) (F = 90 N, limit 45 N,
+      // k_t (w - w_p) = 25 N); a pair at the limit (limit_sign) starts from +-f_c F, whose
+      // derivative enters J, and slips on or sticks when pulled back.
+      {"exact stick, multiplier", true, 0.5, 40.0, {0.0105, -0.001}, 0.01, PairStatus::stick, 10.0},
+      {"exact stick, at the limit, pulled back", true, 0.5, 40.0, {0.0095, -0.001}, 0.01, PairStatus::stick, 0.0,
+       1.0},
+      {"exact stick, at the limit, slides on", true, 0.5, 40.0, {0.0105, -0.001}, 0.01, PairStatus::slip, 0.0, 1.0},
+      {"exact stick, at the limit, ramp", true, 0.5, 40.0, {0.8305, -0.001}, 0.83, PairStatus::stick, 0.0, -1.0},
       {"exact, opened beyond what lambda carries", true, 0.2, 40.0, {0.3, 0.01}, 0.01, PairStatus::open},
       {"exact, window ramp, stick", true, 0.5, 40.0, {0.83, -0.001}, 0.8295, PairStatus::stick},
       {"exact, window ramp, slip", true, 0.1, 40.0, {0.84, -0.003}, 0.01, PairStatus::slip},
@@ -130,7 +141,7 @@ TEST(ContactKernel, ExactAndCrossedBranchesMatchFiniteDifferences) {
     law.friction = c.friction;
     law.exact = c.exact;
     law.window = dx;
-    const PairHistory history{c.slip * dx, c.multiplier, 0.0, 2.0};
+    const PairHistory history{c.slip * dx, c.multiplier, 0.0, 2.0, c.tangential_multiplier, c.limit_sign};
     const Vec2 du = dx * (c.du.x() * t + c.du.y() * n);
     const PairResult r = contact_pair(pair, X, du, history, law, true);
     ASSERT_EQ(r.status, c.status) << c.name;
@@ -181,13 +192,15 @@ TEST(ContactKernel, ACrossedPairIsPushedBackHarderNotReleased) {
 // Same tolerance argument as derivative.Tangent (1e-6 of max |K|).
 TEST(ContactTangent, AssembledTangentMatchesFiniteDifferences) {
   // Friction coefficients chosen so that both stick and slip occur for this seed.
-  // The exact variant takes one multiplier update at x first, so that lambda > 0 enters.
+  // The exact variant takes one multiplier update at x first, so that lambda > 0 enters, and
+  // with it exact stick's state: stuck pairs carry a tangential multiplier, sliding ones are
+  // at the limit (f_c = 0.1 keeps both states after the update).
   struct Variant {
     const char *normal, *friction;
     bool exact;
   };
   for (const auto& [normal, friction, exact] :
-       {Variant{"paper", "0.2", false}, Variant{"pair", "0.05", false}, Variant{"paper", "0.02", true}}) {
+       {Variant{"paper", "0.2", false}, Variant{"pair", "0.05", false}, Variant{"paper", "0.1", true}}) {
     test::PlateSpec spec;
     spec.nx = 12;
     spec.ny = 8;

@@ -729,6 +729,21 @@ TEST(SceneContact, ChoicesAndTypes) {
                "expected a list, found a map");
 }
 
+// contact.stick (docs/theory/contact.md section 8): exact stick is the default of exact
+// enforcement; `stick: penalty` keeps the tangential penalty there; exact stick without exact
+// enforcement has no multiplier loop to run in and is refused at its line.
+TEST(SceneContact, StickKey) {
+  EXPECT_TRUE(parse(k_minimal + "contact: {enforcement: exact, friction: 0.3}\n").contact.exact_stick);
+  EXPECT_FALSE(
+      parse(k_minimal + "contact: {enforcement: exact, friction: 0.3, stick: penalty}\n").contact.exact_stick);
+  EXPECT_TRUE(
+      parse(k_minimal + "contact: {enforcement: exact, friction: 0.3, stick: exact}\n").contact.exact_stick);
+  expect_error(k_minimal + "contact:\n  friction: 0.3\n  stick: exact\n", "scene.yaml:23: contact.stick",
+               "stick: exact needs enforcement: exact");
+  expect_error(k_minimal + "contact:\n  enforcement: exact\n  stick: glue\n", "scene.yaml:23: contact.stick",
+               "value \"glue\" is not allowed: expected one of exact, penalty");
+}
+
 TEST(SceneContact, UnknownKeys) {
   expect_error(replace(k_contact, "  gate: 0.25\n", "  gate: 0.25\n  mu: 0.3\n"), "scene.yaml:37: contact.mu",
                "unknown key \"mu\": expected one of enabled, friction, radius_factor, normal, stiffness, "
