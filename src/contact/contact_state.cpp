@@ -46,10 +46,8 @@ void ContactState::start(std::vector<ContactPair> pairs) {
   if (m_law.tracks_slip()) m_slip.assign(np, 0.0);
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
   if (m_law.exact_stick()) {
-    m_tangential_multiplier.assign(np, 0.0);
-    m_tangential_multiplier_committed.assign(np, 0.0);
-    m_limit_sign.assign(np, 0.0);
-    m_limit_sign_committed.assign(np, 0.0);
+    m_stick.assign(np, {});
+    m_stick_committed.assign(np, {});
   }
   if (m_law.exact) {
     m_multiplier.assign(np, 0.0);
@@ -71,10 +69,8 @@ void ContactState::append(const ContactPair& c, const VectorXd& u) {
     m_slip.push_back(c.tangent().dot(Vec2(u[2 * c.j] - u[2 * c.i], u[2 * c.j + 1] - u[2 * c.i + 1])));
   if (m_law.velocity_sign) m_tangential_velocity.push_back(0.0);
   if (m_law.exact_stick()) {
-    m_tangential_multiplier.push_back(0.0);
-    m_tangential_multiplier_committed.push_back(0.0);
-    m_limit_sign.push_back(0.0);
-    m_limit_sign_committed.push_back(0.0);
+    m_stick.emplace_back();
+    m_stick_committed.emplace_back();
   }
   if (m_law.exact) {
     m_multiplier.push_back(0.0);
@@ -101,10 +97,8 @@ void ContactState::sort_from(Index first, const ContactIds& ids) {
   };
   reorder(m_pairs);
   reorder(m_slip);
-  reorder(m_tangential_multiplier);
-  reorder(m_tangential_multiplier_committed);
-  reorder(m_limit_sign);
-  reorder(m_limit_sign_committed);
+  reorder(m_stick);
+  reorder(m_stick_committed);
   reorder(m_tangential_velocity);
   reorder(m_multiplier);
   reorder(m_multiplier_committed);
@@ -120,10 +114,8 @@ bool ContactState::drop_last_round() {
   if (m_law.tracks_slip()) m_slip.resize(n);
   if (m_law.velocity_sign) m_tangential_velocity.resize(n);
   if (m_law.exact_stick()) {
-    m_tangential_multiplier.resize(n);
-    m_tangential_multiplier_committed.resize(n);
-    m_limit_sign.resize(n);
-    m_limit_sign_committed.resize(n);
+    m_stick.resize(n);
+    m_stick_committed.resize(n);
   }
   if (m_law.exact) {
     m_multiplier.resize(n);
@@ -154,8 +146,9 @@ void ContactState::start_trial(double ratio) {
   const Index np = size();
   for (Index k = 0; k < np; ++k) m_multiplier[k] = ratio * m_multiplier_committed[k];
   if (m_law.exact_stick()) {
-    m_limit_sign = m_limit_sign_committed;  // a pair at the limit stays there: its force follows F
-    for (Index k = 0; k < np; ++k) m_tangential_multiplier[k] = ratio * m_tangential_multiplier_committed[k];
+    // A pair at the limit stays there (its force follows F); a stuck one's scales like lambda.
+    for (Index k = 0; k < np; ++k)
+      m_stick[k] = {ratio * m_stick_committed[k].force, m_stick_committed[k].limit_sign};
   }
   std::fill(m_last_violation.begin(), m_last_violation.end(), 0.0);
   m_multiplier_updates = 0;
@@ -195,16 +188,13 @@ int ContactState::update_multipliers(const std::vector<char>& facing, const std:
 void ContactState::set_tangential(Index k, const PairResult& r) {
   switch (r.status) {
     case PairStatus::stick:  // the force it carries
-      m_tangential_multiplier[k] = r.tangential;
-      m_limit_sign[k] = 0.0;
+      m_stick[k] = {r.tangential, 0.0};
       break;
     case PairStatus::slip:  // at the limit
-      m_tangential_multiplier[k] = 0.0;
-      m_limit_sign[k] = r.tangential > 0.0 ? 1.0 : (r.tangential < 0.0 ? -1.0 : 0.0);
+      m_stick[k] = {0.0, r.tangential > 0.0 ? 1.0 : (r.tangential < 0.0 ? -1.0 : 0.0)};
       break;
     case PairStatus::open:  // nothing
-      m_tangential_multiplier[k] = 0.0;
-      m_limit_sign[k] = 0.0;
+      m_stick[k] = {};
       break;
   }
 }
@@ -231,8 +221,7 @@ void ContactState::update_slip(const VectorXd& u, const std::vector<PairResult>&
         set_tangential(k, r);
         m_slip[k] = w;
       }
-      m_tangential_multiplier_committed[k] = m_tangential_multiplier[k];
-      m_limit_sign_committed[k] = m_limit_sign[k];
+      m_stick_committed[k] = m_stick[k];
       continue;
     }
     const double kt = m_law.tangential_factor * c.stiffness / c.gap0;
@@ -260,8 +249,8 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
     mine.push_back({ids.gid(c.i), ids.gid(c.j), c.normal.x(), c.normal.y(), c.gap0, c.stiffness,
                     friction ? m_slip[k] : 0.0, m_law.exact ? m_multiplier_committed[k] : 0.0,
                     m_law.exact ? m_boost[k] : 0.0, m_law.exact ? m_boost_limit[k] : 0.0,
-                    m_law.exact_stick() ? m_tangential_multiplier_committed[k] : 0.0,
-                    m_law.exact_stick() ? m_limit_sign_committed[k] : 0.0});
+                    m_law.exact_stick() ? m_stick_committed[k].force : 0.0,
+                    m_law.exact_stick() ? m_stick_committed[k].limit_sign : 0.0});
   }
   std::vector<Saved> all = ids.gather(mine);
   // The parts' pairs (in rank order) by global ids: the whole model's order.
@@ -312,8 +301,7 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
       m_law.exact_stick() ? archive.get("contact/tangential_limit_sign", rows) : none;
   m_pairs.clear();
   m_slip.clear();
-  m_tangential_multiplier_committed.clear();
-  m_limit_sign_committed.clear();
+  m_stick_committed.clear();
   m_multiplier_committed.clear();
   m_boost.clear();
   m_boost_limit.clear();
@@ -338,8 +326,7 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
     const auto row = static_cast<std::size_t>(k);
     if (friction) m_slip.push_back(slip[row]);
     if (m_law.exact_stick()) {
-      m_tangential_multiplier_committed.push_back(tangential[row]);
-      m_limit_sign_committed.push_back(limit_sign[row]);
+      m_stick_committed.push_back({tangential[row], limit_sign[row]});
     }
     if (m_law.exact) {
       m_multiplier_committed.push_back(multiplier[row]);
@@ -350,8 +337,7 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
   const Index np = size();
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
   if (m_law.exact_stick()) {
-    m_tangential_multiplier = m_tangential_multiplier_committed;
-    m_limit_sign = m_limit_sign_committed;
+    m_stick = m_stick_committed;
   }
   if (m_law.exact) {
     m_multiplier = m_multiplier_committed;
@@ -365,8 +351,7 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
 
 std::size_t ContactState::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
-  return bytes(m_pairs) + bytes(m_slip) + bytes(m_tangential_multiplier) +
-         bytes(m_tangential_multiplier_committed) + bytes(m_limit_sign) + bytes(m_limit_sign_committed) +
+  return bytes(m_pairs) + bytes(m_slip) + bytes(m_stick) + bytes(m_stick_committed) +
          bytes(m_tangential_velocity) + bytes(m_multiplier) +
          bytes(m_multiplier_committed) + bytes(m_boost) + bytes(m_last_violation) + bytes(m_boost_limit);
 }

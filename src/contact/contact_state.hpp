@@ -30,7 +30,7 @@ class ContactState {
     const bool stick = m_law.exact_stick();
     return {m_law.tracks_slip() ? m_slip[k] : 0.0, m_law.exact ? m_multiplier[k] : 0.0,
             m_law.velocity_sign ? m_tangential_velocity[k] : 0.0, m_law.exact ? m_boost[k] : 1.0,
-            stick ? m_tangential_multiplier[k] : 0.0, stick ? m_limit_sign[k] : 0.0};
+            stick ? m_stick[k].force : 0.0, stick ? m_stick[k].limit_sign : 0.0};
   }
   /// The augmentation stiffness / C of pair k (1 under penalty).
   double boost(Index k) const { return m_law.exact ? m_boost[k] : 1.0; }
@@ -103,10 +103,12 @@ class ContactState {
   std::vector<ContactPair> m_pairs;
   Index m_round_start = 0;                    ///< first pair of the last add_broken_bonds() round
   std::vector<double> m_slip;                 ///< committed w_p per pair (empty without friction)
-  std::vector<double> m_tangential_multiplier;            ///< per pair, trial mu (exact stick only)
-  std::vector<double> m_tangential_multiplier_committed;  ///< per pair, mu of the last converged state
-  std::vector<double> m_limit_sign;            ///< per pair, trial PairHistory::limit_sign (exact stick)
-  std::vector<double> m_limit_sign_committed;  ///< per pair, limit_sign of the last converged state
+  /// Exact stick: a pair's tangential multiplier mu [N] and PairHistory::limit_sign.
+  struct StickMultiplier {
+    double force = 0.0, limit_sign = 0.0;
+  };
+  std::vector<StickMultiplier> m_stick;            ///< per pair, trial (exact stick only)
+  std::vector<StickMultiplier> m_stick_committed;  ///< per pair, of the last converged state
   std::vector<double> m_tangential_velocity;  ///< per pair, velocity-sign law only
   std::vector<double> m_multiplier;            ///< per pair, trial lambda (exact enforcement only)
   std::vector<double> m_multiplier_committed;  ///< per pair, lambda of the last converged state
