@@ -198,9 +198,9 @@ ConstraintUpdate QuasiStaticProblem::update_multipliers(const VectorXd& x) {
       out.status = ConstraintUpdate::Status::exhausted;
       char buf[320];
       std::snprintf(buf, sizeof buf,
-                    "exact contact: closure %.3g of pair (%ld, %ld) still above contact.closure_tolerance "
+                    "exact contact: %s %.3g of pair (%ld, %ld) still above contact.closure_tolerance "
                     "after %d multiplier updates (contact.max_multiplier_updates)",
-                    m.violation, static_cast<long>(m.pair_i), static_cast<long>(m.pair_j), m.updates);
+                    m.kind, m.violation, static_cast<long>(m.pair_i), static_cast<long>(m.pair_j), m.updates);
       out.message = buf;
       break;
     }

@@ -10,6 +10,12 @@ namespace peristat {
 /// largest entry (round-off of n n^T and t t^T products).
 constexpr double kSymmetryTolerance = 1e-12;
 
+/// The violations a multiplier update reports (MultiplierUpdate::kind), by rank-neutral index.
+constexpr const char* kClosure = "closure";
+constexpr const char* kOpeningUnderLoad = "opening under load";
+constexpr const char* kStuckSlip = "stuck slip";
+constexpr const char* kKinds[] = {kClosure, kOpeningUnderLoad, kStuckSlip};
+
 ContactLaw ContactSystem::law_of(const ContactOptions& o, double spacing) {
   ContactLaw law;
   law.normal = o.normal;
@@ -263,35 +269,48 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
     facing[k] = 1;
     closure[k] = 1.0 - g.normal / c.gap0;
     violation[k] = m_result[k].normal_force > 0.0 ? std::abs(closure[k]) : std::max(0.0, closure[k]);
-    if (m_result[k].status == PairStatus::stick)
-      violation[k] = std::max(violation[k], m_state.stick_violation(k, c.tangent().dot(du)));
+    const char* kind = closure[k] < 0.0 ? kOpeningUnderLoad : kClosure;
+    if (m_result[k].status == PairStatus::stick) {
+      const double slip = m_state.stick_violation(k, c.tangent().dot(du));
+      if (slip > violation[k]) {
+        violation[k] = slip;
+        kind = kStuckSlip;
+      }
+    }
     if (!counted(c.i)) continue;  // on a part: another rank's pair (updated alike below)
     if (m_result[k].normal_force > 0.0) m.opening = std::max(m.opening, -closure[k]);
     if (violation[k] > m.violation) {
       m.violation = violation[k];
       m.pair_i = gid(c.i);
       m.pair_j = gid(c.j);
+      m.kind = kind;
     }
   }
   {  // the largest over every rank's own pairs; of equals, the first in the whole model's order
     struct Worst {
       double violation, opening;
       std::int64_t i, j;
+      int kind;  // index into kKinds: a pointer means nothing on another rank
     };
+    auto kind_index = [](const char* kind) { return kind == kStuckSlip ? 2 : kind == kOpeningUnderLoad ? 1 : 0; };
     MultiplierUpdate best;
-    for (const Worst& w : m_ids.gather(std::vector<Worst>{{m.violation, m.opening, m.pair_i, m.pair_j}})) {
+    int best_kind = 0;
+    for (const Worst& w :
+         m_ids.gather(std::vector<Worst>{{m.violation, m.opening, m.pair_i, m.pair_j, kind_index(m.kind)}})) {
       best.opening = std::max(best.opening, w.opening);
       if (w.violation > best.violation || (w.i >= 0 && w.violation == best.violation && best.pair_i >= 0 &&
                                            std::pair(w.i, w.j) < std::pair(best.pair_i, best.pair_j))) {
         best.violation = w.violation;
         best.pair_i = w.i;
         best.pair_j = w.j;
+        best_kind = w.kind;
       }
     }
     m.violation = best.violation;
     m.opening = best.opening;
     m.pair_i = best.pair_i;
     m.pair_j = best.pair_j;
+    m.kind = kKinds[best_kind];
   }
   m.updates = m_state.updates();
   if (m.violation <= m_closure_tolerance) return m;

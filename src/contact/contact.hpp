@@ -35,6 +35,9 @@ struct MultiplierUpdate {
   /// The pair with that violation, by its ends' global ids (the particle indices in one
   /// process; -1: none).
   std::int64_t pair_i = -1, pair_j = -1;
+  /// What that pair violates: "closure" (it overlaps), "opening under load" (a force across a
+  /// gap) or "stuck slip" (exact stick: its slip from the anchor).
+  const char* kind = "closure";
   int updates = 0;  ///< updates made in this increment so far
 };
 

@@ -362,6 +362,29 @@ BlocksSpec stuck_blocks(double shear_over_dx) {
   return spec;
 }
 
+// When the multiplier updates run out, the message says what the worst pair violates, so a
+// user knows which of contact.closure_tolerance's three readings failed. One update and a
+// tolerance of 1e-9: pressed frictionless blocks keep a closure; the stuck blocks (pressed
+// and sheared, f_c = 0.5, a soft stick) keep a slip from their anchors.
+TEST(CoulombBlock, ExhaustedMultiplierUpdatesNameTheViolation) {
+  auto message = [](BlocksSpec spec, const std::string& extra) {
+    std::string y = blocks_yaml(spec);
+    y.replace(y.find("  friction:"), 0, "  closure_tolerance: 1.0e-9\n  max_multiplier_updates: 1\n" + extra);
+    y.replace(y.find("steps: 1}"), 9, "steps: 1, max_cutbacks: 0}");
+    auto s = test::solve_scene(y);
+    EXPECT_FALSE(s->run.completed);
+    std::printf("%s\n", s->run.message.c_str());
+    return s->run.message;
+  };
+  BlocksSpec pressed = stuck_blocks(0.0);
+  pressed.friction = 0.0;
+  // A soft stick (tangential_factor 0.01: the trial slip is 100 times the default's) makes
+  // the slip the larger violation of the sheared blocks.
+  const std::string closure = message(pressed, ""), slip = message(stuck_blocks(0.02), "  tangential_factor: 0.01\n");
+  EXPECT_NE(closure.find("exact contact: closure"), std::string::npos);
+  EXPECT_NE(slip.find("exact contact: stuck slip"), std::string::npos);
+}
+
 TEST(CoulombBlock, ExactStickHoldsWhereThePenaltyCreeps) {
   const BlocksSpec spec = stuck_blocks(0.02);
   const std::string exact = blocks_yaml(spec);
