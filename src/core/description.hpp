@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/k_field.hpp"
 #include "core/types.hpp"
 
 namespace peristat {
@@ -49,11 +50,14 @@ struct Crack {
 };
 
 /// A prescribed displacement component at load factor 1: value + grad . X (X = reference
-/// position). The applied value at load factor lambda is lambda times this.
+/// position), plus component `k_component` of a K-field when the condition has one
+/// (`k_field:`). The applied value at load factor lambda is lambda times this.
 struct AffineValue {
   double value = 0.0;
   Vec2 grad = Vec2::Zero();
-  double at(const Vec2& X) const { return value + grad.dot(X); }
+  std::optional<KField> k;
+  int k_component = 0;
+  double at(const Vec2& X) const { return value + grad.dot(X) + (k ? k->at(X)[k_component] : 0.0); }
 };
 
 /// A prescribed-displacement condition.

@@ -236,7 +236,11 @@ int read_edge(const Field& field, const ParsedBody& p) {
 }
 
 AffineValue read_affine(const Field& field) {
-  if (field.node().IsScalar()) return AffineValue{schema::number(field), Vec2::Zero()};
+  if (field.node().IsScalar()) {
+    AffineValue v;
+    v.value = schema::number(field);
+    return v;
+  }
   if (!field.node().IsMap())
     field.fail("expected a number or {value: v, grad: [gx, gy]}, found " + field.found());
   const Map m = checked_map(field, {"value", "grad"});
@@ -273,10 +277,28 @@ void read_selector(const Map& m, const ParsedBody& body, int default_layers, Bou
   }
 }
 
+/// k_field: {K_I, K_II, tip: [x, y], direction: [dx, dy]}: the Williams near-tip field of
+/// the body's material (plane stress), ahead of the tip along `direction`.
+KField read_k_field(const Field& field, const Material& material) {
+  const Map m = checked_map(field, {"K_I", "K_II", "tip", "direction"});
+  KField k;
+  if (auto f = m.find("K_I")) k.K_I = schema::number(*f);
+  if (auto f = m.find("K_II")) k.K_II = schema::number(*f);
+  if (!m.find("K_I") && !m.find("K_II")) field.fail("expected at least one of K_I, K_II");
+  k.tip = schema::point(m.require("tip", "tip: [x, y], the crack tip"));
+  const Field dir = m.require("direction", "direction: [x, y], ahead of the tip (the crack lies behind it)");
+  k.direction = schema::point(dir);
+  if (!(k.direction.norm() > 0.0)) dir.fail("expected a non-zero direction, found " + dir.found());
+  k.direction.normalize();
+  k.mu = material.E / (2.0 * (1.0 + material.nu));
+  k.kappa = (3.0 - material.nu) / (1.0 + material.nu);
+  return k;
+}
+
 BoundaryCondition read_condition(const Field& field, const std::vector<ParsedBody>& bodies,
-                                 int default_layers) {
-  const Map m =
-      checked_map(field, {"body", "edge", "surround", "region", "block", "layers", "mirror", "ux", "uy"});
+                                 const std::map<std::string, Material>& materials, int default_layers) {
+  const Map m = checked_map(field, {"body", "edge", "surround", "region", "block", "layers", "mirror", "ux", "uy",
+                                    "k_field"});
   BoundaryCondition bc;
   const ParsedBody& body = find_body(m.require("body", "body, the name of an entry of bodies"), bodies);
   bc.body = body.body.name;
@@ -288,9 +310,18 @@ BoundaryCondition read_condition(const Field& field, const std::vector<ParsedBod
     if (bc.mirror && m.find("layers"))
       f->fail("layers is not allowed with mirror: the mirrored depth is always two stencil reaches, 2 ceil(m + 1/2) layers");
   }
+  if (auto f = m.find("k_field")) {
+    if (bc.mirror) f->fail("k_field is not allowed with mirror (a mirror prescribes the normal component only)");
+    for (const char* other : {"ux", "uy"})
+      if (auto g = m.find(other))
+        g->fail(std::string(other) + " is not allowed with k_field (the field gives both components)");
+    const KField k = read_k_field(*f, materials.at(body.body.material));
+    bc.ux = AffineValue{0.0, Vec2::Zero(), k, 0};
+    bc.uy = AffineValue{0.0, Vec2::Zero(), k, 1};
+  }
   if (auto f = m.find("ux")) bc.ux = read_affine(*f);
   if (auto f = m.find("uy")) bc.uy = read_affine(*f);
-  if (!bc.ux && !bc.uy) field.fail("prescribes nothing: expected at least one of ux, uy");
+  if (!bc.ux && !bc.uy) field.fail("prescribes nothing: expected at least one of ux, uy, k_field");
   bc.where = field.where();
   return bc;
 }
@@ -558,7 +589,7 @@ void read_sections(const Map& top, Scene& scene) {
     for (const Field& item : schema::list(*f)) scene.cracks.push_back(read_crack(item, bodies));
   if (auto f = top.find("boundary"))
     for (const Field& item : schema::list(*f))
-      scene.boundary.push_back(read_condition(item, bodies, scene.discretization.fictitious_layers));
+      scene.boundary.push_back(read_condition(item, bodies, scene.materials, scene.discretization.fictitious_layers));
   if (auto f = top.find("contact")) scene.contact = read_contact(*f, bodies);
   if (auto f = top.find("failure")) scene.failure = read_failure(*f);
   if (auto f = top.find("loading")) scene.loading = read_loading(*f);

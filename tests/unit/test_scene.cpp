@@ -1008,5 +1008,37 @@ TEST(Scene, MueLuParametersMustBeReadable) {
   EXPECT_NE(message.find("cannot read"), std::string::npos) << message;
 }
 
+// k_field: both components from the Williams field of the body's material (nu = 0.3 here:
+// mu = E / 2.6, kappa = 2.7 / 1.3), the direction normalised; refused beside ux or uy, with
+// mirror, without a tip or with a zero direction, each at its key.
+TEST(SceneParse, KFieldPrescribesBothComponentsFromTheMaterial) {
+  const std::string kf = replace(k_minimal, "    ux: 0\n    uy: 0\n",
+                                 "    k_field: {K_I: 2.0e6, K_II: -1.0e6, tip: [0.01, 0.005], direction: [0, 2]}\n");
+  const Scene s = parse(kf);
+  const BoundaryCondition& bc = s.boundary[0];
+  ASSERT_TRUE(bc.ux && bc.uy && bc.ux->k && bc.uy->k);
+  EXPECT_EQ(bc.ux->k_component, 0);
+  EXPECT_EQ(bc.uy->k_component, 1);
+  EXPECT_EQ(bc.ux->k->K_I, 2.0e6);
+  EXPECT_EQ(bc.ux->k->K_II, -1.0e6);
+  EXPECT_EQ(bc.ux->k->tip, Vec2(0.01, 0.005));
+  EXPECT_EQ(bc.ux->k->direction, Vec2(0, 1));
+  EXPECT_DOUBLE_EQ(bc.ux->k->mu, 1.0e9 / 2.6);
+  EXPECT_DOUBLE_EQ(bc.ux->k->kappa, 2.7 / 1.3);
+  const Vec2 X(0.0, 0.0);
+  EXPECT_EQ(bc.ux->at(X), bc.ux->k->at(X).x());
+  EXPECT_EQ(bc.uy->at(X), bc.uy->k->at(X).y());
+  expect_error(replace(kf, "    k_field:", "    ux: 0\n    k_field:"), "scene.yaml:16: boundary.0.ux",
+               "ux is not allowed with k_field");
+  expect_error(replace(kf, "tip: [0.01, 0.005], ", ""), "scene.yaml:16: boundary.0.k_field.tip",
+               "missing required key \"tip\"");
+  expect_error(replace(kf, "direction: [0, 2]", "direction: [0, 0]"),
+               "scene.yaml:16: boundary.0.k_field.direction", "expected a non-zero direction");
+  expect_error(replace(kf, "K_I: 2.0e6, K_II: -1.0e6, ", ""), "scene.yaml:16: boundary.0.k_field",
+               "expected at least one of K_I, K_II");
+  expect_error(replace(kf, "    edge: left\n", "    edge: left\n    mirror: true\n"),
+               "scene.yaml:17: boundary.0.k_field", "k_field is not allowed with mirror");
+}
+
 }  // namespace
 }  // namespace peristat
