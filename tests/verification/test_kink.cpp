@@ -16,8 +16,8 @@
 //   bonds over the criterion, so a growth that treats the tips differently is a defect.
 //   Measured: -14 / -22 degrees in the rings [0, 2] / [2, 5] delta about either tip (MTS:
 //   -53.1; the plane normal to the remote sigma_1: -31.7). The kink is NOT asserted within
-//   10 degrees of MTS, because it is not: at m = 3 the path keeps to the lattice's
-//   directions (documented with its measured size in docs/verification.md).
+//   10 degrees of MTS, because it is not: at delta / a = 0.3 the field over a horizon is not
+//   the K-field, and the lattice pulls the path (docs/verification.md, with the sizes).
 #include <cmath>
 #include <numbers>
 #include <string>
