@@ -25,20 +25,13 @@
 namespace peristat {
 namespace {
 
-/// Start K / K_c of the first bond in the boundary layer.
+/// Start K / K_c of the first bond in the boundary layer (cases/k_field_boundary_layer).
 double start(double dx, bool mode_two, const std::string& criterion) {
   const std::string k = mode_two ? "K_II: 0.5e6" : "K_I: 0.5e6";
-  const std::string y = "name: boundary_layer\n"
-                        "materials:\n  rock: {E: 10.0e9, nu: 0.3, thickness: 0.01, kinematics: small}\n"
-                        "discretization: {spacing: " + std::to_string(dx) + ", horizon_factor: 3}\n"
-                        "bodies:\n  square: {material: rock, rectangle: {min: [-0.5, -0.5], max: [0.5, 0.5]}}\n"
-                        "cracks:\n  - {from: [-0.6, 0.0], to: [0.0, 0.0]}\n"
-                        "boundary:\n  - {body: square, surround: true, k_field: {" + k +
-                        ", tip: [0, 0], direction: [1, 0]}}\n"
-                        "failure: {criterion: " + criterion + ", G_c: 100.0" +
-                        (criterion == "skew" ? ", direction: [1, 0]" : "") + "}\n"
-                        "solver: {linear: cg}\n";
-  auto s = test::solve_scene(y);
+  auto s = test::solve_case("k_field_boundary_layer",
+                            {"discretization.spacing=" + std::to_string(dx), "solver.linear=cg",
+                             "failure.criterion=" + criterion,
+                             "boundary.0.k_field={" + k + ", tip: [0, 0], direction: [1, 0]}"});
   EXPECT_TRUE(s->run.completed) << s->run.message;
   EXPECT_EQ(s->problem->failure()->broken(), 0);
   const double k_start = 0.5 / s->problem->failure()->peak().ratio;
