@@ -31,9 +31,18 @@ def set_poisson(nu):
     NU, MU, KOLOSOV, BULK_2D = nu, E / (2 * (1 + nu)), (3 - nu) / (1 + nu), E / (2 * (1 - nu))
 
 
+SKEW_SCALE = 1.0  # failure.skew_scale of the runs (docs/theory/failure.md, "A boundary-layer calibration")
+
+
+def set_skew_scale(scale):
+    """The critical skew's calibration factor, for runs that set failure.skew_scale."""
+    global SKEW_SCALE
+    SKEW_SCALE = scale
+
+
 def critical(criterion, g_c, delta):
     if criterion == "skew":
-        return math.sqrt(75 * math.pi * g_c / (64 * MU * delta))
+        return SKEW_SCALE * math.sqrt(75 * math.pi * g_c / (64 * MU * delta))
     return math.sqrt(g_c / ((6 * MU / math.pi + 16 * (BULK_2D - 2 * MU) / (9 * math.pi ** 2)) * delta))
 
 

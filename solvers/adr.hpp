@@ -31,6 +31,9 @@ class AdrSolver final : public StepSolver {
     return m_have_density && m_structure == m_problem.traits().structure_version;
   }
   bool cutback_helps() const override { return false; }
+  bool breaks_while_solving() const override {
+    return m_options.break_during && m_problem.irreversible_state() != nullptr;
+  }
   /// max(rtol * force_scale, a floor of 1e-300 N), the convergence test of the pseudo-time steps.
   double residual_tolerance(double force_scale) const override;
 
@@ -47,6 +50,9 @@ class AdrSolver final : public StepSolver {
   /// One central-difference step with damping c: m_v and x updated (distributed: the own
   /// entries only; the others, which this rank's rows never read, stay until the solve ends).
   void take_step(VectorXd& x, double c);
+  /// With breaking during the iterations: the bonds over the criterion at x break, and the
+  /// fictitious density follows the changed stiffness. Returns how many broke.
+  Index break_bonds(const VectorXd& x);
   /// The reason (and acceptance) of a solve that spent its budget at relative residual `relative`.
   void spent_budget(SolveReport& report, double relative) const;
 

@@ -26,6 +26,7 @@ void accumulate(StepReport& step, const SolveReport& r) {
   step.predictor_solves += r.predictor_solves;
   step.factorizations += r.factorizations;
   step.active_set_changes += r.active_set_changes;
+  step.bonds_broken += r.bonds_broken;
   step.seconds_evaluate += r.seconds_evaluate;
   step.seconds_factorize += r.seconds_factorize;
   step.seconds_solve += r.seconds_solve;
@@ -110,7 +111,7 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
   Index at_most = 0;  // 0: no cap beyond failure.fraction
   int successes = 0;  // converged rounds since the last halving
   IrreversibleState* irreversible = problem.irreversible_state();
-  if (!irreversible) return {};  // nothing can change: the load step is done
+  if (!irreversible || solver.breaks_while_solving()) return {};  // nothing (else) can change: the step is done
   for (int resolve = 1;; ++resolve) {
     Index broken = 0;
     try {
@@ -120,7 +121,7 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
       return buf;
     }
     if (broken == 0) return {};
-    if (resolve > loading.max_resolves) {
+    if (loading.max_resolves > 0 && resolve > loading.max_resolves) {
       irreversible->revert_irreversible_state();
       std::snprintf(buf, sizeof buf,
                     "load step %d/%d: bonds still breaking after %d re-solves at load factor %.6g "

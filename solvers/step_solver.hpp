@@ -29,6 +29,9 @@ struct SolveReport {
   /// Iterations after which the problem's discrete state (contact active set) differed
   /// from that of the previous iterate.
   int active_set_changes = 0;
+  /// Bonds the solver broke itself (ADR with `breaking: iterations`); the load stepping's
+  /// re-solves count theirs in StepReport::bonds_broken.
+  Index bonds_broken = 0;
   double seconds_evaluate = 0.0;  ///< residual (+ tangent) assembly
   double seconds_factorize = 0.0;
   double seconds_solve = 0.0;
@@ -67,6 +70,9 @@ class StepSolver {
   /// Whether a smaller load increment can rescue a failed solve. ADR fails by running out
   /// of its iteration budget, which a smaller increment does not change much.
   virtual bool cutback_helps() const { return true; }
+  /// True when solve() advances the problem's irreversible state itself (bonds break during
+  /// the iterations): the load stepping then does not break bonds between equilibria.
+  virtual bool breaks_while_solving() const { return false; }
   /// The largest residual norm ||r|| this solver accepts as converged when the problem's
   /// force scale is `force_scale` (the load stepping checks every accepted state against it,
   /// with the residual recomputed from scratch).

@@ -187,6 +187,10 @@ class Run {
                        " ranks Newton distributes its work only with solver.linear=belos (this run has " +
                        std::string(to_string(m_plan.linear)) +
                        "); add --set solver.linear=belos, run ADR (--solver adr), or run without mpirun");
+    if (ranks > 1 && !m_plan.newton() && m_scene.solver.adr.break_during && m_scene.failure.enabled)
+      throw InputError("solver.adr.breaking: iterations runs in one process only (each rank relaxes its own "
+                       "unknowns, and the criterion reads every family's); run without mpirun, or break bonds "
+                       "between equilibria (breaking: equilibrium)");
     if (m_args.threads > 0)
       omp_set_num_threads(m_args.threads);
     else if (ranks > 1)  // the ranks share the machine's cores

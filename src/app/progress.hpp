@@ -42,7 +42,10 @@ class ProgressObserver : public LoadSteppingObserver {
   void cut_back(const std::string& reason, double next) override;
 
  private:
+  /// From this re-solve at one load on, the progress line says that the crack runs.
+  static constexpr int kRunningAfter = 3;
   const ProgressPrinter& m_printer;
+  Index m_broken_at_this_load = 0;  ///< bonds broken since the first re-solve at the current load
 };
 
 }  // namespace peristat

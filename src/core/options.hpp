@@ -49,6 +49,10 @@ struct AdrOptions {
   bool accept_on_budget = false;  ///< on_budget: accept keeps an unconverged state (the paper's fixed count)
   double density_factor = 1.0;    ///< fictitious density = factor * 1/4 * sum_j |K_ij| (>= 1 is stable)
   long report_every = 1000;       ///< progress line and residual sample interval [iterations]
+  /// breaking: iterations. Bonds over the failure criterion break at every pseudo-time step,
+  /// not between converged equilibria, as explicit codes do (docs/theory/adr.md, "Breaking
+  /// during the iterations"); the load stepping then does no re-solves.
+  bool break_during = false;
 };
 
 /// solver.linear: the linear solver behind Newton.
@@ -130,7 +134,10 @@ struct BondPreconditionerOptions {
 struct Loading {
   int steps = 1;           ///< equal load steps to load factor 1, >= 1
   int max_cutbacks = 6;    ///< halvings of a failing step before giving up, >= 0
-  int max_resolves = 100;  ///< re-solves at one load after irreversible changes before the run stops, >= 1
+  /// Re-solves at one load after irreversible changes before the run stops (exit 3); 0: no
+  /// limit (the default: every converged round breaks at least one bond for good, so a
+  /// running crack ends when it arrests or the body separates).
+  int max_resolves = 0;
   /// loading.predictor: the first iterate of a load (sub)step. true (`extrapolate`, the
   /// default): the unknowns extrapolated linearly in the load factor from the last two
   /// accepted states; false (`previous`): the last accepted state.
@@ -159,6 +166,9 @@ struct FailureOptions {
   /// floored at |xi| sin(angle) (docs/theory/failure.md, "The skew of shallow bonds");
   /// 0 is the paper's eq 22. [0, 90).
   double skew_min_angle = 45.0;
+  /// skew: the critical skew is eq 19's times this factor (docs/theory/failure.md, "A
+  /// boundary-layer calibration"); 1 is the paper's energy calibration. > 0.
+  double skew_scale = 1.0;
   double fraction = 1.0;  ///< break this most critical fraction of the bonds over the criterion, (0, 1]
   SourceLocation where;
 };

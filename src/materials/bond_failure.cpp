@@ -28,7 +28,7 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options, cons
     const double mu = shear_modulus(body.material);
     m_critical.push_back(
         options.criterion == FailureCriterion::skew
-            ? critical_skew(options.G_c, mu, model.horizon)
+            ? options.skew_scale * critical_skew(options.G_c, mu, model.horizon)
             : critical_stretch(options.G_c, bulk_modulus_2d(body.material), mu, model.horizon));
   }
   if (options.criterion == FailureCriterion::skew) {
@@ -68,6 +68,9 @@ void BondFailure::number_particles(Index n) {
 
 const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(std::span<const Vec2> eta,
                                                                               Index at_most) {
+  // A round is what this call breaks: between converged equilibria every round is committed
+  // or reverted before the next; ADR breaking during its iterations calls this at every step.
+  m_round_pairs = 0;
   m_round.clear();
   m_round_bonds.clear();
   m_round_references.clear();

@@ -411,12 +411,12 @@ Loading read_loading(const Field& field) {
   if (auto f = m.find("steps")) l.steps = schema::int_at_least(*f, 1);
   if (auto f = m.find("max_cutbacks")) l.max_cutbacks = schema::int_at_least(*f, 0);
   if (auto f = m.find("predictor")) l.extrapolate = schema::choice(*f, {"extrapolate", "previous"}) == "extrapolate";
-  if (auto f = m.find("max_resolves")) l.max_resolves = schema::int_at_least(*f, 1);
+  if (auto f = m.find("max_resolves")) l.max_resolves = schema::int_at_least(*f, 0);
   return l;
 }
 
 FailureOptions read_failure(const Field& field) {
-  const Map m = checked_map(field, {"criterion", "G_c", "direction", "fraction", "skew_min_angle"});
+  const Map m = checked_map(field, {"criterion", "G_c", "direction", "fraction", "skew_min_angle", "skew_scale"});
   FailureOptions o;
   o.enabled = true;
   o.criterion =
@@ -441,6 +441,11 @@ FailureOptions read_failure(const Field& field) {
     o.skew_min_angle = schema::number(*f);
     if (!(o.skew_min_angle >= 0.0 && o.skew_min_angle < 90.0))
       schema::out_of_range(*f, "0 <= skew_min_angle < 90 [degrees] (0 is the paper's eq 22)");
+  }
+  if (auto f = m.find("skew_scale")) {
+    if (o.criterion != FailureCriterion::skew)
+      f->fail("skew_scale applies to criterion skew only (the criterion is stretch)");
+    o.skew_scale = schema::positive(*f);
   }
   o.where = field.where();
   return o;

@@ -58,7 +58,7 @@ NewtonOptions read_newton(const Field& field) {
 }
 
 AdrOptions read_adr(const Field& field) {
-  const Map m = checked_map(field, {"rtol", "max_iterations", "on_budget", "density_factor", "report_every"});
+  const Map m = checked_map(field, {"rtol", "max_iterations", "on_budget", "density_factor", "report_every", "breaking"});
   AdrOptions o;
   if (auto f = m.find("rtol")) o.rtol = schema::positive(*f);
   if (auto f = m.find("max_iterations")) {
@@ -74,6 +74,7 @@ AdrOptions read_adr(const Field& field) {
     o.report_every = static_cast<long>(schema::integer(*f));
     if (o.report_every < 1) schema::out_of_range(*f, "report_every >= 1");
   }
+  if (auto f = m.find("breaking")) o.break_during = schema::choice(*f, {"equilibrium", "iterations"}) == "iterations";
   return o;
 }
 

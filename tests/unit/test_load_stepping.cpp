@@ -303,6 +303,22 @@ TEST(LoadStepping, RunningCrackStopsAtMaxResolves) {
   EXPECT_EQ(p.broken, 4);  // rounds 10 x, 5 x, 2, 2; the fifth (4) is undone
 }
 
+// Without a cap (the default, max_resolves 0) a crack that runs one bond per round is followed
+// to its end: 500 bonds, each round converging only with a single bond, is at least 500
+// re-solves at one load, five times the old default cap of 100, and the run completes.
+TEST(LoadStepping, RunningCrackIsFollowedToTheEndByDefault) {
+  EXPECT_EQ(Loading{}.max_resolves, 0);
+  RunningCrackProblem p(500, 1);
+  std::vector<StepReport> steps;
+  const RunReport r = run_crack(p, steps, Loading{}.max_resolves);
+  ASSERT_TRUE(r.completed) << r.message;
+  EXPECT_EQ(p.broken, 500);
+  ASSERT_EQ(steps.size(), 2u);
+  EXPECT_EQ(steps[0].bonds_broken, 500);
+  EXPECT_GE(steps[0].resolves, 500);
+  EXPECT_EQ(steps[0].break_cutbacks, p.undone);
+}
+
 /// Fails (a non-finite residual) once: at its first evaluation above load factor 0.2.
 class FailsOnceProblem final : public OneUnknownProblem {
  private:

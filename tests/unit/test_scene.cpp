@@ -122,7 +122,7 @@ solver:
   krylov: {rtol: 1.0e-8, max_iterations: 500, preconditioner: bond}
   newton: {rtol: 1.0e-9, atol: 1.0e-12, stol: 1.0e-7, max_iterations: 40,
            line_search: false, line_search_max: 3, tangent: initial}
-  adr: {rtol: 1.0e-7, max_iterations: 5000, on_budget: accept, density_factor: 1.5, report_every: 250}
+  adr: {rtol: 1.0e-7, max_iterations: 5000, on_budget: accept, density_factor: 1.5, report_every: 250, breaking: iterations}
 output:
   every: 2
 )";
@@ -221,6 +221,8 @@ void expect_full_scene(const Scene& s) {
   EXPECT_TRUE(s.solver.adr.accept_on_budget);
   EXPECT_EQ(s.solver.adr.density_factor, 1.5);
   EXPECT_EQ(s.solver.adr.report_every, 250);
+  EXPECT_TRUE(s.solver.adr.break_during);
+  EXPECT_FALSE(AdrOptions{}.break_during);  // between equilibria unless asked
   EXPECT_EQ(s.output.every, 2);
 }
 
@@ -361,6 +363,16 @@ TEST(SceneFailure, ParsesTheSectionAndChecksIt) {
                "scene.yaml:21: failure.skew_min_angle", "0 <= skew_min_angle < 90");
   expect_error(k_minimal + "failure: {criterion: stretch, G_c: 1.0, skew_min_angle: 30}\n",
                "scene.yaml:21: failure.skew_min_angle", "applies to criterion skew only");
+  // The skew's calibration factor: 1 (eq 19) unless given, > 0, skew only.
+  EXPECT_EQ(s.failure.skew_scale, 1.0);
+  EXPECT_EQ(parse_scene_text(k_minimal + "failure: {criterion: skew, G_c: 1.0, direction: [1, 0], skew_scale: 1.37}\n",
+                             "scene.yaml")
+                .failure.skew_scale,
+            1.37);
+  expect_error(k_minimal + "failure: {criterion: skew, G_c: 1.0, direction: [1, 0], skew_scale: 0}\n",
+               "scene.yaml:21: failure.skew_scale", "expected skew_scale > 0");
+  expect_error(k_minimal + "failure: {criterion: stretch, G_c: 1.0, skew_scale: 1.37}\n",
+               "scene.yaml:21: failure.skew_scale", "applies to criterion skew only");
 }
 
 TEST(SceneErrors, UnknownKeyInNestedMaps) {
@@ -471,6 +483,8 @@ TEST(SceneErrors, SolverAndLoadingRanges) {
                "scene.yaml:22: solver.adr.density_factor", "density_factor >= 1");
   expect_error(k_minimal + "solver:\n  adr: {on_budget: keep}\n", "scene.yaml:22: solver.adr.on_budget",
                "fail, accept");
+  expect_error(k_minimal + "solver:\n  adr: {breaking: always}\n", "scene.yaml:22: solver.adr.breaking",
+               "equilibrium, iterations");
   expect_error(k_minimal + "output: {every: 0}\n", "scene.yaml:21: output.every", "expected every >= 1");
 }
 

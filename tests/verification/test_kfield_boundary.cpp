@@ -13,9 +13,14 @@
 //   (measured 0.729 and 0.726). Its start is NOT at K_c: a pure K_II field starts the first
 //   bond at 0.73 K_c, the mode II factor of docs/verification.md measured without contact
 //   and without the finite crack (asserted in [0.65, 0.80], so that a change of the
-//   criterion or the field that moves it shows).
+//   criterion or the field that moves it shows);
+// - `failure.skew_scale` (the boundary-layer calibration of docs/theory/failure.md) reaches
+//   the criterion: the solve is linear and nothing breaks, so the start scales by exactly the
+//   factor (to round-off, 1e-12), and the documented m = 3 factor 1.37 starts the first bond
+//   within 2% of K_c.
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -26,12 +31,13 @@ namespace peristat {
 namespace {
 
 /// Start K / K_c of the first bond in the boundary layer (cases/k_field_boundary_layer).
-double start(double dx, bool mode_two, const std::string& criterion) {
+double start(double dx, bool mode_two, const std::string& criterion, const std::string& extra = "") {
   const std::string k = mode_two ? "K_II: 0.5e6" : "K_I: 0.5e6";
-  auto s = test::solve_case("k_field_boundary_layer",
-                            {"discretization.spacing=" + std::to_string(dx), "solver.linear=cg",
-                             "failure.criterion=" + criterion,
-                             "boundary.0.k_field={" + k + ", tip: [0, 0], direction: [1, 0]}"});
+  std::vector<std::string> sets{"discretization.spacing=" + std::to_string(dx), "solver.linear=cg",
+                                "failure.criterion=" + criterion,
+                                "boundary.0.k_field={" + k + ", tip: [0, 0], direction: [1, 0]}"};
+  if (!extra.empty()) sets.push_back(extra);
+  auto s = test::solve_case("k_field_boundary_layer", sets);
   EXPECT_TRUE(s->run.completed) << s->run.message;
   EXPECT_EQ(s->problem->failure()->broken(), 0);
   const double k_start = 0.5 / s->problem->failure()->peak().ratio;
@@ -54,6 +60,12 @@ TEST(KFieldBoundary, ModeTwoSkewStartsAtTheSameFactorAtAnySpacing) {
     EXPECT_GT(k, 0.65);
     EXPECT_LT(k, 0.80);
   }
+}
+
+TEST(KFieldBoundary, SkewScaleCalibratesTheModeTwoStart) {
+  const double plain = start(0.01, true, "skew"), calibrated = start(0.01, true, "skew", "failure.skew_scale=1.37");
+  EXPECT_NEAR(calibrated / plain, 1.37, 1.37e-12);
+  EXPECT_NEAR(calibrated, 1.0, 0.02);
 }
 
 }  // namespace

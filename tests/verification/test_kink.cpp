@@ -128,8 +128,7 @@ TEST(Kink, PureKFieldAlongTheLatticeKinksWithinTenDegreesOfMts) {
   char field[160];
   std::snprintf(field, sizeof field, "boundary.0.k_field={K_I: %.17g, K_II: %.17g, tip: [0, 0], direction: [1, 0]}",
                 k, k);
-  auto s = test::solve_case("k_field_boundary_layer", {field, "failure.criterion=stretch", "loading.steps=10",
-                                                        "loading.max_resolves=3000"});
+  auto s = test::solve_case("k_field_boundary_layer", {field, "failure.criterion=stretch", "loading.steps=10"});
   ASSERT_TRUE(s->run.completed) << s->run.message;
   VectorXd d;
   s->problem->failure()->damage(d);
