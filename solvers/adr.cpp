@@ -11,6 +11,7 @@
 
 #include "core/clock.hpp"
 #include "core/scope_exit.hpp"
+#include "core/stop.hpp"
 
 namespace peristat {
 
@@ -186,6 +187,7 @@ SolveReport AdrSolver::solve(VectorXd& x, IterationObserver* observer) {
   share_reads(x);
   double c = 0.0;
   for (long it = 1; it <= o.max_iterations; ++it) {
+    throw_if_stop_requested();  // the progress line comes only every report_every steps
     m_r_old.swap(m_r);
     if (m_velocity) m_velocity->set_velocity(m_v);
     t0 = wall_seconds();

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "core/clock.hpp"
+#include "core/stop.hpp"
 #include "solvers/linear/preconditioner_reuse.hpp"
 
 namespace peristat {
@@ -156,6 +157,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       H.setZero();
       int k = 0;
       for (; k < m && m_iterations < m_max_iterations; ++k) {
+        throw_if_stop_requested();  // a long solve honours Ctrl-C within an iteration
         m_factor->solve(m_basis.col(k), m_z);
         product(m_z, m_q);
         for (int i = 0; i <= k; ++i) {
@@ -206,6 +208,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
     double rz = m_r.dot(m_z);
     m_error = m_r.norm() / bnorm;
     while (m_error > m_rtol && m_iterations < m_max_iterations) {
+      throw_if_stop_requested();  // a long solve honours Ctrl-C within an iteration
       product(m_p, m_q);
       const double alpha = rz / m_p.dot(m_q);
       x += alpha * m_p;

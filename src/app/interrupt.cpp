@@ -4,16 +4,17 @@
 #include <initializer_list>
 #include <unistd.h>
 
+#include "core/stop.hpp"
+
 namespace peristat {
 
 namespace {
-volatile std::sig_atomic_t g_signal = 0;
 volatile std::sig_atomic_t g_writing = 0;
 volatile std::sig_atomic_t g_exit_pending = 0;
 
 extern "C" void on_signal(int sig) {
-  if (g_signal == 0) {
-    g_signal = sig;
+  if (stop_requested() == 0) {
+    request_stop(sig);  // polled by the run (src/core/stop.hpp)
     return;
   }
   if (g_writing) {
@@ -32,7 +33,7 @@ void install_interrupt_handlers() {
 }
 
 int interrupt_signal() {
-  return g_signal;
+  return stop_requested();
 }
 
 WriteGuard::WriteGuard() {

@@ -1,8 +1,10 @@
 // Ctrl-C and kill during a run. The first SIGINT/SIGTERM/SIGHUP asks the run to stop at
-// the next Newton iteration (the results keep every converged step and summary.json says
+// the next poll (src/core/stop.hpp: a Newton or Krylov iteration, an ADR step; the results keep every converged step and summary.json says
 // "interrupted"); a second one exits at once, unless a step is being written, in which case
 // the exit waits for the write to finish. Either way the files stay valid.
 #pragma once
+
+#include "core/stop.hpp"  // Interrupted, thrown by the polls once a signal has arrived
 
 namespace peristat {
 
@@ -19,9 +21,5 @@ class WriteGuard {
   WriteGuard& operator=(const WriteGuard&) = delete;
 };
 
-/// Thrown by the run's progress observer (app/progress.hpp) once a signal has arrived.
-struct Interrupted {
-  int signal;
-};
 
 }  // namespace peristat
