@@ -283,6 +283,10 @@ std::vector<std::string> preflight(const Scene& scene, const RunPlan& plan, cons
                   d.horizon_where.describe().c_str(), d.horizon_factor, e.family);
     warnings.emplace_back(buf);
   }
+  if (scene.failure.enabled && scene.solver.adr.break_during && plan.newton())
+    warnings.emplace_back(
+        "solver.adr.breaking: iterations applies to ADR (--solver adr); this run uses Newton, which breaks bonds "
+        "between converged equilibria");
   return warnings;
 }
 

@@ -124,6 +124,21 @@ TEST(Preflight, FactorisationThatCannotFitIsRefused) {
   EXPECT_NO_THROW(preflight(scene, make_run_plan(scene, 1), e));
 }
 
+// ADR's breaking during the iterations set on a Newton run is said, not silently ignored;
+// with ADR it is the run's procedure and nothing is said.
+TEST(Preflight, AdrBreakingOnANewtonRunIsSaid) {
+  const auto warnings = [](const std::string& solver) {
+    const Scene scene =
+        parse_scene(std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_4_crack_growth/scene.yaml",
+                    {parse_override("solver.adr.breaking=iterations"), parse_override("solver.type=" + solver)});
+    return preflight(scene, make_run_plan(scene, 1), estimate_size(scene));
+  };
+  const std::vector<std::string> newton = warnings("newton"), adr = warnings("adr");
+  ASSERT_EQ(newton.size(), 1u);
+  EXPECT_NE(newton[0].find("applies to ADR"), std::string::npos) << newton[0];
+  EXPECT_TRUE(adr.empty());
+}
+
 }  // namespace
 }  // namespace peristat
 
