@@ -531,6 +531,16 @@ TEST(Distributed, OtherSolversAreRefusedUnderMpirun) {
   EXPECT_EQ(r.exit_code, 2);
   EXPECT_NE(r.err.find("solver.linear=belos"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir / "tension_plate.h5")) << "nothing is written";
+  // ADR breaking bonds during its iterations reads every family's state at every step, which a
+  // rank relaxing its own unknowns does not have: refused (exit 2), nothing written.
+  const fs::path adr = test::fresh_directory("distributed_refused_breaking");
+  const std::string c44 = std::string(PERISTAT_SOURCE_DIR) + "/cases/paper_4_4_crack_growth/scene.yaml";
+  const test::CliResult b = test::run_mpi(2, "run " + c44 + " --quiet --out " + adr.string() +
+                                                 " --solver adr --set discretization.spacing=0.1"
+                                                 " --set solver.adr.breaking=iterations");
+  EXPECT_EQ(b.exit_code, 2) << b.err;
+  EXPECT_NE(b.err.find("solver.adr.breaking"), std::string::npos) << b.err;
+  EXPECT_FALSE(fs::exists(adr / "paper_4_4_crack_growth.h5")) << "nothing is written";
 }
 
 TEST(Distributed, AMueLuListThatIsNotXmlIsRefused) {
