@@ -32,10 +32,6 @@ void install_interrupt_handlers() {
   for (int sig : {SIGINT, SIGTERM, SIGHUP}) sigaction(sig, &sa, nullptr);
 }
 
-int interrupt_signal() {
-  return stop_requested();
-}
-
 WriteGuard::WriteGuard() {
   g_writing = 1;
 }

@@ -10,12 +10,6 @@
 
 namespace peristat {
 
-namespace {
-void check_interrupt() {
-  if (const int sig = interrupt_signal()) throw Interrupted{sig};
-}
-}  // namespace
-
 ProgressPrinter::ProgressPrinter(bool verbose, SolverKind solver, const QuasiStaticProblem& problem)
     : m_verbose(verbose), m_adr(solver == SolverKind::adr), m_problem(problem) {}
 
@@ -44,14 +38,14 @@ void ProgressPrinter::header(const Scene& scene, const ModelSize& size, double m
 }
 
 void ProgressObserver::attempt_started(int k, int n, double lambda, int cutbacks) {
-  check_interrupt();
+  throw_if_stop_requested();
   if (!m_printer.m_verbose) return;
   std::printf("step %d/%d  load factor %.6g%s\n", k, n, lambda, cutbacks ? "  (after cut-back)" : "");
   std::fflush(stdout);
 }
 
 void ProgressObserver::iteration_done(int it, double rel, double extra, int krylov) {
-  check_interrupt();
+  throw_if_stop_requested();
   if (!m_printer.m_verbose) return;
   if (m_printer.m_adr)
     std::printf("  adr %9d  residual %.3e  damping %.4f", it, rel, extra);
@@ -69,7 +63,7 @@ void ProgressObserver::iteration_done(int it, double rel, double extra, int kryl
 }
 
 void ProgressObserver::bonds_broke(Index broken, int resolve) {
-  check_interrupt();
+  throw_if_stop_requested();
   if (resolve == 1) m_broken_at_this_load = 0;
   m_broken_at_this_load += broken;
   if (!m_printer.m_verbose) return;
@@ -92,7 +86,7 @@ void ProgressObserver::resolve_failed(const std::string& reason, Index broken, I
 }
 
 void ProgressObserver::multipliers_updated(double violation, int update) {
-  check_interrupt();
+  throw_if_stop_requested();
   if (!m_printer.m_verbose) return;
   std::printf(
       "  exact contact: largest violation %.3e of a pair's normal distance (closure, gap under load or "
