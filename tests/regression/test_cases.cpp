@@ -44,6 +44,30 @@ Vec2 displacement_at(const ResultsReader& results, int step, const Vec2& X, int 
   return Vec2(u[k], u[k + 1]);
 }
 
+// Every help text ends with an example (a newcomer copies it), and the examples name files
+// that exist: the scene of each example is in cases/, and `check`'s example, the cheapest,
+// runs and exits 0.
+TEST(ProgramHelp, EachHelpGivesAnExampleWhoseSceneExists) {
+  const std::string source = PERISTAT_SOURCE_DIR;
+  for (const std::string command : {"", "run ", "check ", "probe ", "compare "}) {
+    const test::CliResult h = test::run_cli(command + "--help");
+    ASSERT_EQ(h.exit_code, 0) << command << h.err;
+    const std::size_t at = h.out.find("Example");
+    ASSERT_NE(at, std::string::npos) << "peristat " << command << "--help gives no example:\n" << h.out;
+    std::smatch scene;
+    const std::string example = h.out.substr(at);
+    if (std::regex_search(example, scene, std::regex(R"((cases/\S+\.yaml))"))) {
+      EXPECT_TRUE(std::filesystem::exists(source + "/" + scene[1].str())) << command << scene[1];
+    }
+    if (command == "check ") {
+      std::smatch line;
+      ASSERT_TRUE(std::regex_search(example, line, std::regex(R"(peristat check (cases/\S+)(.*))")));
+      const test::CliResult c = test::run_cli("check " + source + "/" + line[1].str() + line[2].str());
+      EXPECT_EQ(c.exit_code, 0) << c.out << c.err;
+    }
+  }
+}
+
 // Which program wrote a result: `peristat --version` prints the project's version and the
 // source's commit, and summary.json and the HDF5 file record the same two strings. The
 // version is read independently from CMakeLists.txt's project() line.

@@ -62,6 +62,10 @@ void add_run_command(CLI::App& app, CommandLine& c) {
                     "continue the stopped run in --out from its last converged load step (same scene and options)");
   run_cmd->add_option("--threads", run.threads, "OpenMP threads for assembly (default: all cores)")
       ->check(CLI::PositiveNumber);
+  run_cmd->footer(
+      "Example:\n  peristat run cases/paper_4_3_precracked_plate/scene.yaml --out out --set solver.linear=umfpack\n"
+      "writes out/paper_4_3_precracked_plate.h5 and .xdmf (open the .xdmf in ParaView).\n"
+      "Exit codes: 0 completed, 2 bad input, 3 not converged (the reason is printed), 128 + signal when stopped.");
 }
 
 /// Adds `peristat check`, `probe` and `compare` and their options to `app`.
@@ -71,6 +75,7 @@ void add_other_commands(CLI::App& app, CommandLine& c) {
   check_cmd->add_option("--set", c.check_overrides, "override a scene key")
       ->take_all()
       ->allow_extra_args(false);
+  check_cmd->footer("Example:\n  peristat check cases/paper_4_4_crack_growth/scene.yaml --set discretization.spacing=0.02");
 
   ProbeArguments& probe = c.probe;
   CLI::App* probe_cmd = c.probe_cmd =
@@ -79,6 +84,7 @@ void add_other_commands(CLI::App& app, CommandLine& c) {
   probe_cmd->add_option("--line", c.line, "X0 Y0 X1 Y1 (reference coordinates)")->expected(4)->required();
   probe_cmd->add_option("--step", probe.step, "step number (default: last)");
   probe_cmd->add_option("--points", probe.points, "number of samples (default 101)");
+  probe_cmd->footer("Example:\n  peristat probe out/tension_plate.h5 --line 0 0.05 0.1 0.05 --points 11 > profile.csv");
 
   CompareArguments& compare = c.compare;
   CLI::App* compare_cmd = c.compare_cmd =
@@ -90,6 +96,11 @@ void add_other_commands(CLI::App& app, CommandLine& c) {
   c.compare_tol_opt =
       compare_cmd->add_option("--tol", c.compare_tol, "exit code 1 when the relative L2 difference exceeds T");
   compare_cmd->add_flag("--json", compare.json, "print one JSON object");
+  compare_cmd->footer(
+      "Example (ADR against Newton on the same scene):\n"
+      "  peristat run cases/tension_plate/scene.yaml --out newton\n"
+      "  peristat run cases/tension_plate/scene.yaml --out adr --solver adr\n"
+      "  peristat compare adr/tension_plate.h5 newton/tension_plate.h5 --tol 1e-6");
 }
 
 /// Runs the subcommand the parsed command line names; its exit code.
@@ -128,6 +139,9 @@ int main(int argc, char** argv) {
   CommandLine command_line;
   add_run_command(app, command_line);
   add_other_commands(app, command_line);
+  app.footer(
+      "Example:\n  peristat run cases/tension_plate/scene.yaml --out out\n"
+      "Each subcommand's --help gives its options and an example; docs/guide/tutorial.md builds a scene from an empty file.");
 
   try {
     app.parse(argc, argv);
