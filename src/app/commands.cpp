@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -106,7 +107,7 @@ void check_same_run(const StateArchive& checkpoint, const std::string& path, con
 
 /// Refuses (InputError, before anything is built) an output directory that cannot be one:
 /// a path that names a file, a path under a file, or a directory that cannot be written into.
-/// Nothing is created here (rank 0 creates the directory when it opens the record).
+/// Nothing is left here (rank 0 creates the directory when it opens the record).
 void check_output_directory(const std::string& out) {
   namespace fs = std::filesystem;
   std::error_code error;
@@ -123,9 +124,13 @@ void check_output_directory(const std::string& out) {
                        (at == dir ? std::string("is a file, not a directory")
                                   : "lies under '" + at.string() + "', which is a file, not a directory") +
                        "; name a directory (it is created if missing)");
-    if (::access(at.c_str(), W_OK | X_OK) != 0)
+    // Tried, not predicted: access() says yes to root everywhere, and /proc or a read-only
+    // mount refuse only when asked. A directory of this process's own is made and removed.
+    std::string probe = (at / ".peristat-out-XXXXXX").string();
+    if (::mkdtemp(probe.data()) == nullptr)
       throw InputError("--out: cannot write into '" + at.string() + "' (" + std::strerror(errno) + ")" +
                        (at == dir ? "" : ", where '" + out + "' would be created"));
+    fs::remove(probe, error);
     return;
   }
 }

@@ -11,6 +11,8 @@
 #include <sstream>
 #include <vector>
 
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include "io/h5.hpp"
@@ -431,6 +433,28 @@ TEST(ExitCodes, AnOutputPathThatIsAFileIsBadInput) {
     const std::string kept((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     EXPECT_EQ(kept, "keep me\n") << "the file is left as it was";
   }
+}
+
+// A directory where nothing can be created is the user's mistake too: exit 2, one message
+// naming the place, no "internal error". /proc refuses a new directory to every user,
+// root included (for whom access() answers yes everywhere, so the program has to try), and a
+// directory without write permission refuses it to everyone else.
+TEST(ExitCodes, AnOutputPathWhereNothingCanBeCreatedIsBadInput) {
+  std::vector<std::filesystem::path> outs = {"/proc/peristat_exit_codes/out"};
+  const std::filesystem::path locked = test::fresh_directory("exit_codes_locked");
+  std::filesystem::permissions(locked, std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
+  if (::geteuid() != 0) outs.push_back(locked / "out");
+  for (const std::filesystem::path& out : outs) {
+    SCOPED_TRACE(out.string());
+    const auto r = test::run_cli("run " + kTension + " --quiet --out " + out.string() +
+                                 " --set discretization.spacing=5e-3");
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_NE(r.err.find("--out: cannot write into"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(out.string()), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("internal error"), std::string::npos) << r.err;
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
+  std::filesystem::permissions(locked, std::filesystem::perms::owner_all);
 }
 
 }  // namespace
