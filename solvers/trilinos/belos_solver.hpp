@@ -40,7 +40,7 @@ std::unique_ptr<Preconditioner> make_muelu_cycle(const LinearSetup& setup, Cycle
 /// (solvers/trilinos/threaded_cycle.hpp, Blocks). The preflight's memory estimate uses it too.
 /// The 1000 x 1000 tension plate (2 million rows) is below it: 6.87 GB peak and 133 s with the
 /// faster set-up and the blocked cycle, against 6.48 GB and 154 s without (docs/performance.md,
-/// "Eighth round"); the bound is 8 GB.
+/// "The V-cycle"); the bound is 8 GB.
 inline constexpr long long kAmgMemoryFirstRows = 2'500'000;
 
 }  // namespace peristat

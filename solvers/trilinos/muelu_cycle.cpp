@@ -116,7 +116,7 @@ class MueLuCycle final : public Preconditioner {
       p.set("smoother: type", "CHEBYSHEV");
       // Chebyshev degree 2 where the tangents may be unsymmetric (frictional contact: the
       // cycle serves GMRES while pairs slip), 1 otherwise (CG). Measured at paper resolution
-      // (docs/performance.md, "Fifth round"), degree 2 against 1: Krylov iterations 4.1
+      // (docs/performance.md, "The V-cycle"), degree 2 against 1: Krylov iterations 4.1
       // 301 -> 206 (wall 3.33 -> 3.01 s, medians of 6), 4.4 2690 -> 2244, 4.2 3.2 -> 2.6 s,
       // 4.3 the same wall; but the symmetric ones take more: the frictionless LEFM case
       // 150 -> 165 (5.1 -> 6.0 s), the tension plate 400 x 400 218 -> 239. The smoother is

@@ -20,7 +20,7 @@ struct LinearChoice {
 /// Models with at most this many unknowns and no friction get a direct factor (CHOLMOD):
 /// whole runs of the tension plate, best of two, 2 cores: 1,249 unknowns 0.19 s against cg's
 /// 0.28 s, 3,196 0.48 against 0.41 s, 4,994 0.59 against 0.57 s, 19,970 3.2 against 2.2 s
-/// (docs/performance.md, "Fast by default"); below the crossover a factor is also exact.
+/// (docs/performance.md, "solver.linear: auto"); below the crossover a factor is also exact.
 inline constexpr double kDirectMaxUnknowns = 2500.0;
 /// With matrix_free, `auto` shortens the bond preconditioner's radius (unless the scene sets
 /// solver.krylov.bond_radius) to 2.0 dx above kMediumBondsAbove unknowns and 1.42 dx (the 8

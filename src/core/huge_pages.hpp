@@ -4,7 +4,7 @@
 // First touching fresh memory costs more than computing on it on the project's machine kind:
 // `peristat check` of the 1000 x 1000 plate spent 7-13 of its 10-16 s in the kernel, faulting
 // in 4.8 GB one 4 KB page at a time (1.53 million faults; 0.14 million with these helpers:
-// docs/performance.md, "Ninth round").
+// docs/performance.md, "Page faults and huge pages").
 // Where the kernel grants huge pages only on request (/sys/kernel/mm/transparent_hugepage/
 // enabled = madvise, Debian's default), an array asks for them before it is first written.
 #include <cstddef>

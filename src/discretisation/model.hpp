@@ -100,7 +100,7 @@ struct Model {
   LatticeIndex lattice_index;    ///< lattice point -> particle
   /// Per particle: 1 when its family is held. Empty: every family (one process, or a rank
   /// holding the whole model). A rank of a distributed run with partitioned bonds holds the
-  /// families it evaluates only (docs/guide/distributed.md, "Partitioned bonds"); the others
+  /// families it evaluates only (docs/guide/distributed.md, "Failure on the parts"); the others
   /// are empty, and a held family's bond to a particle whose family is not held has no
   /// reverse (-1).
   std::vector<char> family_held;

@@ -7,7 +7,7 @@
 // Model::family_held) takes the same decisions as one process holding every family, bit for
 // bit: each pair is evaluated by one rank (FailureRanks::proposes), the candidates over the
 // criterion are gathered on every rank and sorted as one process sorts them, and every rank
-// zeroes the directions it holds (docs/guide/distributed.md, "Partitioned bonds").
+// zeroes the directions it holds (docs/guide/distributed.md, "Failure on the parts").
 #pragma once
 
 #include <cstdint>

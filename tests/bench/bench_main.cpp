@@ -13,7 +13,7 @@
 //       particles and of ghost particles (the other ranks' particles that a rank's rows of the
 //       tangent couple to: the halo a Krylov iteration exchanges), one line each.
 //   peristat_bench parts SCENE P [--set KEY=VALUE]...   each rank's part of the model
-//       (extract_part, the partitioned model's stage 1) on P ranks by strips and by RCB, with
+//       (extract_part: docs/guide/distributed.md, "The partitioned model") on P ranks by strips and by RCB, with
 //       Newton's matrix-free problem on it: per partition, the largest and mean bytes of a
 //       part's model and problem state (ModelSize::memory_bytes) against the whole model's,
 //       and its particles (owned, and the ring and the particles without a row it adds).

@@ -185,8 +185,9 @@ TEST(Extremes, PoissonRatioOfOneHalfIsRefused) {
 }
 
 // The displacements are prescribed, so E from 1e-3 to 1e15 Pa scales every force and leaves
-// the displacement unchanged (measured 8e-8 and 1e-16 from E = 70 GPa). Below about 1e-6 Pa
-// the forces fall under solver.newton.atol and the run does not (docs/robustness.md).
+// the displacement unchanged (measured 2e-16 from E = 70 GPa; E = 1e-6 and 1e-9 Pa too:
+// docs/extremes.md). E outside 1e-100 to 1e100 Pa is refused (the forces would underflow or
+// overflow double precision).
 TEST(Extremes, YoungsModulusAtBothEndsGivesTheSameDisplacement) {
   const Outcome nominal = run(kTension);
   expect_completed(nominal);

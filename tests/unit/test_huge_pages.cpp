@@ -1,5 +1,5 @@
 // core/huge_pages.hpp: the per-bond arrays ask for transparent huge pages before they are
-// first written (docs/performance.md, "Ninth round": 1.53 million -> 0.14 million page faults
+// first written (docs/performance.md, "Page faults and huge pages": 1.53 million -> 0.14 million page faults
 // and 10-16 -> 4-7 s for `peristat check` of the 1000 x 1000 plate). The test of the backing
 // itself is skipped, saying so, on kernels whose huge pages are disabled ("never").
 #include <cstdint>

@@ -1,5 +1,5 @@
 // A rank's part of the model (discretisation/model_part.hpp; docs/guide/distributed.md, "The
-// partitioned model", stage 1): a Model of its own, owned particles first, whose kernels give
+// partitioned model: what each rank holds"): a Model of its own, owned particles first, whose kernels give
 // the whole model's rows. The parts of P emulated ranks are taken from one whole model and
 // compared with it entry by entry.
 #include <algorithm>

@@ -152,7 +152,7 @@ Scene case_scene(const std::string& file, const std::vector<std::string>& sets) 
 }
 
 // solver.linear: auto (issue 17), the shipped cases' setting: each branch of the rule, on
-// scenes of the sizes it was measured on (docs/performance.md, "Fast by default").
+// scenes of the sizes it was measured on (docs/performance.md, "solver.linear: auto").
 TEST(LinearAuto, PicksBySizeFrictionAndRanks) {
   // Tension plate: 1,249 unknowns at dx = 4 mm (direct), 19,970 at 1 mm (matrix_free).
   Scene small = case_scene("tension_plate/scene.yaml", {"discretization.spacing=4e-3"});
