@@ -1,4 +1,4 @@
-// The peristat commands (README.md, "Using it"). Each returns a process exit code; input
+// The peristat commands (docs/guide/scene.md, "The command line"). Each returns a process exit code; input
 // errors propagate as InputError and are turned into exit code 2 by main().
 #pragma once
 

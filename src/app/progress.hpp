@@ -1,4 +1,4 @@
-// What `peristat run` prints while it runs (README.md, "Using it": load step k/N and the
+// What `peristat run` prints while it runs (docs/guide/scene.md, "The command line": load step k/N and the
 // residuals as they go); --quiet silences all of it. Every method checks for Ctrl-C first
 // where the original run loop did, so a signal stops the run at the next iterate.
 #pragma once

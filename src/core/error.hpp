@@ -12,7 +12,7 @@
 
 namespace peristat {
 
-/// Process exit codes, as README.md lists them ("Using it"); an interrupted run exits with
+/// Process exit codes, as docs/guide/scene.md lists them ("The command line"); an interrupted run exits with
 /// 128 + the signal (src/app).
 enum ExitCode : int {
   exit_success = 0,

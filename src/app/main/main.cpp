@@ -1,6 +1,6 @@
 // peristat: quasi-static peridynamics with frictional contact. Exit codes: 0 success,
 // 1 internal error (for compare: the difference exceeds --tol), 2 bad input or usage,
-// 3 no convergence (README.md, "Using it").
+// 3 no convergence (docs/guide/scene.md, "The command line").
 #include <cstdio>
 #include <exception>
 #include <string>
