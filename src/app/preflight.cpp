@@ -262,16 +262,18 @@ std::string closure_tolerance_warning(const Scene& scene) {
   for (const Body& b : scene.bodies) {
     const auto m = scene.materials.find(b.material);
     if (m == scene.materials.end()) continue;
-    s_c = std::min(s_c, critical_stretch(scene.failure.G_c, bulk_modulus_2d(m->second), shear_modulus(m->second), delta));
+    s_c = std::min(s_c, critical_stretch(scene.failure.G_c, bulk_modulus_2d(m->second),
+                                         shear_modulus(m->second), delta));
   }
   if (!(c.closure_tolerance > kClosureToleranceOverStretch * s_c)) return {};
   char buf[512];
-  std::snprintf(buf, sizeof buf,
-                "contact.closure_tolerance %g is above %g of the critical stretch %.3g: a closed crack's faces may "
-                "overlap by more than its bonds stretch before they break, and the failure criterion near them "
-                "feels the tolerance (a crack start measured 6%% low at 1.5 s_c); contact.closure_tolerance=%.2g "
-                "takes it out",
-                c.closure_tolerance, kClosureToleranceOverStretch, s_c, kClosureToleranceOverStretch * s_c);
+  std::snprintf(
+      buf, sizeof buf,
+      "contact.closure_tolerance %g is above %g of the critical stretch %.3g: a closed crack's faces may "
+      "overlap by more than its bonds stretch before they break, and the failure criterion near them "
+      "feels the tolerance (a crack start measured 6%% low at 1.5 s_c); contact.closure_tolerance=%.2g "
+      "takes it out",
+      c.closure_tolerance, kClosureToleranceOverStretch, s_c, kClosureToleranceOverStretch * s_c);
   return buf;
 }
 

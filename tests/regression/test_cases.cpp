@@ -442,7 +442,8 @@ TEST(ExitCodes, AnOutputPathThatIsAFileIsBadInput) {
 TEST(ExitCodes, AnOutputPathWhereNothingCanBeCreatedIsBadInput) {
   std::vector<std::filesystem::path> outs = {"/proc/peristat_exit_codes/out"};
   const std::filesystem::path locked = test::fresh_directory("exit_codes_locked");
-  std::filesystem::permissions(locked, std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
+  std::filesystem::permissions(locked,
+                               std::filesystem::perms::owner_read | std::filesystem::perms::owner_exec);
   if (::geteuid() != 0) outs.push_back(locked / "out");
   for (const std::filesystem::path& out : outs) {
     SCOPED_TRACE(out.string());

@@ -63,9 +63,11 @@ void add_run_command(CLI::App& app, CommandLine& c) {
   run_cmd->add_option("--threads", run.threads, "OpenMP threads for assembly (default: all cores)")
       ->check(CLI::PositiveNumber);
   run_cmd->footer(
-      "Example:\n  peristat run cases/paper_4_3_precracked_plate/scene.yaml --out out --set solver.linear=umfpack\n"
+      "Example:\n  peristat run cases/paper_4_3_precracked_plate/scene.yaml --out out --set "
+      "solver.linear=umfpack\n"
       "writes out/paper_4_3_precracked_plate.h5 and .xdmf (open the .xdmf in ParaView).\n"
-      "Exit codes: 0 completed, 2 bad input, 3 not converged (the reason is printed), 128 + signal when stopped.");
+      "Exit codes: 0 completed, 2 bad input, 3 not converged (the reason is printed), 128 + signal when "
+      "stopped.");
 }
 
 /// Adds `peristat check`, `probe` and `compare` and their options to `app`.
@@ -75,7 +77,8 @@ void add_other_commands(CLI::App& app, CommandLine& c) {
   check_cmd->add_option("--set", c.check_overrides, "override a scene key")
       ->take_all()
       ->allow_extra_args(false);
-  check_cmd->footer("Example:\n  peristat check cases/paper_4_4_crack_growth/scene.yaml --set discretization.spacing=0.02");
+  check_cmd->footer(
+      "Example:\n  peristat check cases/paper_4_4_crack_growth/scene.yaml --set discretization.spacing=0.02");
 
   ProbeArguments& probe = c.probe;
   CLI::App* probe_cmd = c.probe_cmd =
@@ -84,7 +87,8 @@ void add_other_commands(CLI::App& app, CommandLine& c) {
   probe_cmd->add_option("--line", c.line, "X0 Y0 X1 Y1 (reference coordinates)")->expected(4)->required();
   probe_cmd->add_option("--step", probe.step, "step number (default: last)");
   probe_cmd->add_option("--points", probe.points, "number of samples (default 101)");
-  probe_cmd->footer("Example:\n  peristat probe out/tension_plate.h5 --line 0 0.05 0.1 0.05 --points 11 > profile.csv");
+  probe_cmd->footer(
+      "Example:\n  peristat probe out/tension_plate.h5 --line 0 0.05 0.1 0.05 --points 11 > profile.csv");
 
   CompareArguments& compare = c.compare;
   CLI::App* compare_cmd = c.compare_cmd =
@@ -141,7 +145,8 @@ int main(int argc, char** argv) {
   add_other_commands(app, command_line);
   app.footer(
       "Example:\n  peristat run cases/tension_plate/scene.yaml --out out\n"
-      "Each subcommand's --help gives its options and an example; docs/guide/tutorial.md builds a scene from an empty file.");
+      "Each subcommand's --help gives its options and an example; docs/guide/tutorial.md builds a scene from "
+      "an empty file.");
 
   try {
     app.parse(argc, argv);
