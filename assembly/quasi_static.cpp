@@ -196,10 +196,11 @@ ConstraintUpdate QuasiStaticProblem::update_multipliers(const VectorXd& x) {
       break;
     case MultiplierUpdate::Status::exhausted: {
       out.status = ConstraintUpdate::Status::exhausted;
-      char buf[320];
+      char buf[480];
       std::snprintf(buf, sizeof buf,
                     "exact contact: %s %.3g of pair (%ld, %ld) still above contact.closure_tolerance "
-                    "after %d multiplier updates (contact.max_multiplier_updates)",
+                    "after %d multiplier updates (contact.max_multiplier_updates); more updates, a larger "
+                    "tolerance or contact.enforcement: penalty (the paper's law, without multipliers) may get past it",
                     m.kind, m.violation, static_cast<long>(m.pair_i), static_cast<long>(m.pair_j), m.updates);
       out.message = buf;
       break;

@@ -159,6 +159,14 @@ ProblemOptions process_problem_options(const Scene& scene, const RunPlan& plan, 
 /// What `run` and `check` print of how the model is spread over the ranks.
 std::string held_text(const RunPlan& plan) { return "model in parts: " + plan.model.reason; }
 
+/// Whether `run` says which closure tolerance it chose: exact contact with a failure
+/// criterion and no tolerance given, where the choice moves the answer.
+bool says_closure_tolerance(const Scene& scene) {
+  const ContactOptions& c = scene.contact;
+  return c.enabled && c.enforcement == ContactEnforcement::exact && scene.failure.enabled &&
+         !c.closure_tolerance_given;
+}
+
 /// One `peristat run`: the objects it builds, in the order it builds them, one method per step
 /// (run_command lists them). Under mpirun every rank makes every step alike (the model, the
 /// problem, the solver and the record are collective on the parts); rank 0 alone writes and
@@ -185,6 +193,8 @@ class Run {
     m_plan = resolve_run_plan(m_scene, ranks);
     if (!m_plan.linear_auto.empty() && !m_args.quiet && m_root)
       std::printf("peristat: solver.linear auto: %s\n", m_plan.linear_auto.c_str());
+    if (says_closure_tolerance(m_scene) && !m_args.quiet && m_root)
+      std::printf("peristat: contact.closure_tolerance %s\n", m_scene.contact.closure_tolerance_auto.c_str());
     // Under mpirun Newton distributes its linear solves, ADR its pseudo-time steps
     // (docs/guide/distributed.md).
     if (ranks > 1 && m_plan.newton() && m_plan.linear != LinearSolverKind::belos)
@@ -398,6 +408,13 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
               model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
   print_size(size);
   if (!plan.linear_auto.empty()) std::printf("  solver.linear  auto: %s\n", plan.linear_auto.c_str());
+  if (scene.contact.enabled && scene.contact.enforcement == ContactEnforcement::exact) {
+    if (scene.contact.closure_tolerance_given)
+      std::printf("  contact        exact, closure tolerance %g (given)\n", scene.contact.closure_tolerance);
+    else
+      std::printf("  contact        exact, closure tolerance %s\n",
+                  scene.contact.closure_tolerance_auto.c_str());
+  }
   if (ranks->size() > 1) std::printf("  ranks          %s\n", held_text(plan).c_str());
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
               estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,

@@ -12,8 +12,6 @@
 
 #include "core/error.hpp"
 #include "discretisation/model.hpp"
-#include "materials/failure.hpp"
-#include "materials/osb.hpp"
 #include "core/geometry.hpp"
 #include "solvers/trilinos/belos_solver.hpp"
 #include "parallel/mpi/session.hpp"
@@ -21,10 +19,6 @@
 namespace peristat {
 
 namespace {
-
-/// The largest closure tolerance, as a fraction of the critical stretch, at which a failure
-/// criterion near closed faces reads the continuum (closure_tolerance_warning).
-constexpr double kClosureToleranceOverStretch = 0.1;
 
 /// ", per rank of the N on it" when ranks share the machine, else "".
 std::string sharing(const SizeEstimate& e) {
@@ -248,32 +242,29 @@ void check_memory(const Scene& scene, const RunPlan& plan, const SizeEstimate& e
   }
 }
 
-/// Exact contact with a failure criterion: a pair may stay closed by up to
-/// contact.closure_tolerance of its distance, about one spacing; where that is not small
-/// against the critical stretch s_c, the bonds at a closed crack's tip feel the tolerance, not
-/// the continuum. Measured on cases/lefm_inclined_crack at dx = 10 mm, f_c = 0.4 (s_c =
-/// 6.8e-4): the skew criterion's start load is 6.4 % low at tolerance 1e-3 against 1e-5, 1.3 %
-/// at 1e-4; the displacement fields of cases 4.1 and 4.3 move by 1e-5 only. Empty when fine.
+/// Exact contact with a failure criterion and a closure tolerance the scene gives above
+/// kClosureToleranceWarnOverStretch x s_c (a tolerance not given is kept at half that,
+/// resolve_closure_tolerance()): a pair may stay closed by up to contact.closure_tolerance of
+/// its distance, about one spacing, and where that is not small against the critical stretch
+/// s_c, the bonds at a closed crack's tip feel the tolerance, not the continuum. Measured on
+/// cases/lefm_inclined_crack at dx = 10 mm, f_c = 0.4 (s_c = 6.8e-4): the skew criterion's
+/// start load is 6.4 % low at tolerance 1e-3 against 1e-5, 1.3 % at 1e-4; the displacement
+/// fields of cases 4.1 and 4.3 move by 1e-5 only. Empty when fine.
 std::string closure_tolerance_warning(const Scene& scene) {
   const ContactOptions& c = scene.contact;
-  if (!scene.failure.enabled || !c.enabled || c.enforcement != ContactEnforcement::exact) return {};
-  const double delta = scene.discretization.horizon_factor * scene.discretization.spacing;
-  double s_c = std::numeric_limits<double>::infinity();
-  for (const Body& b : scene.bodies) {
-    const auto m = scene.materials.find(b.material);
-    if (m == scene.materials.end()) continue;
-    s_c = std::min(s_c, critical_stretch(scene.failure.G_c, bulk_modulus_2d(m->second),
-                                         shear_modulus(m->second), delta));
-  }
-  if (!(c.closure_tolerance > kClosureToleranceOverStretch * s_c)) return {};
+  if (!scene.failure.enabled || !c.enabled || c.enforcement != ContactEnforcement::exact ||
+      !c.closure_tolerance_given)
+    return {};
+  const double s_c = smallest_critical_stretch(scene);
+  if (!(c.closure_tolerance > kClosureToleranceWarnOverStretch * s_c)) return {};
   char buf[512];
   std::snprintf(
       buf, sizeof buf,
       "contact.closure_tolerance %g is above %g of the critical stretch %.3g: a closed crack's faces may "
       "overlap by more than its bonds stretch before they break, and the failure criterion near them "
-      "feels the tolerance (a crack start measured 6%% low at 1.5 s_c); contact.closure_tolerance=%.2g "
-      "takes it out",
-      c.closure_tolerance, kClosureToleranceOverStretch, s_c, kClosureToleranceOverStretch * s_c);
+      "feels the tolerance (a crack start measured 6%% low at 1.5 s_c); leave it out, or "
+      "contact.closure_tolerance=%.2g, to take it out",
+      c.closure_tolerance, kClosureToleranceWarnOverStretch, s_c, kClosureToleranceOverStretch * s_c);
   return buf;
 }
 

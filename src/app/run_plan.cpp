@@ -1,8 +1,12 @@
 #include "app/run_plan.hpp"
 
+#include <algorithm>
 #include <cstdio>
+#include <limits>
 
 #include "app/preflight.hpp"
+#include "materials/failure.hpp"
+#include "materials/osb.hpp"
 
 namespace peristat {
 
@@ -122,7 +126,44 @@ RunPlan make_run_plan(const Scene& scene, int ranks) {
   return make_run_plan(scene, ranks, picks_linear_solver(scene) ? estimated_unknowns(estimate_model(scene)) : 0.0);
 }
 
+double smallest_critical_stretch(const Scene& scene) {
+  const double delta = scene.discretization.horizon_factor * scene.discretization.spacing;
+  double s_c = std::numeric_limits<double>::infinity();
+  for (const Body& b : scene.bodies) {
+    const auto m = scene.materials.find(b.material);
+    if (m == scene.materials.end()) continue;
+    s_c = std::min(s_c, critical_stretch(scene.failure.G_c, bulk_modulus_2d(m->second),
+                                         shear_modulus(m->second), delta));
+  }
+  return s_c;
+}
+
+void resolve_closure_tolerance(Scene& scene) {
+  ContactOptions& c = scene.contact;
+  if (c.closure_tolerance_given) {
+    c.closure_tolerance_auto.clear();
+    return;
+  }
+  c.closure_tolerance = kDefaultClosureTolerance;
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "%g, the default without a failure criterion", kDefaultClosureTolerance);
+  if (scene.failure.enabled) {
+    const double s_c = smallest_critical_stretch(scene);
+    if (kClosureToleranceOverStretch * s_c < kDefaultClosureTolerance) {
+      c.closure_tolerance = kClosureToleranceOverStretch * s_c;
+      std::snprintf(buf, sizeof buf,
+                    "%.3g, %g of the critical stretch %.3g (a failure criterion is declared)",
+                    c.closure_tolerance, kClosureToleranceOverStretch, s_c);
+    } else {
+      std::snprintf(buf, sizeof buf, "%g, the default (below %g of the critical stretch %.3g)",
+                    kDefaultClosureTolerance, kClosureToleranceOverStretch, s_c);
+    }
+  }
+  c.closure_tolerance_auto = buf;
+}
+
 RunPlan resolve_run_plan(Scene& scene, int ranks) {
+  resolve_closure_tolerance(scene);
   const RunPlan plan = make_run_plan(scene, ranks);
   if (picks_linear_solver(scene)) {
     scene.solver.linear.type = plan.linear;

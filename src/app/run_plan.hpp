@@ -85,9 +85,20 @@ RunPlan plan_with_linear(const Scene& scene, int ranks, LinearSolverKind linear)
 /// for its density).
 int part_rings(const RunPlan& plan);
 
+/// The smallest critical stretch of the scene's bodies under its failure.G_c (the critical
+/// stretch's, whatever the criterion): +infinity without a body.
+double smallest_critical_stretch(const Scene& scene);
+
+/// contact.closure_tolerance when the scene does not give it: kDefaultClosureTolerance, or
+/// kClosureToleranceOverStretch x smallest_critical_stretch() when a failure criterion is
+/// declared and that is smaller. Written into the scene with its reason
+/// (contact.closure_tolerance_auto); a tolerance the scene gives is kept.
+void resolve_closure_tolerance(Scene& scene);
+
 /// make_run_plan(), with its picks written into the scene (solver.linear.type, its
-/// auto_choice and the bond radius) so that the record states what ran: what `run` and
-/// `check` do first.
+/// auto_choice and the bond radius) and the closure tolerance resolved
+/// (resolve_closure_tolerance()), so that the record states what ran: what `run` and `check`
+/// do first.
 RunPlan resolve_run_plan(Scene& scene, int ranks);
 /// resolve_run_plan()'s `auto` pick and reason, or "" when the scene named a solver (an
 /// explicit choice always wins) or runs ADR.

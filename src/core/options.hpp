@@ -193,6 +193,17 @@ struct ContactInterface {
   SourceLocation where;
 };
 
+/// contact.closure_tolerance when the scene gives none and declares no failure criterion.
+inline constexpr double kDefaultClosureTolerance = 1e-3;
+/// With a failure criterion, the tolerance not given is at most this fraction of the critical
+/// stretch s_c: a closed crack's faces that may overlap by more than its bonds stretch before
+/// they break move the load at which the criterion starts a crack (docs/theory/contact.md,
+/// "The tolerance against a failure criterion": at 0.1 s_c a start moved by 1 %, which the
+/// default halves).
+inline constexpr double kClosureToleranceOverStretch = 0.05;
+/// A tolerance the scene gives above this fraction of s_c, with a criterion, is warned about.
+inline constexpr double kClosureToleranceWarnOverStretch = 0.1;
+
 /// Contact between broken-bond pairs (pre-cracks) and across declared body interfaces.
 /// Absent section or enabled: false = no contact: no candidates, no cost.
 struct ContactOptions {
@@ -213,12 +224,19 @@ struct ContactOptions {
   /// friction_law: return_map (default; Newton and ADR) or velocity_sign (the paper's eq 13:
   /// f_c F_n against the sign of the pseudo-velocity; ADR only).
   bool velocity_sign = false;
-  ContactEnforcement enforcement = ContactEnforcement::penalty;
+  /// exact by default (the continuum's non-penetration); penalty under `normal: pair`, which
+  /// has no normal to enforce, and where the scene says so (the paper's law).
+  ContactEnforcement enforcement = ContactEnforcement::exact;
   /// exact enforcement with friction: stick is a multiplier too (true, the default), or the
   /// penalty k_t = tangential_factor C / a (`stick: penalty`).
   bool exact_stick = true;
-  /// exact: largest accepted closure (a - n.Y) / a of a pair in contact, in (0, 1).
-  double closure_tolerance = 1e-3;
+  /// exact: largest accepted closure (a - n.Y) / a of a pair in contact, in (0, 1). When the
+  /// scene does not give it: kDefaultClosureTolerance, or kClosureToleranceOverStretch times
+  /// the smallest critical stretch when a failure criterion is declared and that is smaller
+  /// (resolve_run_plan() writes it here, and why into closure_tolerance_auto).
+  double closure_tolerance = kDefaultClosureTolerance;
+  bool closure_tolerance_given = false;  ///< the scene or --set gave closure_tolerance
+  std::string closure_tolerance_auto;    ///< why the tolerance not given is what it is; "" when given
   /// exact: multiplier updates allowed per load increment before the attempt counts as failed.
   int max_multiplier_updates = 30;
   SourceLocation friction_law_where;

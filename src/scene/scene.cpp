@@ -376,6 +376,8 @@ ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& b
     c.enforcement = schema::choice(*f, {"penalty", "exact"}) == "exact" ? ContactEnforcement::exact
                                                                         : ContactEnforcement::penalty;
     c.enforcement_where = f->where();
+  } else if (c.normal == NormalLaw::pair) {
+    c.enforcement = ContactEnforcement::penalty;  // the pair law has no normal to enforce
   }
   bool stick_given = false;
   if (auto f = m.find("stick")) {
@@ -389,6 +391,7 @@ ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& b
                      "docs/theory/contact.md section 8)");
   if (auto f = m.find("closure_tolerance")) {
     c.closure_tolerance = schema::number(*f);
+    c.closure_tolerance_given = true;
     if (!(c.closure_tolerance > 0.0 && c.closure_tolerance < 1.0))
       schema::out_of_range(*f, "0 < closure_tolerance < 1 (a fraction of the pair's reference normal distance)");
   }

@@ -139,8 +139,8 @@ TEST_F(BadInput, ClosureToleranceOutOfRange) {
                   at(23, "contact.closure_tolerance"), "0 < closure_tolerance < 1");
   expect_rejected(run_text(k_minimal + "contact:\n  enforcement: exact\n  closure_tolerance: 1.5\n"),
                   at(23, "contact.closure_tolerance"), "0 < closure_tolerance < 1");
-  expect_rejected(run_text(k_minimal + "contact:\n  friction: 0.3\n  stick: exact\n"), at(23, "contact.stick"),
-                  "stick: exact needs enforcement: exact");
+  expect_rejected(run_text(k_minimal + "contact:\n  enforcement: penalty\n  friction: 0.3\n  stick: exact\n"),
+                  at(24, "contact.stick"), "stick: exact needs enforcement: exact");
 }
 
 TEST_F(BadInput, UnknownEnforcement) {

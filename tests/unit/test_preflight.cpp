@@ -230,27 +230,47 @@ TEST(LinearAuto, PreflightEstimatesThePick) {
   }
 }
 
-// Exact contact and a failure criterion: a closure tolerance above a tenth of the critical
-// stretch is said, with the value that takes it out. cases/lefm_inclined_crack at dx = 10 mm
-// (G_c = 100 J/m^2, E = 10 GPa, nu = 0.3, delta = 30 mm: s_c = 6.78e-4, computed by hand
-// from the formula of docs/theory/failure.md): the default 1e-3 is over 6.78e-5 and is said,
-// 6e-5 is not; the penalty law has no tolerance. Case 4.4 (s_c = 1.07e-2) is fine at 1e-3.
+// Exact contact and a failure criterion: a closure tolerance not given is kept at 0.05 of the
+// critical stretch, and one given above 0.1 of it is said, with the value that takes it out.
+// cases/lefm_inclined_crack at dx = 10 mm (G_c = 100 J/m^2, E = 10 GPa, nu = 0.3, delta =
+// 30 mm: s_c = 6.78e-4, computed by hand from the formula of docs/theory/failure.md): not
+// given, 3.39e-5, not said; 1e-3 given is said, 6e-5 is not; the penalty law has no
+// tolerance. Case 4.4 (s_c = 1.07e-2) gets 5.36e-4; a scene without a criterion (case 4.1)
+// keeps the default 1e-3.
 TEST(Preflight, AClosureToleranceTheCriterionFeelsIsSaid) {
-  const auto warnings = [](const std::string& file, const std::vector<std::string>& sets) {
-    const Scene scene = case_scene(file, sets);
+  const auto resolved = [](const std::string& file, const std::vector<std::string>& sets) {
+    Scene scene = case_scene(file, sets);
+    resolve_closure_tolerance(scene);
+    return scene;
+  };
+  const auto warnings = [&](const std::string& file, const std::vector<std::string>& sets) {
+    const Scene scene = resolved(file, sets);
     return preflight(scene, make_run_plan(scene, 1), estimate_size(scene));
   };
   const std::string lefm = "lefm_inclined_crack/scene.yaml";
   const std::vector<std::string> coarse = {"discretization.spacing=0.01", "contact.enforcement=exact"};
-  const auto said = warnings(lefm, coarse);
+  const Scene lefm_default = resolved(lefm, coarse);
+  EXPECT_NEAR(lefm_default.contact.closure_tolerance, 3.39e-5, 0.01e-5);  // the hand value's 3 digits
+  EXPECT_NE(lefm_default.contact.closure_tolerance_auto.find("critical stretch 0.000678"), std::string::npos)
+      << lefm_default.contact.closure_tolerance_auto;
+  EXPECT_TRUE(warnings(lefm, coarse).empty());
+  std::vector<std::string> loose = coarse;
+  loose.push_back("contact.closure_tolerance=1e-3");
+  const auto said = warnings(lefm, loose);
   ASSERT_EQ(said.size(), 1u);
   EXPECT_NE(said[0].find("critical stretch 0.000678"), std::string::npos) << said[0];
-  EXPECT_NE(said[0].find("contact.closure_tolerance=6.8e-05"), std::string::npos) << said[0];
+  EXPECT_NE(said[0].find("contact.closure_tolerance=3.4e-05"), std::string::npos) << said[0];
   std::vector<std::string> tight = coarse;
   tight.push_back("contact.closure_tolerance=6e-5");
   EXPECT_TRUE(warnings(lefm, tight).empty());
+  EXPECT_EQ(resolved(lefm, tight).contact.closure_tolerance, 6e-5);
   EXPECT_TRUE(warnings(lefm, {"discretization.spacing=0.01", "contact.enforcement=penalty"}).empty());
-  EXPECT_TRUE(warnings("paper_4_4_crack_growth/scene.yaml", {"contact.enforcement=exact"}).empty());
+  const std::vector<std::string> exact = {"contact.enforcement=exact"};
+  EXPECT_TRUE(warnings("paper_4_4_crack_growth/scene.yaml", exact).empty());
+  EXPECT_NEAR(resolved("paper_4_4_crack_growth/scene.yaml", exact).contact.closure_tolerance, 5.36e-4,
+              0.01e-4);
+  EXPECT_EQ(resolved("paper_4_1_sliding_plates/scene.yaml", exact).contact.closure_tolerance,
+            kDefaultClosureTolerance);
 }
 
 }  // namespace

@@ -752,10 +752,23 @@ TEST(SceneContact, StickKey) {
       parse(k_minimal + "contact: {enforcement: exact, friction: 0.3, stick: penalty}\n").contact.exact_stick);
   EXPECT_TRUE(
       parse(k_minimal + "contact: {enforcement: exact, friction: 0.3, stick: exact}\n").contact.exact_stick);
-  expect_error(k_minimal + "contact:\n  friction: 0.3\n  stick: exact\n", "scene.yaml:23: contact.stick",
-               "stick: exact needs enforcement: exact");
+  expect_error(k_minimal + "contact:\n  enforcement: penalty\n  friction: 0.3\n  stick: exact\n",
+               "scene.yaml:24: contact.stick", "stick: exact needs enforcement: exact");
+  // Exact is the default enforcement, so stick: exact alone is fine.
+  EXPECT_TRUE(parse(k_minimal + "contact: {friction: 0.3, stick: exact}\n").contact.exact_stick);
   expect_error(k_minimal + "contact:\n  enforcement: exact\n  stick: glue\n", "scene.yaml:23: contact.stick",
                "value \"glue\" is not allowed: expected one of exact, penalty");
+}
+
+// Exact enforcement is the default (the continuum's non-penetration); the pair law, which has
+// no normal to enforce, defaults to the penalty; the paper's law is asked for by name.
+TEST(SceneContact, EnforcementDefaultsToExact) {
+  EXPECT_EQ(parse(k_minimal + "contact: {friction: 0.3}\n").contact.enforcement, ContactEnforcement::exact);
+  EXPECT_EQ(parse(k_minimal + "contact: {normal: pair}\n").contact.enforcement, ContactEnforcement::penalty);
+  EXPECT_EQ(parse(k_minimal + "contact: {enforcement: penalty}\n").contact.enforcement,
+            ContactEnforcement::penalty);
+  expect_error(k_minimal + "contact:\n  normal: pair\n  enforcement: exact\n",
+               "scene.yaml:23: contact.enforcement", "enforcement: exact needs normal: paper");
 }
 
 TEST(SceneContact, UnknownKeys) {

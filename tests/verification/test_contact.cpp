@@ -28,6 +28,7 @@ struct BlocksSpec {
   double friction = 0.0;
   int steps = 1;
   std::string enforcement = "penalty";
+  std::string contact_extra;  ///< more lines of the contact section, each "  key: value\n"
 };
 
 std::string blocks_yaml(const BlocksSpec& s) {
@@ -54,8 +55,8 @@ std::string blocks_yaml(const BlocksSpec& s) {
       << mid + s.dx << ", " << 2 * H << "]}, ux: 0}\n";
   }
   y << "contact:\n  enabled: " << (s.contact ? "true" : "false") << "\n  enforcement: " << s.enforcement
-    << "\n  friction: " << s.friction
-    << "\n  interfaces:\n    - {bodies: [lower, upper]}\n"
+    << "\n  friction: " << s.friction << "\n"
+    << s.contact_extra << "  interfaces:\n    - {bodies: [lower, upper]}\n"
     << "loading: {steps: " << s.steps << "}\n"
     << "solver:\n  linear: umfpack\n  newton: {rtol: 1.0e-12}\n";
   return y.str();
@@ -262,9 +263,10 @@ struct CoulombOutcome {
 };
 
 CoulombOutcome coulomb(double shear_over_dx, double friction, int steps,
-                       const std::string& enforcement = "penalty") {
+                       const std::string& enforcement = "penalty", const std::string& contact_extra = "") {
   BlocksSpec spec;
   spec.enforcement = enforcement;
+  spec.contact_extra = contact_extra;
   spec.clamp_x = true;
   spec.press = 0.5 * spec.dx;
   spec.shear = shear_over_dx * spec.dx;
@@ -286,7 +288,11 @@ CoulombOutcome coulomb(double shear_over_dx, double friction, int steps,
 
 void coulomb_block_laws(const std::string& enforcement) {
   const double fc = 0.1;
-  const CoulombOutcome stick = coulomb(0.002, fc, 1, enforcement);
+  // Exact enforcement stops its multiplier updates once every violation is within the closure
+  // tolerance, so its answer carries the tolerance (up to 1e-3 of a pair's distance by
+  // default); the linearity below is asked of the law, so the tolerance is made negligible.
+  const std::string tight = enforcement == "exact" ? "  closure_tolerance: 1.0e-9\n" : "";
+  const CoulombOutcome stick = coulomb(0.002, fc, 1, enforcement, tight);
   EXPECT_GT(stick.N, 0.0);
   EXPECT_GT(stick.T, 0.0);  // friction resists the upper block's motion (+x)
   EXPECT_LT(stick.T, fc * stick.N);
@@ -294,7 +300,7 @@ void coulomb_block_laws(const std::string& enforcement) {
   EXPECT_GT(stick.counts.stick, 0);
   // Sticking is elastic: twice the shear displacement gives twice the shear force (1e-6:
   // the normal force, which sets the contact state, does not change with d_t to first order).
-  const CoulombOutcome stick2 = coulomb(0.004, fc, 1, enforcement);
+  const CoulombOutcome stick2 = coulomb(0.004, fc, 1, enforcement, tight);
   EXPECT_EQ(stick2.counts.slip, 0);
   EXPECT_NEAR(stick2.T / stick.T, 2.0, 1e-6);
 
@@ -378,9 +384,12 @@ TEST(CoulombBlock, ExhaustedMultiplierUpdatesNameTheViolation) {
   };
   BlocksSpec pressed = stuck_blocks(0.0);
   pressed.friction = 0.0;
-  // A soft stick (tangential_factor 0.01: the trial slip is 100 times the default's) makes
-  // the slip the larger violation of the sheared blocks.
-  const std::string closure = message(pressed, ""), slip = message(stuck_blocks(0.02), "  tangential_factor: 0.01\n");
+  // A soft stick (tangential_factor 0.01: the trial slip is 100 times the default's) and a
+  // stiff normal augmentation (stiffness 5e9 Pa, about 9 x the eq 17 modulus: started from
+  // 1 x, the closure after one update was about 0.04, above the slip) make the slip the
+  // larger violation of the sheared blocks.
+  const std::string closure = message(pressed, "");
+  const std::string slip = message(stuck_blocks(0.02), "  tangential_factor: 0.01\n  stiffness: 5.0e9\n");
   EXPECT_NE(closure.find("exact contact: closure"), std::string::npos);
   EXPECT_NE(slip.find("exact contact: stuck slip"), std::string::npos);
 }
