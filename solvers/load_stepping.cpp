@@ -149,9 +149,9 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
     if (broken == 1) {
       std::snprintf(buf, sizeof buf,
                     "load step %d/%d: the re-solve after breaking the single most critical bond did not "
-                    "converge at load factor %.6g (%s)",
-                    k, n, lambda, r.reason.c_str());
-      return buf;
+                    "converge at load factor %.6g (",
+                    k, n, lambda);
+      return buf + r.reason + ")";  // the reason whole, however long
     }
     at_most = std::max<Index>(1, broken / 2);
     successes = 0;
