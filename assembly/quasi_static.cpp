@@ -183,7 +183,8 @@ void QuasiStaticProblem::set_load_factor(double lambda) {
 ConstraintUpdate QuasiStaticProblem::update_multipliers(const VectorXd& x) {
   if (!m_contact) return {};
   expand_state(x);
-  const MultiplierUpdate m = m_contact->update_multipliers(m_u);
+  const MultiplierUpdate m = m_contact->update_multipliers(
+      m_u, m_failure ? m_failure->weights() : std::span<const double>(m_model.bonds.weight));
   ConstraintUpdate out;
   out.violation = m.violation;
   out.updates = m.updates;

@@ -409,11 +409,21 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   print_size(size);
   if (!plan.linear_auto.empty()) std::printf("  solver.linear  auto: %s\n", plan.linear_auto.c_str());
   if (scene.contact.enabled && scene.contact.enforcement == ContactEnforcement::exact) {
+    const ClosureReference r = scene.contact.closure_reference;
+    const char* reference =
+        r == ClosureReference::material
+            ? "counted beyond the material's own compressive strain (closure_reference: "
+              "material)"
+        : r == ClosureReference::broken_bonds
+            ? "counted beyond the material's own compressive strain on the faces of broken bonds, from the "
+              "reference spacing elsewhere (closure_reference: broken_bonds)"
+            : "counted from the reference spacing (closure_reference: spacing)";
     if (scene.contact.closure_tolerance_given)
-      std::printf("  contact        exact, closure tolerance %g (given)\n", scene.contact.closure_tolerance);
+      std::printf("  contact        exact, closure tolerance %g (given), %s\n",
+                  scene.contact.closure_tolerance, reference);
     else
-      std::printf("  contact        exact, closure tolerance %s\n",
-                  scene.contact.closure_tolerance_auto.c_str());
+      std::printf("  contact        exact, closure tolerance %s, %s\n",
+                  scene.contact.closure_tolerance_auto.c_str(), reference);
   }
   if (ranks->size() > 1) std::printf("  ranks          %s\n", held_text(plan).c_str());
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",

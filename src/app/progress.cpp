@@ -64,17 +64,18 @@ void ProgressObserver::iteration_done(int it, double rel, double extra, int kryl
 
 void ProgressObserver::bonds_broke(Index broken, int resolve) {
   throw_if_stop_requested();
-  if (resolve == 1) m_broken_at_this_load = 0;
-  m_broken_at_this_load += broken;
-  if (!m_printer.m_verbose) return;
+  // Net counts: a round whose re-solve failed is dropped (its bonds restored) and retried smaller.
   const long in_all = static_cast<long>(m_printer.m_problem.failure()->broken());
+  if (resolve == 1) m_broken_before_this_load = in_all - static_cast<long>(broken);
+  if (!m_printer.m_verbose) return;
   if (resolve < kRunningAfter)
     std::printf("  %ld bonds broke (%ld in all); re-solve %d at the same load\n", static_cast<long>(broken), in_all,
                 resolve);
   else  // the crack runs at a fixed load: followed until it arrests or the body separates
-    std::printf("  crack running at load factor %.6g: %ld bonds broke, re-solve %d (%ld at this load, %ld in all)\n",
-                m_printer.m_problem.load_factor(), static_cast<long>(broken), resolve,
-                static_cast<long>(m_broken_at_this_load), in_all);
+    std::printf(
+        "  crack running at load factor %.6g: %ld bonds broke, re-solve %d (%ld at this load, %ld in all)\n",
+        m_printer.m_problem.load_factor(), static_cast<long>(broken), resolve,
+        in_all - m_broken_before_this_load, in_all);
   std::fflush(stdout);
 }
 

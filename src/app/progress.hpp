@@ -45,7 +45,7 @@ class ProgressObserver : public LoadSteppingObserver {
   /// From this re-solve at one load on, the progress line says that the crack runs.
   static constexpr int kRunningAfter = 3;
   const ProgressPrinter& m_printer;
-  Index m_broken_at_this_load = 0;  ///< bonds broken since the first re-solve at the current load
+  long m_broken_before_this_load = 0;  ///< bonds broken before the first re-solve at the current load
 };
 
 }  // namespace peristat

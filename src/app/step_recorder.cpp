@@ -72,7 +72,10 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
                                       {"friction", c.friction},
                                       {"radius_factor", c.radius_factor},
                                       {"stiffness", c.stiffness}};
-    if (c.enforcement == ContactEnforcement::exact) contact["closure_tolerance"] = c.closure_tolerance;
+    if (c.enforcement == ContactEnforcement::exact) {
+      contact["closure_tolerance"] = c.closure_tolerance;
+      contact["closure_reference"] = to_string(c.closure_reference);
+    }
     if (c.enforcement == ContactEnforcement::exact && c.friction > 0.0 && !c.velocity_sign)
       contact["stick"] = c.exact_stick ? "exact" : "penalty";
     info["contact"] = contact;

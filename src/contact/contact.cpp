@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include <Eigen/Cholesky>
+
 namespace peristat {
 
 /// A pair Jacobian is symmetric when its off-diagonal entries agree to this fraction of its
@@ -26,6 +28,8 @@ ContactLaw ContactSystem::law_of(const ContactOptions& o, double spacing) {
   law.velocity_sign = o.velocity_sign && o.friction > 0.0;
   law.exact = o.enforcement == ContactEnforcement::exact;
   law.stick_multiplier = law.exact && o.exact_stick;
+  law.material_closure = law.exact && o.closure_reference != ClosureReference::spacing;
+  law.material_closure_all = law.exact && o.closure_reference == ClosureReference::material;
   law.window = spacing;
   return law;
 }
@@ -75,6 +79,7 @@ void ContactSystem::add_broken_bonds(const std::vector<std::pair<Index, Index>>&
     c.i = i;
     c.j = j;
     c.normal = X.normalized();  // a broken bond's faces meet along the bond
+    c.from_bond = true;
     c.gap0 = X.norm();
     c.stiffness = m_stiffness(i, j);
     add_pair(c, u);
@@ -250,16 +255,97 @@ void ContactSystem::set_velocity(const VectorXd& v) { m_state.set_velocity(v); }
 
 void ContactSystem::start_trial(double ratio) { m_state.start_trial(ratio); }
 
-MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
+namespace {
+
+/// The small strain (exx, eyy, exy) that fits the stretches of particle i's bonds with a
+/// weight at u best (least squares over its family, each bond by its weight); zero when the
+/// intact bonds do not span the three components.
+Eigen::Vector3d family_strain(const Model& model, Index i, const VectorXd& u,
+                              std::span<const double> weight) {
+  const Bonds& b = model.bonds;
+  Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d r = Eigen::Vector3d::Zero();
+  for (Index k = b.start[i]; k < b.start[i + 1]; ++k) {
+    const double w = weight[k];
+    if (w <= 0.0) continue;
+    const Index j = b.neighbour[k];
+    const Vec2& xi = b.xi[k];
+    const double L2 = xi.squaredNorm();
+    const Vec2 eta(u[2 * j] - u[2 * i], u[2 * j + 1] - u[2 * i + 1]);
+    const double stretch = xi.dot(eta) / L2;  // linearised: xi.eta / |xi|^2
+    const Eigen::Vector3d g(xi.x() * xi.x() / L2, xi.y() * xi.y() / L2, 2.0 * xi.x() * xi.y() / L2);
+    A += w * g * g.transpose();
+    r += w * stretch * g;
+  }
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(A);
+  if (A.trace() <= 0.0 || ldlt.info() != Eigen::Success || !ldlt.isPositive() ||
+      std::abs(ldlt.vectorD().minCoeff()) < 1e-8 * A.trace())
+    return Eigen::Vector3d::Zero();
+  return ldlt.solve(r);
+}
+
+}  // namespace
+
+double ContactSystem::pair_strain(const ContactPair& c, const VectorXd& u,
+                                  std::span<const double> bond_weights) {
+  double e[3] = {0.0, 0.0, 0.0};
+  for (const Index q : {c.i, c.j}) {
+    if (!m_family_strain_done[q]) {
+      m_family_strain[q] = family_strain(m_model, q, u, bond_weights);
+      m_family_strain_done[q] = 1;
+    }
+    for (int d = 0; d < 3; ++d) e[d] += 0.5 * m_family_strain[q][d];
+  }
+  const Vec2& n = c.normal;
+  return std::min(0.0, n.x() * n.x() * e[0] + n.y() * n.y() * e[1] + 2.0 * n.x() * n.y() * e[2]);
+}
+
+MultiplierUpdate ContactSystem::worst_over_ranks(const MultiplierUpdate& mine) const {
+  // The largest over every rank's own pairs; of equals, the first in the whole model's order.
+  struct Worst {
+    double violation, opening;
+    std::int64_t i, j;
+    int kind;  // index into kKinds: a pointer means nothing on another rank
+  };
+  auto kind_index = [](const char* kind) {
+    return kind == kStuckSlip ? 2 : kind == kOpeningUnderLoad ? 1 : 0;
+  };
+  MultiplierUpdate best = mine;
+  best.violation = 0.0;
+  best.opening = 0.0;
+  best.pair_i = best.pair_j = -1;
+  int best_kind = 0;
+  for (const Worst& w : m_ids.gather(std::vector<Worst>{
+           {mine.violation, mine.opening, mine.pair_i, mine.pair_j, kind_index(mine.kind)}})) {
+    best.opening = std::max(best.opening, w.opening);
+    if (w.violation > best.violation || (w.i >= 0 && w.violation == best.violation && best.pair_i >= 0 &&
+                                         std::pair(w.i, w.j) < std::pair(best.pair_i, best.pair_j))) {
+      best.violation = w.violation;
+      best.pair_i = w.i;
+      best.pair_j = w.j;
+      best_kind = w.kind;
+    }
+  }
+  best.kind = kKinds[best_kind];
+  return best;
+}
+
+MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u, std::span<const double> bond_weights) {
   MultiplierUpdate m;
   if (!m_law.exact) return m;
+  if (m_law.material_closure) {
+    // The strains at u first: the violations below measure the closure the next solve
+    // enforces (the forces at u were computed with the previous strains).
+    m_family_strain.resize(static_cast<std::size_t>(m_model.particles.size()));
+    m_family_strain_done.assign(static_cast<std::size_t>(m_model.particles.size()), 0);
+  }
   evaluate(u, false);
   const Particles& p = m_model.particles;
   const std::vector<ContactPair>& pairs = m_state.pairs();
   const Index np = size();
   // Facing pairs (the kernel's exact branch): within one spacing across and along.
   // Under exact stick a stuck pair's slip from its anchor, |w - w_p| / a, is a violation too.
-  std::vector<double> closure(np, 0.0), violation(np, 0.0);
+  std::vector<double> closure(np, 0.0), violation(np, 0.0), strain(m_law.material_closure ? np : 0, 0.0);
   std::vector<char> facing(np, 0);
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = pairs[k];
@@ -268,7 +354,15 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
     if (c.gap0 > m_law.window * (1.0 + kLatticeRoundOff) || std::abs(g.tangential) >= m_law.window) continue;
     facing[k] = 1;
     closure[k] = 1.0 - g.normal / c.gap0;
-    violation[k] = m_result[k].normal_force > 0.0 ? std::abs(closure[k]) : std::max(0.0, closure[k]);
+    if (m_law.material_closure && (m_law.material_closure_all || c.from_bond)) {
+      strain[k] = pair_strain(c, u, bond_weights);
+      closure[k] += strain[k];
+    }
+    // Weighted by the window: a pair whose cells face each other over part of a face holds
+    // that part of it, and its force phi (lambda + C_a s) answers an update by phi C_a s
+    // (on the ramp's end, 2.5% of a full pair's: the held fragment's corner pairs stalled).
+    const double phi = window_weight(std::abs(g.tangential), m_law);
+    violation[k] = phi * (m_result[k].normal_force > 0.0 ? std::abs(closure[k]) : std::max(0.0, closure[k]));
     const char* kind = closure[k] < 0.0 ? kOpeningUnderLoad : kClosure;
     if (m_result[k].status == PairStatus::stick) {
       const double slip = m_state.stick_violation(k, c.tangent().dot(du));
@@ -286,38 +380,17 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u) {
       m.kind = kind;
     }
   }
-  {  // the largest over every rank's own pairs; of equals, the first in the whole model's order
-    struct Worst {
-      double violation, opening;
-      std::int64_t i, j;
-      int kind;  // index into kKinds: a pointer means nothing on another rank
-    };
-    auto kind_index = [](const char* kind) { return kind == kStuckSlip ? 2 : kind == kOpeningUnderLoad ? 1 : 0; };
-    MultiplierUpdate best;
-    int best_kind = 0;
-    for (const Worst& w :
-         m_ids.gather(std::vector<Worst>{{m.violation, m.opening, m.pair_i, m.pair_j, kind_index(m.kind)}})) {
-      best.opening = std::max(best.opening, w.opening);
-      if (w.violation > best.violation || (w.i >= 0 && w.violation == best.violation && best.pair_i >= 0 &&
-                                           std::pair(w.i, w.j) < std::pair(best.pair_i, best.pair_j))) {
-        best.violation = w.violation;
-        best.pair_i = w.i;
-        best.pair_j = w.j;
-        best_kind = w.kind;
-      }
-    }
-    m.violation = best.violation;
-    m.opening = best.opening;
-    m.pair_i = best.pair_i;
-    m.pair_j = best.pair_j;
-    m.kind = kKinds[best_kind];
-  }
+  m = worst_over_ranks(m);
   m.updates = m_state.updates();
   if (m.violation <= m_closure_tolerance) return m;
   if (m_state.updates() >= m_max_multiplier_updates) {
     m.status = MultiplierUpdate::Status::exhausted;
     return m;
   }
+  // The new strains only with an update: an accepted state keeps those its forces were solved with.
+  if (m_law.material_closure)
+    for (Index k = 0; k < np; ++k)
+      if (facing[k]) m_state.set_strain(k, strain[k]);
   m.updates = m_state.update_multipliers(facing, closure, violation, m_result, m_closure_tolerance);
   m.status = MultiplierUpdate::Status::updated;
   return m;

@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "contact/candidate_search.hpp"
@@ -25,9 +26,10 @@ namespace peristat {
 struct MultiplierUpdate {
   enum class Status { satisfied, updated, exhausted };
   Status status = Status::satisfied;
-  /// Largest constraint violation over the facing pairs: the closure (a - n.Y) / a of any
-  /// pair, the opening -(a - n.Y) / a of a pair that still carries a force, or (exact stick)
-  /// the slip |w - w_p| / a of a stuck pair from its anchor.
+  /// Largest constraint violation over the facing pairs: the closure s of any pair, the
+  /// opening -s of a pair that still carries a force (s = (a - n.Y) / a, plus the material's
+  /// strain where that is the reference; both times the window phi), or (exact stick) the
+  /// slip |w - w_p| / a of a stuck pair from its anchor.
   double violation = 0.0;
   /// Largest opening -(a - n.Y) / a of a facing pair that carries a force (a force across a
   /// gap: the multipliers' complementarity error).
@@ -108,7 +110,9 @@ class ContactSystem {
   /// the slip of a stuck pair from its anchor); otherwise each facing pair's multiplier
   /// becomes max(0, lambda + C s) (Uzawa), its tangential one its friction force, and the caller solves
   /// again, up to contact.max_multiplier_updates times (then `exhausted`). Penalty: satisfied.
-  MultiplierUpdate update_multipliers(const VectorXd& u);
+  /// `bond_weights` (one per bond, 0 for a broken one) serve the material closure reference:
+  /// each facing pair's strain is set first, from the families of its two particles at u.
+  MultiplierUpdate update_multipliers(const VectorXd& u, std::span<const double> bond_weights);
   /// The first candidate that has crossed at u (n.Y < 0 while facing, `crossed()`), or -1.
   Index first_crossed(const VectorXd& u) const;
   /// The first crossed pair in the whole model's order (on a part: over every rank's own
@@ -203,6 +207,12 @@ class ContactSystem {
   double max_slide_between_searches() const { return m_search.max_slide_between_searches(); }
 
  private:
+  /// The largest violation over every rank's own pairs (the first in the whole model's order
+  /// of equals) and the largest opening, from this rank's `mine` (collective).
+  MultiplierUpdate worst_over_ranks(const MultiplierUpdate& mine) const;
+  /// Material closure reference: the compressive normal strain min(0, n.E.n) at pair c, E the
+  /// mean of its two particles' family strains at u (family_strain()).
+  double pair_strain(const ContactPair& c, const VectorXd& u, std::span<const double> bond_weights);
   /// The constructor's steps: the pair law from the options; the candidates found in the
   /// reference configuration with their starting state; their count over the ranks.
   static ContactLaw law_of(const ContactOptions& options, double spacing);
@@ -239,6 +249,10 @@ class ContactSystem {
   double m_max_closure = 0.0;
   std::uint64_t m_version = 0;
   std::vector<char> m_excluded;  ///< per particle, or empty: none excluded
+  /// Material closure reference, per particle: its family strain (exx, eyy, exy) and whether
+  /// it was computed at the current update.
+  std::vector<Eigen::Vector3d> m_family_strain;
+  std::vector<char> m_family_strain_done;
 };
 
 }  // namespace peristat

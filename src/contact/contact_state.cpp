@@ -66,6 +66,10 @@ void ContactState::start(std::vector<ContactPair> pairs) {
       m_boost[k] = initial_boost(m_pairs[k]);
     }
   }
+  if (m_law.material_closure) {
+    m_strain.assign(np, 0.0);
+    m_strain_committed.assign(np, 0.0);
+  }
   m_round_start = np;
 }
 
@@ -84,6 +88,10 @@ void ContactState::append(const ContactPair& c, const VectorXd& u) {
     m_boost.push_back(initial_boost(c));
     m_last_violation.push_back(0.0);
     m_boost_limit.push_back(boost_limit(c));
+  }
+  if (m_law.material_closure) {  // set at the first multiplier update
+    m_strain.push_back(0.0);
+    m_strain_committed.push_back(0.0);
   }
   m_pairs.push_back(c);
 }
@@ -111,6 +119,8 @@ void ContactState::sort_from(Index first, const ContactIds& ids) {
   reorder(m_boost);
   reorder(m_last_violation);
   reorder(m_boost_limit);
+  reorder(m_strain);
+  reorder(m_strain_committed);
 }
 
 bool ContactState::drop_last_round() {
@@ -129,6 +139,10 @@ bool ContactState::drop_last_round() {
     m_boost.resize(n);
     m_last_violation.resize(n);
     m_boost_limit.resize(n);
+  }
+  if (m_law.material_closure) {
+    m_strain.resize(n);
+    m_strain_committed.resize(n);
   }
   return true;
 }
@@ -151,6 +165,9 @@ void ContactState::start_trial(double ratio) {
   if (!m_law.exact) return;
   const Index np = size();
   for (Index k = 0; k < np; ++k) m_multiplier[k] = ratio * m_multiplier_committed[k];
+  // Proportional loading, proportional strains (like the multipliers).
+  if (m_law.material_closure)
+    for (Index k = 0; k < np; ++k) m_strain[k] = std::min(0.0, ratio * m_strain_committed[k]);
   if (m_law.exact_stick()) {
     // A pair at the limit stays there (its force follows F); a stuck one's scales like lambda.
     for (Index k = 0; k < np; ++k)
@@ -210,6 +227,7 @@ void ContactState::set_tangential(Index k, const PairResult& r) {
 void ContactState::commit_trial() {
   m_round_start = size();
   m_multiplier_committed = m_multiplier;
+  if (m_law.material_closure) m_strain_committed = m_strain;
   m_multiplier_updates = 0;
 }
 
@@ -247,7 +265,8 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
   const bool friction = m_law.tracks_slip();
   struct Saved {
     std::int64_t i, j;
-    double nx, ny, gap0, stiffness, slip, multiplier, boost, boost_limit, tangential_multiplier, limit_sign;
+    double nx, ny, gap0, stiffness, slip, multiplier, boost, boost_limit, tangential_multiplier, limit_sign,
+        strain, from_bond;
   };
   std::vector<Saved> mine;
   mine.reserve(m_pairs.size());
@@ -258,13 +277,15 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
                     friction ? m_slip[k] : 0.0, m_law.exact ? m_multiplier_committed[k] : 0.0,
                     m_law.exact ? m_boost[k] : 0.0, m_law.exact ? m_boost_limit[k] : 0.0,
                     m_law.exact_stick() ? m_stick_committed[k].force : 0.0,
-                    m_law.exact_stick() ? m_stick_committed[k].limit_sign : 0.0});
+                    m_law.exact_stick() ? m_stick_committed[k].limit_sign : 0.0,
+                    m_law.material_closure ? m_strain_committed[k] : 0.0, c.from_bond ? 1.0 : 0.0});
   }
   std::vector<Saved> all = ids.gather(mine);
   // The parts' pairs (in rank order) by global ids: the whole model's order.
   std::sort(all.begin(), all.end(),
             [](const Saved& a, const Saved& b) { return std::pair(a.i, a.j) < std::pair(b.i, b.j); });
-  std::vector<double> pairs, slip, multiplier, boost, boost_limit, tangential, limit_sign;  // the file holds doubles
+  std::vector<double> pairs, slip, multiplier, boost, boost_limit, tangential, limit_sign, strain,
+      from_bond;  // doubles
   for (const Saved& x : all) {
     pairs.insert(pairs.end(), {static_cast<double>(x.i), static_cast<double>(x.j), x.nx, x.ny, x.gap0, x.stiffness});
     if (friction) slip.push_back(x.slip);
@@ -276,6 +297,10 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
     if (m_law.exact_stick()) {
       tangential.push_back(x.tangential_multiplier);
       limit_sign.push_back(x.limit_sign);
+    }
+    if (m_law.material_closure) {
+      strain.push_back(x.strain);
+      from_bond.push_back(x.from_bond);
     }
   }
   archive.put("contact/pairs", std::move(pairs));
@@ -289,6 +314,10 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
   if (m_law.exact_stick()) {
     archive.put("contact/tangential_multiplier", std::move(tangential));
     archive.put("contact/tangential_limit_sign", std::move(limit_sign));
+  }
+  if (m_law.material_closure) {
+    archive.put("contact/strain", std::move(strain));
+    archive.put("contact/from_bond", std::move(from_bond));
   }
 }
 
@@ -307,12 +336,16 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
       m_law.exact_stick() ? archive.get("contact/tangential_multiplier", rows) : none;
   const std::vector<double>& limit_sign =
       m_law.exact_stick() ? archive.get("contact/tangential_limit_sign", rows) : none;
+  const std::vector<double>& strain = m_law.material_closure ? archive.get("contact/strain", rows) : none;
+  const std::vector<double>& from_bond =
+      m_law.material_closure ? archive.get("contact/from_bond", rows) : none;
   m_pairs.clear();
   m_slip.clear();
   m_stick_committed.clear();
   m_multiplier_committed.clear();
   m_boost.clear();
   m_boost_limit.clear();
+  m_strain_committed.clear();
   for (Index k = 0; k < rows; ++k) {
     const double* v = &flat[6 * k];
     // The pairs that touch this part's own particles (every pair of a whole model).
@@ -330,6 +363,7 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
     c.normal = Vec2(v[2], v[3]);
     c.gap0 = v[4];
     c.stiffness = v[5];
+    c.from_bond = m_law.material_closure && from_bond[static_cast<std::size_t>(k)] != 0.0;
     m_pairs.push_back(c);
     const auto row = static_cast<std::size_t>(k);
     if (friction) m_slip.push_back(slip[row]);
@@ -341,6 +375,7 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
       m_boost.push_back(boost[row]);
       m_boost_limit.push_back(boost_limit[row]);
     }
+    if (m_law.material_closure) m_strain_committed.push_back(strain[row]);
   }
   const Index np = size();
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);
@@ -349,6 +384,7 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
   }
   if (m_law.exact) {
     m_multiplier = m_multiplier_committed;
+    m_strain = m_strain_committed;
     m_last_violation.assign(np, 0.0);
     m_augmentation_capped = archive.scalar("contact/augmentation_capped") != 0.0;
   }
@@ -360,8 +396,8 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
 std::size_t ContactState::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   return bytes(m_pairs) + bytes(m_slip) + bytes(m_stick) + bytes(m_stick_committed) +
-         bytes(m_tangential_velocity) + bytes(m_multiplier) +
-         bytes(m_multiplier_committed) + bytes(m_boost) + bytes(m_last_violation) + bytes(m_boost_limit);
+         bytes(m_tangential_velocity) + bytes(m_multiplier) + bytes(m_multiplier_committed) + bytes(m_boost) +
+         bytes(m_last_violation) + bytes(m_boost_limit) + bytes(m_strain) + bytes(m_strain_committed);
 }
 
 }  // namespace peristat

@@ -28,9 +28,13 @@ class ContactState {
   /// The history pair k's kernel reads.
   PairHistory history(Index k) const {
     const bool stick = m_law.exact_stick();
-    return {m_law.tracks_slip() ? m_slip[k] : 0.0, m_law.exact ? m_multiplier[k] : 0.0,
-            m_law.velocity_sign ? m_tangential_velocity[k] : 0.0, m_law.exact ? m_boost[k] : 1.0,
-            stick ? m_stick[k].force : 0.0, stick ? m_stick[k].limit_sign : 0.0};
+    return {m_law.tracks_slip() ? m_slip[k] : 0.0,
+            m_law.exact ? m_multiplier[k] : 0.0,
+            m_law.velocity_sign ? m_tangential_velocity[k] : 0.0,
+            m_law.exact ? m_boost[k] : 1.0,
+            stick ? m_stick[k].force : 0.0,
+            stick ? m_stick[k].limit_sign : 0.0,
+            m_law.material_closure ? m_strain[k] : 0.0};
   }
   /// The augmentation stiffness / C of pair k (1 under penalty).
   double boost(Index k) const { return m_law.exact ? m_boost[k] : 1.0; }
@@ -62,6 +66,8 @@ class ContactState {
   /// (under exact stick the tangential ones too; a pair at the limit stays there); the update
   /// count restarts. No-op for penalty.
   void start_trial(double ratio);
+  /// Material closure reference: pair k's trial normal strain (PairHistory::strain).
+  void set_strain(Index k, double strain) { m_strain[k] = strain; }
   /// Multiplier updates made in the current trial.
   int updates() const { return m_multiplier_updates; }
   /// Exact enforcement, one Uzawa update of every pair (per pair: facing, closure s,
@@ -115,6 +121,8 @@ class ContactState {
   std::vector<double> m_boost;                 ///< per pair, augmentation stiffness / C (exact)
   std::vector<double> m_last_violation;        ///< per pair, violation at the previous update (exact)
   std::vector<double> m_boost_limit;           ///< per pair, largest boost (exact)
+  std::vector<double> m_strain;                ///< per pair, trial PairHistory::strain (material closure)
+  std::vector<double> m_strain_committed;      ///< per pair, of the last converged state (material closure)
   int m_multiplier_updates = 0;                ///< in the current trial
   bool m_augmentation_capped = false;
 };

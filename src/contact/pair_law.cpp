@@ -90,19 +90,13 @@ NormalForce exact_normal(const ContactPair& pair, const Vec2& Y, const PairHisto
   const Vec2 t = pair.tangent();
   const double yt = t.dot(Y), offset = std::abs(yt);
   if (offset >= law.window) return f;
-  const double s = 1.0 - n.dot(Y) / a;
+  const double s = 1.0 - n.dot(Y) / a + history.strain;
   const double Ca = history.boost * C;  // the pair's augmentation stiffness
   const double q = history.multiplier + Ca * s;
   if (q <= 0.0) return f;
-  double phi = 1.0;
-  Vec2 dphi = Vec2::Zero();
-  if (law.gate > 0.0) {
-    const double width = law.gate * law.window, rho = (law.window - offset) / width;
-    if (rho < 1.0) {
-      phi = rho;
-      dphi = -(yt > 0.0 ? 1.0 : -1.0) / width * t;
-    }
-  }
+  double slope = 0.0;
+  const double phi = window_weight(offset, law, &slope);
+  const Vec2 dphi = (yt > 0.0 ? slope : -slope) * t;
   f.F = phi * q;
   f.dF = -(phi * Ca / a) * n + q * dphi;
   f.along = n;

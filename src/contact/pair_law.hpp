@@ -31,6 +31,7 @@ struct ContactPair {
   Vec2 normal = Vec2::Zero();  ///< unit interface normal, oriented so that normal . (X_j - X_i) > 0
   double gap0 = 0.0;           ///< a = normal . (X_j - X_i) > 0, reference normal distance [m]
   double stiffness = 0.0;      ///< C = 3 E_c V_i V_j / (delta^3 t_h) [N], force at unit stretch
+  bool from_bond = false;      ///< the faces of a broken bond (ContactSystem::add_broken_bonds)
   /// The unit tangent t = (-n_y, n_x) of the friction law (eq 14).
   Vec2 tangent() const { return {-normal.y(), normal.x()}; }
 };
@@ -51,6 +52,11 @@ struct ContactLaw {
   /// (1 - gate) window and falls linearly to 0 at `window` (the two cells stop overlapping).
   bool exact = false;
   bool stick_multiplier = true;  ///< exact enforcement: stick is a multiplier too (contact.stick)
+  /// Exact enforcement: the closure of the faces of broken bonds (ContactPair::from_bond), or
+  /// with material_closure_all of every pair, counts from a shortened by the material's
+  /// compressive normal strain at the pair (PairHistory::strain; contact.closure_reference).
+  bool material_closure = false;
+  bool material_closure_all = false;
   double window = 0.0;  ///< one lattice spacing [m]
   /// Coulomb friction with a slip history (friction > 0, not the velocity-sign law).
   bool tracks_slip() const { return friction > 0.0 && !velocity_sign; }
@@ -76,6 +82,9 @@ struct PairHistory {
   /// the current normal force F (it stays at the limit while F changes), and
   /// tangential_multiplier is unused.
   double limit_sign = 0.0;
+  /// Exact enforcement with ContactLaw::material_closure: the material's normal strain at the
+  /// pair, min(0, n.E.n) (lagged: set at the multiplier updates); the closure is s + strain.
+  double strain = 0.0;
 };
 
 /// Output of the pair kernel. g is the pair's internal force dPi/d(u_j - u_i): the force on
@@ -132,6 +141,19 @@ inline PairGap pair_gap(const ContactPair& pair, const Vec2& X, const Vec2& du) 
   const Vec2 Y = X + du;
   return {pair.normal.dot(Y), pair.tangent().dot(Y)};
 }
+/// Exact enforcement: the window phi of a facing pair at tangential offset |t.Y| =
+/// `offset` (ContactLaw::exact), 1 up to (1 - gate) window, then linear to 0 at the window;
+/// `slope` gets dphi/d|t.Y| (0 off the ramp).
+inline double window_weight(double offset, const ContactLaw& law, double* slope = nullptr) {
+  if (slope) *slope = 0.0;
+  if (offset >= law.window) return 0.0;
+  if (law.gate <= 0.0) return 1.0;
+  const double width = law.gate * law.window, rho = (law.window - offset) / width;
+  if (rho >= 1.0) return 1.0;
+  if (slope) *slope = -1.0 / width;
+  return rho;
+}
+
 /// A pair has crossed when its particles have passed each other along the normal while
 /// facing each other: n.Y < 0 with |t.Y| below one spacing (their cells overlap).
 inline bool crossed(const PairGap& g, double spacing) {

@@ -47,4 +47,8 @@ std::string_view to_string(ContactEnforcement kind) {
   return name_of(kind, std::array<std::string_view, 2>{"penalty", "exact"});
 }
 
+std::string_view to_string(ClosureReference kind) {
+  return name_of(kind, std::array<std::string_view, 3>{"spacing", "broken_bonds", "material"});
+}
+
 }  // namespace peristat

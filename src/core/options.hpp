@@ -187,6 +187,12 @@ enum class NormalLaw { paper, pair };
 ///    closure_tolerance, whatever the stiffness (which then only sets the convergence rate).
 enum class ContactEnforcement { penalty, exact };
 
+/// Exact enforcement: what a pair's closure counts from (docs/theory/contact.md, "The
+/// closure's reference"): its reference normal distance a (`spacing`), or a shortened by the
+/// material's own compressive normal strain at the pair, for the faces of broken bonds only
+/// (`broken_bonds`, the default) or for every pair (`material`).
+enum class ClosureReference { spacing, broken_bonds, material };
+
 /// Two bodies declared in contact. They must share a boundary segment (the interface).
 struct ContactInterface {
   std::string body_a, body_b;
@@ -239,6 +245,9 @@ struct ContactOptions {
   std::string closure_tolerance_auto;    ///< why the tolerance not given is what it is; "" when given
   /// exact: multiplier updates allowed per load increment before the attempt counts as failed.
   int max_multiplier_updates = 30;
+  /// exact: what a pair's closure counts from (ClosureReference).
+  ClosureReference closure_reference = ClosureReference::broken_bonds;
+  SourceLocation closure_reference_where;
   SourceLocation friction_law_where;
   SourceLocation enforcement_where;
   SourceLocation stick_where;
@@ -246,5 +255,6 @@ struct ContactOptions {
 };
 
 std::string_view to_string(ContactEnforcement kind);
+std::string_view to_string(ClosureReference kind);
 
 }  // namespace peristat

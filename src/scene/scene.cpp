@@ -352,9 +352,10 @@ ContactInterface read_interface(const Field& field, const std::vector<ParsedBody
 
 /// The section is present, so contact is on unless it says `enabled: false`.
 ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& bodies) {
-  const Map m = checked_map(field, {"enabled", "friction", "radius_factor", "normal", "stiffness",
-                                    "tangential_factor", "gate", "cracks", "interfaces", "friction_law",
-                                    "enforcement", "stick", "closure_tolerance", "max_multiplier_updates"});
+  const Map m =
+      checked_map(field, {"enabled", "friction", "radius_factor", "normal", "stiffness", "tangential_factor",
+                          "gate", "cracks", "interfaces", "friction_law", "enforcement", "stick",
+                          "closure_tolerance", "max_multiplier_updates", "closure_reference"});
   ContactOptions c;
   c.enabled = true;
   if (auto f = m.find("enabled")) c.enabled = schema::boolean(*f);
@@ -396,6 +397,18 @@ ContactOptions read_contact(const Field& field, const std::vector<ParsedBody>& b
       schema::out_of_range(*f, "0 < closure_tolerance < 1 (a fraction of the pair's reference normal distance)");
   }
   if (auto f = m.find("max_multiplier_updates")) c.max_multiplier_updates = schema::int_at_least(*f, 1);
+  if (auto f = m.find("closure_reference")) {
+    const std::string r = schema::choice(*f, {"broken_bonds", "material", "spacing"});
+    c.closure_reference = r == "material"       ? ClosureReference::material
+                          : r == "broken_bonds" ? ClosureReference::broken_bonds
+                                                : ClosureReference::spacing;
+    c.closure_reference_where = f->where();
+    if (c.enforcement != ContactEnforcement::exact)
+      throw InputError(
+          c.closure_reference_where,
+          "closure_reference needs enforcement: exact (the penalty law has no closure tolerance to "
+          "measure from it; docs/theory/contact.md section 8)");
+  }
   if (c.enforcement == ContactEnforcement::exact && c.normal == NormalLaw::pair)
     throw InputError(c.enforcement_where,
                      "enforcement: exact needs normal: paper (it enforces the gap along the interface normal; "

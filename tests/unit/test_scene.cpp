@@ -771,6 +771,22 @@ TEST(SceneContact, EnforcementDefaultsToExact) {
                "scene.yaml:23: contact.enforcement", "enforcement: exact needs normal: paper");
 }
 
+// The closure reference of exact contact (docs/theory/contact.md, "The closure's reference"):
+// the material's strain on the faces of broken bonds by default, on every face or nowhere on
+// request, and refused where nothing measures a closure (penalty).
+TEST(SceneContact, ClosureReferenceDefaultsToTheBrokenBonds) {
+  EXPECT_EQ(parse(k_minimal + "contact: {friction: 0.3}\n").contact.closure_reference,
+            ClosureReference::broken_bonds);
+  EXPECT_EQ(parse(k_minimal + "contact: {closure_reference: spacing}\n").contact.closure_reference,
+            ClosureReference::spacing);
+  EXPECT_EQ(parse(k_minimal + "contact: {closure_reference: material}\n").contact.closure_reference,
+            ClosureReference::material);
+  expect_error(k_minimal + "contact:\n  enforcement: penalty\n  closure_reference: material\n",
+               "scene.yaml:23: contact.closure_reference", "closure_reference needs enforcement: exact");
+  expect_error(k_minimal + "contact:\n  closure_reference: strain\n",
+               "scene.yaml:22: contact.closure_reference", "spacing");
+}
+
 TEST(SceneContact, UnknownKeys) {
   expect_error(replace(k_contact, "  gate: 0.25\n", "  gate: 0.25\n  mu: 0.3\n"), "scene.yaml:37: contact.mu",
                "unknown key \"mu\": expected one of enabled, friction, radius_factor, normal, stiffness, "
