@@ -8,15 +8,19 @@
 //   peristat_bench action SCENE [REPS]               the matrix-free tangent action
 //       (apply_tangent) of SCENE at load factor 1 and zero displacement: time per action
 //       (best and median of REPS, default 200), bonds, and bytes of bond data read per second.
+//   peristat_bench stream [MB]                      the memory bandwidth a streaming kernel
+//       reaches on this machine (STREAM's copy c = a and triad a = b + 3 c over arrays of MB
+//       megabytes each, default 256, best of 10 passes, with the threads OpenMP gives): the
+//       bound the hot paths' GB/s above are measured against (docs/performance.md).
 //   peristat_bench partition SCENE P [--set KEY=VALUE]...   the rows of P ranks by strips and
 //       by RCB (solver.belos.partition): per partition, the largest and mean number of owned
 //       particles and of ghost particles (the other ranks' particles that a rank's rows of the
 //       tangent couple to: the halo a Krylov iteration exchanges), one line each.
 //   peristat_bench parts SCENE P [--set KEY=VALUE]...   each rank's part of the model
-//       (extract_part: docs/guide/distributed.md, "The partitioned model") on P ranks by strips and by RCB, with
-//       Newton's matrix-free problem on it: per partition, the largest and mean bytes of a
-//       part's model and problem state (ModelSize::memory_bytes) against the whole model's,
-//       and its particles (owned, and the ring and the particles without a row it adds).
+//       (extract_part: docs/guide/distributed.md, "The partitioned model") on P ranks by strips and by RCB,
+//       with Newton's matrix-free problem on it: per partition, the largest and mean bytes of a part's model
+//       and problem state (ModelSize::memory_bytes) against the whole model's, and its particles (owned, and
+//       the ring and the particles without a row it adds).
 //   mpirun -n P peristat_bench part-newton SCENE [--set KEY=VALUE]...   the scene's load steps
 //       run by Newton with belos on each rank's part of the model (the partitioned model,
 //       stages 1-2, below the command line): per rank, the particles and unknowns it holds,
@@ -157,6 +161,35 @@ int factor(int n, const std::string& which, const std::string& ordering) {
       "flops=%.3g peak=%.0fMB info=%d\n",
       n, which.c_str(), ordering.c_str(), (long long)A.nonZeros(), t1 - t0, t2 - t1, t3 - t2, c.lnz, c.fl,
       peak_mb(), (int)llt.info());
+  return 0;
+}
+
+int stream(long megabytes) {
+  const auto n = static_cast<std::size_t>(std::max(1L, megabytes) * 1000000L / sizeof(double));
+  std::vector<double> a(n), b(n), c(n);
+  const auto size = static_cast<std::ptrdiff_t>(n);
+#pragma omp parallel for schedule(static)
+  for (std::ptrdiff_t i = 0; i < size; ++i) {  // first touch by the thread that streams it
+    a[i] = 1.0;
+    b[i] = 2.0;
+    c[i] = 0.5;
+  }
+  double copy = 1e300, triad = 1e300;
+  for (int pass = 0; pass < 10; ++pass) {
+    const double t0 = wall_seconds();
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < size; ++i) c[i] = a[i];
+    const double t1 = wall_seconds();
+#pragma omp parallel for schedule(static)
+    for (std::ptrdiff_t i = 0; i < size; ++i) a[i] = b[i] + 3.0 * c[i];
+    const double t2 = wall_seconds();
+    copy = std::min(copy, t1 - t0);
+    triad = std::min(triad, t2 - t1);
+  }
+  // STREAM's counting: copy moves 2 arrays, triad 3 (write-allocate traffic not counted).
+  const double bytes = static_cast<double>(n * sizeof(double));
+  std::printf("threads=%d array=%.0fMB copy=%.1fGB/s triad=%.1fGB/s check=%.6g\n", omp_get_max_threads(),
+              bytes / 1e6, 2.0 * bytes / copy * 1e-9, 3.0 * bytes / triad * 1e-9, a[n / 2]);
   return 0;
 }
 
@@ -352,6 +385,7 @@ int main(int argc, char** argv) {
   if (argc >= 3 && std::strcmp(argv[1], "tension") == 0)
     return tension(std::atoi(argv[2]), overrides_from(argc, argv, 3));
   if (argc >= 5 && std::strcmp(argv[1], "factor") == 0) return factor(std::atoi(argv[2]), argv[3], argv[4]);
+  if (argc >= 2 && std::strcmp(argv[1], "stream") == 0) return stream(argc >= 3 ? std::atol(argv[2]) : 256);
   if (argc >= 3 && std::strcmp(argv[1], "action") == 0) return action(argv[2], argc >= 4 ? std::atoi(argv[3]) : 200);
   if (argc >= 4 && std::strcmp(argv[1], "partition") == 0)
     return partition(argv[2], std::atoi(argv[3]), overrides_from(argc, argv, 4));
@@ -365,6 +399,7 @@ int main(int argc, char** argv) {
                "usage: peristat_bench tension N [--set KEY=VALUE]...\n"
                "       peristat_bench factor N tangent|bond default|amd|metis|nesdis\n"
                "       peristat_bench action SCENE [REPS]\n"
+               "       peristat_bench stream [MB]\n"
                "       peristat_bench partition SCENE P [--set KEY=VALUE]...\n"
                "       peristat_bench parts SCENE P [--set KEY=VALUE]...\n"
                "       mpirun -n P peristat_bench part-newton SCENE [--set KEY=VALUE]...\n");
