@@ -28,8 +28,7 @@ ContactLaw ContactSystem::law_of(const ContactOptions& o, double spacing) {
   law.velocity_sign = o.velocity_sign && o.friction > 0.0;
   law.exact = o.enforcement == ContactEnforcement::exact;
   law.stick_multiplier = law.exact && o.exact_stick;
-  law.material_closure = law.exact && o.closure_reference != ClosureReference::spacing;
-  law.material_closure_all = law.exact && o.closure_reference == ClosureReference::material;
+  law.closure_reference = o.closure_reference;
   law.window = spacing;
   return law;
 }
@@ -333,7 +332,7 @@ MultiplierUpdate ContactSystem::worst_over_ranks(const MultiplierUpdate& mine) c
 MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u, std::span<const double> bond_weights) {
   MultiplierUpdate m;
   if (!m_law.exact) return m;
-  if (m_law.material_closure) {
+  if (m_law.material_closure()) {
     // The strains at u first: the violations below measure the closure the next solve
     // enforces (the forces at u were computed with the previous strains).
     m_family_strain.resize(static_cast<std::size_t>(m_model.particles.size()));
@@ -345,7 +344,7 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u, std::span<
   const Index np = size();
   // Facing pairs (the kernel's exact branch): within one spacing across and along.
   // Under exact stick a stuck pair's slip from its anchor, |w - w_p| / a, is a violation too.
-  std::vector<double> closure(np, 0.0), violation(np, 0.0), strain(m_law.material_closure ? np : 0, 0.0);
+  std::vector<double> closure(np, 0.0), violation(np, 0.0), strain(m_law.material_closure() ? np : 0, 0.0);
   std::vector<char> facing(np, 0);
   for (Index k = 0; k < np; ++k) {
     const ContactPair& c = pairs[k];
@@ -354,7 +353,7 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u, std::span<
     if (c.gap0 > m_law.window * (1.0 + kLatticeRoundOff) || std::abs(g.tangential) >= m_law.window) continue;
     facing[k] = 1;
     closure[k] = 1.0 - g.normal / c.gap0;
-    if (m_law.material_closure && (m_law.material_closure_all || c.from_bond)) {
+    if (m_law.strain_reference(c)) {
       strain[k] = pair_strain(c, u, bond_weights);
       closure[k] += strain[k];
     }
@@ -388,7 +387,7 @@ MultiplierUpdate ContactSystem::update_multipliers(const VectorXd& u, std::span<
     return m;
   }
   // The new strains only with an update: an accepted state keeps those its forces were solved with.
-  if (m_law.material_closure)
+  if (m_law.material_closure())
     for (Index k = 0; k < np; ++k)
       if (facing[k]) m_state.set_strain(k, strain[k]);
   m.updates = m_state.update_multipliers(facing, closure, violation, m_result, m_closure_tolerance);

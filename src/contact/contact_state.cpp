@@ -67,7 +67,7 @@ void ContactState::start(std::vector<ContactPair> pairs) {
       m_boost[k] = initial_boost(m_pairs[k]);
     }
   }
-  if (m_law.material_closure) {
+  if (m_law.material_closure()) {
     m_strain.assign(np, 0.0);
     m_strain_committed.assign(np, 0.0);
   }
@@ -90,7 +90,7 @@ void ContactState::append(const ContactPair& c, const VectorXd& u) {
     m_last_violation.push_back(0.0);
     m_boost_limit.push_back(boost_limit(c));
   }
-  if (m_law.material_closure) {  // set at the first multiplier update
+  if (m_law.material_closure()) {  // set at the first multiplier update
     m_strain.push_back(0.0);
     m_strain_committed.push_back(0.0);
   }
@@ -141,7 +141,7 @@ bool ContactState::drop_last_round() {
     m_last_violation.resize(n);
     m_boost_limit.resize(n);
   }
-  if (m_law.material_closure) {
+  if (m_law.material_closure()) {
     m_strain.resize(n);
     m_strain_committed.resize(n);
   }
@@ -167,7 +167,7 @@ void ContactState::start_trial(double ratio) {
   const Index np = size();
   for (Index k = 0; k < np; ++k) m_multiplier[k] = ratio * m_multiplier_committed[k];
   // Proportional loading, proportional strains (like the multipliers).
-  if (m_law.material_closure)
+  if (m_law.material_closure())
     for (Index k = 0; k < np; ++k) m_strain[k] = std::min(0.0, ratio * m_strain_committed[k]);
   if (m_law.exact_stick()) {
     // A pair at the limit stays there (its force follows F); a stuck one's scales like lambda.
@@ -228,7 +228,7 @@ void ContactState::set_tangential(Index k, const PairResult& r) {
 void ContactState::commit_trial() {
   m_round_start = size();
   m_multiplier_committed = m_multiplier;
-  if (m_law.material_closure) m_strain_committed = m_strain;
+  if (m_law.material_closure()) m_strain_committed = m_strain;
   m_multiplier_updates = 0;
 }
 
@@ -279,7 +279,7 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
                     m_law.exact ? m_boost[k] : 0.0, m_law.exact ? m_boost_limit[k] : 0.0,
                     m_law.exact_stick() ? m_stick_committed[k].force : 0.0,
                     m_law.exact_stick() ? m_stick_committed[k].limit_sign : 0.0,
-                    m_law.material_closure ? m_strain_committed[k] : 0.0, c.from_bond ? 1.0 : 0.0});
+                    m_law.material_closure() ? m_strain_committed[k] : 0.0, c.from_bond ? 1.0 : 0.0});
   }
   std::vector<Saved> all = ids.gather(mine);
   // The parts' pairs (in rank order) by global ids: the whole model's order.
@@ -299,7 +299,7 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
       tangential.push_back(x.tangential_multiplier);
       limit_sign.push_back(x.limit_sign);
     }
-    if (m_law.material_closure) {
+    if (m_law.material_closure()) {
       strain.push_back(x.strain);
       from_bond.push_back(x.from_bond);
     }
@@ -316,7 +316,7 @@ void ContactState::save(StateArchive& archive, const ContactIds& ids) const {
     archive.put("contact/tangential_multiplier", std::move(tangential));
     archive.put("contact/tangential_limit_sign", std::move(limit_sign));
   }
-  if (m_law.material_closure) {
+  if (m_law.material_closure()) {
     archive.put("contact/strain", std::move(strain));
     archive.put("contact/from_bond", std::move(from_bond));
   }
@@ -337,9 +337,9 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
       m_law.exact_stick() ? archive.get("contact/tangential_multiplier", rows) : none;
   const std::vector<double>& limit_sign =
       m_law.exact_stick() ? archive.get("contact/tangential_limit_sign", rows) : none;
-  const std::vector<double>& strain = m_law.material_closure ? archive.get("contact/strain", rows) : none;
+  const std::vector<double>& strain = m_law.material_closure() ? archive.get("contact/strain", rows) : none;
   const std::vector<double>& from_bond =
-      m_law.material_closure ? archive.get("contact/from_bond", rows) : none;
+      m_law.material_closure() ? archive.get("contact/from_bond", rows) : none;
   m_pairs.clear();
   m_slip.clear();
   m_stick_committed.clear();
@@ -364,7 +364,7 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
     c.normal = Vec2(v[2], v[3]);
     c.gap0 = v[4];
     c.stiffness = v[5];
-    c.from_bond = m_law.material_closure && from_bond[static_cast<std::size_t>(k)] != 0.0;
+    c.from_bond = m_law.material_closure() && from_bond[static_cast<std::size_t>(k)] != 0.0;
     m_pairs.push_back(c);
     const auto row = static_cast<std::size_t>(k);
     if (friction) m_slip.push_back(slip[row]);
@@ -376,7 +376,7 @@ Index ContactState::restore(const StateArchive& archive, const ContactIds& ids) 
       m_boost.push_back(boost[row]);
       m_boost_limit.push_back(boost_limit[row]);
     }
-    if (m_law.material_closure) m_strain_committed.push_back(strain[row]);
+    if (m_law.material_closure()) m_strain_committed.push_back(strain[row]);
   }
   const Index np = size();
   if (m_law.velocity_sign) m_tangential_velocity.assign(np, 0.0);

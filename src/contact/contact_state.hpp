@@ -34,7 +34,7 @@ class ContactState {
             m_law.exact ? m_boost[k] : 1.0,
             stick ? m_stick[k].force : 0.0,
             stick ? m_stick[k].limit_sign : 0.0,
-            m_law.material_closure ? m_strain[k] : 0.0};
+            m_law.material_closure() ? m_strain[k] : 0.0};
   }
   /// The augmentation stiffness / C of pair k (1 under penalty).
   double boost(Index k) const { return m_law.exact ? m_boost[k] : 1.0; }

@@ -52,11 +52,15 @@ struct ContactLaw {
   /// (1 - gate) window and falls linearly to 0 at `window` (the two cells stop overlapping).
   bool exact = false;
   bool stick_multiplier = true;  ///< exact enforcement: stick is a multiplier too (contact.stick)
-  /// Exact enforcement: the closure of the faces of broken bonds (ContactPair::from_bond), or
-  /// with material_closure_all of every pair, counts from a shortened by the material's
-  /// compressive normal strain at the pair (PairHistory::strain; contact.closure_reference).
-  bool material_closure = false;
-  bool material_closure_all = false;
+  /// Exact enforcement: what a pair's closure counts from (contact.closure_reference).
+  ClosureReference closure_reference = ClosureReference::spacing;
+  /// Exact enforcement where some pairs' closure counts from a shortened by the material's
+  /// compressive normal strain at the pair (PairHistory::strain).
+  bool material_closure() const { return exact && closure_reference != ClosureReference::spacing; }
+  /// Whether pair c's does: the faces of broken bonds (ContactPair::from_bond), or every pair.
+  bool strain_reference(const ContactPair& c) const {
+    return material_closure() && (closure_reference == ClosureReference::material || c.from_bond);
+  }
   double window = 0.0;  ///< one lattice spacing [m]
   /// Coulomb friction with a slip history (friction > 0, not the velocity-sign law).
   bool tracks_slip() const { return friction > 0.0 && !velocity_sign; }
@@ -82,7 +86,7 @@ struct PairHistory {
   /// the current normal force F (it stays at the limit while F changes), and
   /// tangential_multiplier is unused.
   double limit_sign = 0.0;
-  /// Exact enforcement with ContactLaw::material_closure: the material's normal strain at the
+  /// Exact enforcement with ContactLaw::material_closure(): the material's normal strain at the
   /// pair, min(0, n.E.n) (lagged: set at the multiplier updates); the closure is s + strain.
   double strain = 0.0;
 };
