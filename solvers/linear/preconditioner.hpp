@@ -37,6 +37,9 @@ class Preconditioner {
   virtual std::string name() const = 0;
   /// Factorisations (or hierarchies) built so far.
   virtual long factorizations() const = 0;
+  /// The bytes of matrix data one solve() reads, when the preconditioner knows them (the
+  /// threaded V-cycle), else 0: the roofline's figure (peristat_bench cycle).
+  virtual double matrix_bytes_per_solve() const { return 0.0; }
 };
 
 /// A direct LinearSolver (CHOLMOD) as a preconditioner: its factor of P.

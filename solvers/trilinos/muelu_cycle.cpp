@@ -98,6 +98,7 @@ class MueLuCycle final : public Preconditioner {
   /// hierarchy the threaded cycle does not repeat).
   std::string name() const override { return m_muelu.is_null() || m_cycle ? "muelu" : "muelu-serial"; }
   long factorizations() const override { return m_builds; }
+  double matrix_bytes_per_solve() const override { return m_cycle ? m_cycle->matrix_bytes_per_apply() : 0.0; }
 
  private:
   /// MueLu's hierarchy of the filled copy, and its threaded cycle.

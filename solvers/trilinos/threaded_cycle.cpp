@@ -349,6 +349,35 @@ void ThreadedCycle::apply(const double* b, double* x) {
   cycle(0, b, x);
 }
 
+double ThreadedCycle::matrix_bytes_per_apply() const {
+  const auto csr_bytes = [](const local_t& M) {
+    return static_cast<double>(M.nnz()) * (sizeof(double) + sizeof(LO)) +
+           (M.numRows() + 1.0) * sizeof(std::size_t);
+  };
+  // Sweeps of a level's matrix by a smoother (scaled_residual_step calls in smooth()).
+  const auto sweeps = [](const Smoother& s, bool zero_guess) {
+    if (s.kind == Smoother::Kind::none) return 0;
+    if (s.kind == Smoother::Kind::chebyshev && std::abs(s.lambda_max - 1.0) < 1e-6) return 0;
+    return zero_guess ? s.degree - 1 : s.degree;
+  };
+  double bytes = 0.0;
+  for (std::size_t l = 0; l < m_levels.size(); ++l) {
+    const Level& level = m_levels[l];
+    const bool coarsest = l + 1 == m_levels.size();
+    const Blocks& k = level.blocks;
+    const double a = k.empty() ? csr_bytes(level.A)
+                               : static_cast<double>(k.start.size()) * sizeof(std::size_t) +
+                                     static_cast<double>(k.col.size()) * sizeof(LO) +
+                                     static_cast<double>(k.values.size()) * sizeof(double) +
+                                     static_cast<double>(k.rounded.size()) * sizeof(float);
+    const bool pre = level.pre.kind != Smoother::Kind::none;
+    int n = sweeps(level.pre, true) + (coarsest ? sweeps(level.post, !pre) : 1 + sweeps(level.post, false));
+    bytes += n * a;
+    if (!coarsest) bytes += 2.0 * csr_bytes(level.P);
+  }
+  return bytes;
+}
+
 void ThreadedCycle::smooth(Level& level, const Smoother& s, const double* b, double* x, bool zero_guess) {
   const LO n = level.A.numRows();
   double* w = level.work.data();  // the smoother's W (the residual is not live while it smooths)

@@ -44,6 +44,12 @@ class ThreadedCycle {
   /// preconditioner. b and x hold the finest level's rows.
   void apply(const double* b, double* x);
 
+  /// The bytes of matrix data one apply() reads: each level's matrix once per sweep (a
+  /// Chebyshev smoother of degree d sweeps d times, once fewer from a zero guess; the residual
+  /// once) and its prolongator twice (P^T r, P x_c). The vectors are not counted. For the
+  /// roofline of docs/performance.md (peristat_bench cycle).
+  double matrix_bytes_per_apply() const;
+
   /// A matrix with two rows per particle in 2 x 2 blocks (block row p: rows 2p and 2p + 1;
   /// an entry absent from one of the two rows is stored as zero). The residual and smoother
   /// kernels form two rows at a time from it, each row's subtractions in the CSR row's order

@@ -5,9 +5,14 @@
 //   peristat_bench factor N MATRIX ORDERING          CHOLMOD analyse + factorise of the
 //       tangent (MATRIX = tangent) or its bond part (MATRIX = bond) with ORDERING = default |
 //       amd | metis | nesdis.
-//   peristat_bench action SCENE [REPS]               the matrix-free tangent action
+//   peristat_bench action SCENE [REPS] [--set KEY=VALUE]...   the matrix-free tangent action
 //       (apply_tangent) of SCENE at load factor 1 and zero displacement: time per action
 //       (best and median of REPS, default 200), bonds, and bytes of bond data read per second.
+//   peristat_bench cycle SCENE [REPS] [--set KEY=VALUE]...   one application of the bond_amg
+//       V-cycle (matrix_free's default preconditioner) of SCENE's bond matrix at load factor 1
+//       and zero displacement, applied by this program's threads (ThreadedCycle, the default)
+//       and by MueLu's own apply: median time of REPS (default 20) each, the finest matrix's
+//       rows and nonzeros, and the set-up time.
 //   peristat_bench stream [MB]                      the memory bandwidth a streaming kernel
 //       reaches on this machine (STREAM's copy c = a and triad a = b + 3 c over arrays of MB
 //       megabytes each, default 256, best of 10 passes, with the threads OpenMP gives): the
@@ -29,9 +34,9 @@
 //       and the time while one process builds rank 0's part of P from the census (P = 1: the
 //       whole model, discretise()), one line; run once per P (the peak only grows).
 #include <algorithm>
-#include <memory>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <sys/resource.h>
 #include <vector>
@@ -45,10 +50,11 @@
 #include "assembly/quasi_static.hpp"
 #include "core/clock.hpp"
 #include "discretisation/model_part.hpp"
+#include "parallel/mpi/mpi_ranks.hpp"
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
 #include "solvers/newton.hpp"
-#include "parallel/mpi/mpi_ranks.hpp"
+#include "solvers/trilinos/belos_solver.hpp"
 #include "support/step_log.hpp"
 
 using namespace peristat;
@@ -193,16 +199,33 @@ int stream(long megabytes) {
   return 0;
 }
 
-int action(const std::string& path, int reps) {
-  Scene scene = parse_scene(path);
-  const Model model = discretise(scene);
-  ProblemOptions options = problem_options(scene);
+/// A scene's matrix-free problem, evaluated with its tangent at load factor 1 and zero
+/// displacement: what the action and the V-cycle are timed on.
+struct Evaluated {
+  Scene scene;
+  Model model;
+  std::unique_ptr<QuasiStaticProblem> problem;
+};
+std::unique_ptr<Evaluated> evaluated(const std::string& path, const std::vector<Override>& overrides) {
+  auto e = std::make_unique<Evaluated>();
+  e->scene = parse_scene(path, overrides);
+  e->model = discretise(e->scene);
+  ProblemOptions options = problem_options(e->scene);
   options.matrix_free = true;
-  QuasiStaticProblem problem(model, options);
-  problem.set_load_factor(1.0);
-  VectorXd x = VectorXd::Zero(problem.n_unknowns()), r, y;
-  SparseMatrix placeholder = problem.make_tangent();
-  problem.evaluate(x, r, &placeholder);
+  e->problem = std::make_unique<QuasiStaticProblem>(e->model, options);
+  e->problem->set_load_factor(1.0);
+  VectorXd x = VectorXd::Zero(e->problem->n_unknowns()), r;
+  SparseMatrix placeholder = e->problem->make_tangent();
+  e->problem->evaluate(x, r, &placeholder);
+  return e;
+}
+
+int action(const std::string& path, int reps, const std::vector<Override>& overrides) {
+  const auto e = evaluated(path, overrides);
+  const Scene& scene = e->scene;
+  const Model& model = e->model;
+  QuasiStaticProblem& problem = *e->problem;
+  VectorXd y;
   VectorXd v = VectorXd::Ones(problem.n_unknowns());
   problem.apply_tangent(v, y);  // first touch
   std::vector<double> t(static_cast<std::size_t>(reps));
@@ -223,6 +246,46 @@ int action(const std::string& path, int reps) {
               "bond data read at %.1f GB/s checksum=%.6e\n",
               scene.name.c_str(), model.particles.size(), bonds, problem.n_unknowns(), omp_get_max_threads(),
               1e3 * t.front(), 1e3 * t[t.size() / 2], bytes / t[t.size() / 2] * 1e-9, checksum);
+  return 0;
+}
+
+// One application of the V-cycle of SCENE's bond matrix, by each applier in turn.
+int cycle(const std::string& path, int reps, const std::vector<Override>& overrides) {
+  const auto e = evaluated(path, overrides);
+  const Scene& scene = e->scene;
+  const Model& model = e->model;
+  QuasiStaticProblem& problem = *e->problem;
+  const VectorXd b = VectorXd::Ones(problem.n_unknowns());
+  const std::pair<CycleApply, const char*> appliers[] = {{CycleApply::threads, "threads"},
+                                                         {CycleApply::muelu, "muelu"}};
+  for (const auto& [apply, label] : appliers) {
+    SparseMatrix P = problem.make_preconditioner();
+    problem.assemble_preconditioner(P);
+    const double rows = P.rows(), nonzeros = P.nonZeros();
+    std::unique_ptr<Preconditioner> m =
+        make_muelu_cycle({unknown_layout(model, problem.n_unknowns()), false, nullptr}, apply);
+    m->analyzePattern(P);
+    const double t0 = wall_seconds();
+    m->factorize(P);
+    const double setup = wall_seconds() - t0;
+    P = SparseMatrix();  // as a run frees it
+    VectorXd y;
+    m->solve(b, y);  // first touch
+    std::vector<double> t(static_cast<std::size_t>(reps));
+    for (double& ti : t) {
+      const double t1 = wall_seconds();
+      m->solve(b, y);
+      ti = wall_seconds() - t1;
+    }
+    std::sort(t.begin(), t.end());
+    // The matrix data a cycle reads (threads only: the hierarchy's levels as the threads sweep them).
+    const double bytes = m->matrix_bytes_per_solve();
+    std::printf(
+        "scene=%s apply=%s name=%s threads=%d rows=%.0f nonzeros=%.0f setup=%.2fs best=%.2fms "
+        "median=%.2fms matrix_MB_per_cycle=%.1f matrix_data_read_GB/s=%.1f norm=%.6e\n",
+        scene.name.c_str(), label, m->name().c_str(), omp_get_max_threads(), rows, nonzeros, setup,
+        1e3 * t.front(), 1e3 * t[t.size() / 2], bytes / 1e6, bytes / t[t.size() / 2] * 1e-9, y.norm());
+  }
   return 0;
 }
 
@@ -386,7 +449,13 @@ int main(int argc, char** argv) {
     return tension(std::atoi(argv[2]), overrides_from(argc, argv, 3));
   if (argc >= 5 && std::strcmp(argv[1], "factor") == 0) return factor(std::atoi(argv[2]), argv[3], argv[4]);
   if (argc >= 2 && std::strcmp(argv[1], "stream") == 0) return stream(argc >= 3 ? std::atol(argv[2]) : 256);
-  if (argc >= 3 && std::strcmp(argv[1], "action") == 0) return action(argv[2], argc >= 4 ? std::atoi(argv[3]) : 200);
+  const auto reps = [&](int fallback) {
+    return argc >= 4 && argv[3][0] != '-' ? std::atoi(argv[3]) : fallback;
+  };
+  if (argc >= 3 && std::strcmp(argv[1], "action") == 0)
+    return action(argv[2], reps(200), overrides_from(argc, argv, 3));
+  if (argc >= 3 && std::strcmp(argv[1], "cycle") == 0)
+    return cycle(argv[2], reps(20), overrides_from(argc, argv, 3));
   if (argc >= 4 && std::strcmp(argv[1], "partition") == 0)
     return partition(argv[2], std::atoi(argv[3]), overrides_from(argc, argv, 4));
   if (argc >= 3 && std::strcmp(argv[1], "part-newton") == 0)
@@ -398,7 +467,8 @@ int main(int argc, char** argv) {
   std::fprintf(stderr,
                "usage: peristat_bench tension N [--set KEY=VALUE]...\n"
                "       peristat_bench factor N tangent|bond default|amd|metis|nesdis\n"
-               "       peristat_bench action SCENE [REPS]\n"
+               "       peristat_bench action SCENE [REPS] [--set KEY=VALUE]...\n"
+               "       peristat_bench cycle SCENE [REPS] [--set KEY=VALUE]...\n"
                "       peristat_bench stream [MB]\n"
                "       peristat_bench partition SCENE P [--set KEY=VALUE]...\n"
                "       peristat_bench parts SCENE P [--set KEY=VALUE]...\n"
