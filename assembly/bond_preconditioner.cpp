@@ -27,7 +27,7 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
 }
 
 void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weight,
-                                  std::span<const Vec2> direction) const {
+                                  std::span<const Vec2> s) const {
   const Bonds& bonds = m_model.bonds;
   const double r2 = m_radius * m_radius * (1.0 + kBondRadiusMargin);
 #pragma omp parallel
@@ -43,7 +43,9 @@ void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weigh
         // this rank's row (a row's neighbours' families are held), so the block is not its.
         if (r < 0) continue;
         const double k = m_alpha_volume[p] * weight[b] + m_alpha_volume[j] * weight[r];
-        const Vec2& M = direction[b];
+        const Vec2 M = s[b].squaredNorm() > 0.0   ? s[b].normalized()
+                       : s[r].squaredNorm() > 0.0 ? Vec2(-s[r].normalized())
+                                                  : bonds.xi[b].normalized();
         col.add_outer(p, k, M, M);
         col.add_outer(j, -k, M, M);
       }

@@ -33,8 +33,10 @@ class BondPreconditioner {
   /// (g_b g_b^T), g_b the gradient of the extension along the current direction M_b,
   /// alpha' = 8 mu / m' with m' the weighted volume of those bonds (so the short stencil
   /// keeps the long-wave stiffness), plus each contact pair's preconditioner block.
-  /// `weight`: the intact bond weights; `direction`: M_b of the last evaluation.
-  void assemble(SparseMatrix& P, std::span<const double> weight, std::span<const Vec2> direction) const;
+  /// `weight`: the intact bond weights; `s`: s_b = b_b M_b of the last evaluation with a
+  /// tangent (FamilyOutputs), whose direction M_b is: s_b / |s_b|, else -s_r / |s_r| from the
+  /// reverse bond r (M_r = -M_b), else (no weight either way, or no tangent yet) xi_b / |xi_b|.
+  void assemble(SparseMatrix& P, std::span<const double> weight, std::span<const Vec2> s) const;
 
   std::size_t memory_bytes() const;
 

@@ -108,10 +108,10 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   if (m_failure) assign_huge(m_eta, nbonds, Vec2(Vec2::Zero()));
   for (Index i = 0; i < n; ++i) m_largest_family = std::max(m_largest_family, bonds.family_size(i));
   m_eta_scratch.assign(static_cast<std::size_t>(omp_get_max_threads()) * m_largest_family, Vec2::Zero());
-  assign_huge(m_direction, nbonds, Vec2(Vec2::Zero()));
+  m_extension_scratch.assign(m_eta_scratch.size(), 0.0);
+  assign_huge(m_force_bond, nbonds, Vec2(Vec2::Zero()));
   assign_huge(m_s, nbonds, Vec2(Vec2::Zero()));
-  assign_huge(m_t, nbonds, 0.0);
-  assign_huge(m_kbond, nbonds, Sym2{});
+  assign_huge(m_kbond, nbonds, BondStiffness{});
   m_s_self.assign(n, Vec2::Zero());
   m_beta_volume.assign(n, 0.0);
   m_u = VectorXd::Zero(2 * n);
@@ -170,8 +170,7 @@ Vec2 QuasiStaticProblem::reaction(std::size_t k) const {
 Mat2 QuasiStaticProblem::stress(Index i) const {
   const Bonds& bonds = m_model.bonds;
   Mat2 P = Mat2::Zero();
-  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
-    P += m_t[b] * m_direction[b] * bonds.xi[b].transpose();
+  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) P += m_force_bond[b] * bonds.xi[b].transpose();
   return P;
 }
 
@@ -397,16 +396,22 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
   double own_energy = 0.0, unowned_energy = 0.0;
   const OwnedRows& rows = m_options.rows;
   const std::size_t scratch = static_cast<std::size_t>(omp_get_max_threads()) * m_largest_family;
-  if (m_eta_scratch.size() < scratch) m_eta_scratch.resize(scratch);  // more threads than at the start
+  if (m_eta_scratch.size() < scratch) {  // more threads than at the start
+    m_eta_scratch.resize(scratch);
+    m_extension_scratch.resize(scratch);
+  }
 #pragma omp parallel reduction(+ : own_energy, unowned_energy)
   {
-    Vec2* eta = m_eta_scratch.data() + static_cast<std::size_t>(omp_get_thread_num()) * m_largest_family;
+    const std::size_t mine = static_cast<std::size_t>(omp_get_thread_num()) * m_largest_family;
+    Vec2* eta = m_eta_scratch.data() + mine;
+    double* extension = m_extension_scratch.data() + mine;
 #pragma omp for schedule(static)
     for (Index i = 0; i < n; ++i) {
       if (!m_share.family_needed(i)) continue;
       const Index b0 = bonds.start[i], nb = bonds.family_size(i);
       family_displacements(i, eta);
-      const FamilyOutputs out{std::span(m_t).subspan(b0, nb), std::span(m_direction).subspan(b0, nb),
+      const FamilyOutputs out{std::span(m_force_bond).subspan(b0, nb),
+                              std::span(extension, static_cast<std::size_t>(nb)),
                               std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
       const FamilyResult res = m_kernels[p.body[i]]->evaluate(
           m_correction.weighted_volume()[i], std::span(bonds.xi).subspan(b0, nb),
@@ -439,7 +444,7 @@ void QuasiStaticProblem::bond_forces(bool want_tangent) {
 
 void QuasiStaticProblem::gather_forces() {
   // dPi/du_q = -V_q sum_b t_b M_b (own family) + sum_b V_j t_r M_r (families of neighbours,
-  // r the reverse bond j -> q).
+  // r the reverse bond j -> q; t_b M_b is m_force_bond[b]).
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
   const Index n = p.size();
@@ -452,7 +457,7 @@ void QuasiStaticProblem::gather_forces() {
     }
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
       const Index j = bonds.neighbour[b], r = bonds.reverse[b];
-      f += p.volume[j] * m_t[r] * m_direction[r] - p.volume[q] * m_t[b] * m_direction[b];
+      f += p.volume[j] * m_force_bond[r] - p.volume[q] * m_force_bond[b];
     }
     m_force[2 * q] = f.x();
     m_force[2 * q + 1] = f.y();
@@ -514,9 +519,10 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
       const Vec2& sp = m_s_self[p];
       col.add_outer(p, bVp, sp, sp);
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
-        col.add_sym(p, Vp, m_kbond[b]);
+        const Sym2 kb = bond_block(m_kbond[b], m_s[b]);
+        col.add_sym(p, Vp, kb);
         const Index j = bonds.neighbour[b];
-        col.add_sym(j, -Vp, m_kbond[b]);
+        col.add_sym(j, -Vp, kb);
         col.add_outer(j, bVp, m_s[b], sp);
       }
       // Families of the neighbours of p.
@@ -527,9 +533,10 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
         if (r < 0) continue;
         const double Vi = part.volume[i], bVi = m_beta_volume[i];
         const Vec2& sr = m_s[r];
-        col.add_sym(i, -Vi, m_kbond[r]);
+        const Sym2 kr = bond_block(m_kbond[r], sr);
+        col.add_sym(i, -Vi, kr);
         col.add_outer(i, bVi, m_s_self[i], sr);
-        col.add_sym(p, Vi, m_kbond[r]);
+        col.add_sym(p, Vi, kr);
         for (Index c = bonds.start[i]; c < bonds.start[i + 1]; ++c)
           col.add_outer(bonds.neighbour[c], bVi, m_s[c], sr);
       }
@@ -566,7 +573,7 @@ SparseMatrix QuasiStaticProblem::make_preconditioner() {
 
 void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
   if (!m_preconditioner) make_preconditioner();
-  m_preconditioner->assemble(P, m_correction.weights(), m_direction);
+  m_preconditioner->assemble(P, m_correction.weights(), m_s);
   m_fragments.decouple(P);
 }
 
@@ -660,10 +667,11 @@ std::size_t QuasiStaticProblem::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   std::size_t total =
       m_correction.memory_bytes() + bytes(m_changed_families) + bytes(m_eta) + bytes(m_eta_scratch) +
-      bytes(m_direction) + bytes(m_s) + bytes(m_t) + bytes(m_kbond) + bytes(m_s_self) + bytes(m_beta_volume) +
+      bytes(m_extension_scratch) + bytes(m_force_bond) + bytes(m_s) + bytes(m_kbond) + bytes(m_s_self) +
+      bytes(m_beta_volume) +
       static_cast<std::size_t>(m_u.size() + m_force.size() + m_velocity.size()) * sizeof(double) +
-      m_pattern.memory_bytes() + m_ids.memory_bytes() + m_share.memory_bytes() + m_balance.memory_bytes() + m_damage.memory_bytes() +
-      m_fragments.memory_bytes() + m_action.memory_bytes();
+      m_pattern.memory_bytes() + m_ids.memory_bytes() + m_share.memory_bytes() + m_balance.memory_bytes() +
+      m_damage.memory_bytes() + m_fragments.memory_bytes() + m_action.memory_bytes();
   if (m_failure) total += m_failure->memory_bytes();
   if (m_preconditioner) total += m_preconditioner->memory_bytes();
   if (m_contact) total += m_contact->memory_bytes();

@@ -271,12 +271,15 @@ class QuasiStaticProblem final : public Problem,
   double m_force_scale = 0.0, m_energy = 0.0;
   std::vector<Vec2> m_eta;                    ///< per bond, with failure: for its criterion
   std::vector<Vec2> m_eta_scratch;            ///< per thread: one family's eta
+  std::vector<double> m_extension_scratch;    ///< per thread: one family's extensions
   Index m_largest_family = 0;
-  std::vector<Vec2> m_direction, m_s;         ///< per bond
-  std::vector<double> m_t;                    ///< per bond
-  /// per bond: the family's bond stiffness k_b; with matrix_free, after an evaluate() with a
-  /// tangent, the pair's V_i k_b + V_j k_r instead (TangentAction::prepare(), the same for b and r)
-  std::vector<Sym2> m_kbond;
+  /// per bond: the bond force t_b M_b of the last evaluation; s_b = b_b M_b of the last one
+  /// with a tangent (FamilyOutputs)
+  std::vector<Vec2> m_force_bond, m_s;
+  /// per bond: the family's bond stiffness k_b (axial, transverse); with matrix_free, after an
+  /// evaluate() with a tangent, the pair's V_i k_b + V_j k_r in the action's form instead
+  /// (TangentAction::prepare())
+  std::vector<BondStiffness> m_kbond;
   std::vector<Vec2> m_s_self;                 ///< per particle: -sum_b s_b
   std::vector<double> m_beta_volume;          ///< per particle: beta_i V_i
 };

@@ -140,11 +140,12 @@ void TangentAction::multiply(const FamilyHessians& h, const ContactSystem* conta
   const double* __restrict beta_volume = h.beta_volume.data();
   const double* __restrict w = m_v_full.data();
   double* __restrict yf = m_y_full.data();
-  static_assert(sizeof(Vec2) == 2 * sizeof(double) && sizeof(Sym2) == 3 * sizeof(double));
+  static_assert(sizeof(Vec2) == 2 * sizeof(double) && sizeof(BondStiffness) == 2 * sizeof(double));
   // One pass over the families, each family's bond data read once from memory and used while
   // it is in cache: the dilatation rate G_i = beta_i V_i g_i . w, then G_i s_self_i into row i
   // and G_i s_b into row j for each bond b = i -> j (the column form of beta_i V_i g_i g_i^T),
-  // and row i's pair stiffnesses k_b (w_i - w_j) (pair_stiffness()) and contact pairs.
+  // and row i's pair stiffnesses (g I + c_b s_b s_b^T)(w_i - w_j) (pair_stiffness()) and
+  // contact pairs.
   const auto family = [&](Index i) {
     const double wx = w[2 * i], wy = w[2 * i + 1];
     const Index b0 = start[i], b1 = start[i + 1];
@@ -160,11 +161,13 @@ void TangentAction::multiply(const FamilyHessians& h, const ContactSystem* conta
     if (row) {
       for (Index b = b0; b < b1; ++b) {
         const Index j = nbr[b];
-        yf[2 * j] += G * s[2 * b];
-        yf[2 * j + 1] += G * s[2 * b + 1];
+        const double sx = s[2 * b], sy = s[2 * b + 1];
+        yf[2 * j] += G * sx;
+        yf[2 * j + 1] += G * sy;
         const double dx = wx - w[2 * j], dy = wy - w[2 * j + 1];
-        yx += k[3 * b] * dx + k[3 * b + 1] * dy;
-        yy += k[3 * b + 1] * dx + k[3 * b + 2] * dy;
+        const double g = k[2 * b + 1], c = k[2 * b] * (sx * dx + sy * dy);
+        yx += g * dx + c * sx;
+        yy += g * dy + c * sy;
       }
       if (contact)
         for (auto e = contact->incident_begin(i); e != contact->incident_end(i); ++e)
@@ -207,9 +210,12 @@ void TangentAction::pair_stiffness(const FamilyHessians& h) const {
       const Index r = bonds.reverse[b];
       if (r < b) continue;
       const double Vq = part.volume[q], Vj = part.volume[bonds.neighbour[b]];
-      const Sym2 &kb = h.kbond[b], &kr = h.kbond[r];
-      const Sym2 k{Vq * kb[0] + Vj * kr[0], Vq * kb[1] + Vj * kr[1], Vq * kb[2] + Vj * kr[2]};
-      h.kbond[b] = h.kbond[r] = k;
+      const BondStiffness &kb = h.kbond[b], &kr = h.kbond[r];
+      // V_q k_b + V_j k_r = g I + (a - g) M M^T, M M^T = s_b s_b^T / |s_b|^2 = s_r s_r^T / |s_r|^2.
+      const double a = Vq * kb[0] + Vj * kr[0], g = Vq * kb[1] + Vj * kr[1];
+      const double sb = h.s[b].squaredNorm(), sr = h.s[r].squaredNorm();
+      h.kbond[b] = BondStiffness{sb > 0.0 ? (a - g) / sb : 0.0, g};
+      h.kbond[r] = BondStiffness{sr > 0.0 ? (a - g) / sr : 0.0, g};
     }
 }
 
@@ -224,8 +230,9 @@ double TangentAction::tangent_diagonal_max(const FamilyHessians& h, const Contac
       const Index r = bonds.reverse[b];  // -1: the neighbour's family is another rank's
       const Vec2 sr = r >= 0 ? h.s[r] : Vec2::Zero();
       const double bVj = h.beta_volume[bonds.neighbour[b]];
-      d.x() += h.kbond[b][0] + bVj * sr.x() * sr.x();
-      d.y() += h.kbond[b][2] + bVj * sr.y() * sr.y();
+      const Vec2& sb = h.s[b];
+      d.x() += h.kbond[b][1] + h.kbond[b][0] * sb.x() * sb.x() + bVj * sr.x() * sr.x();
+      d.y() += h.kbond[b][1] + h.kbond[b][0] * sb.y() * sb.y() + bVj * sr.y() * sr.y();
     }
     if (contact)
       for (auto e = contact->incident_begin(q); e != contact->incident_end(q); ++e) {

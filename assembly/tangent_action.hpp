@@ -28,11 +28,13 @@ std::vector<std::vector<Index>> chunk_colours(const Model& model, Index chunk);
 std::vector<Index> action_reads(const Model& model, const OwnedRows& rows, const ContactSystem* contact);
 
 /// The families' factored Hessians of the last evaluation with a tangent, as the assembler
-/// caches them (FamilyOutputs): per bond s_b and k_b, per particle s_self = -sum_b s_b and
-/// beta_i V_i.
+/// caches them (FamilyOutputs): per bond s_b and k_b (axial, transverse), per particle
+/// s_self = -sum_b s_b and beta_i V_i. prepare() turns kbond into the pairs' stiffnesses in
+/// the action's form: entry b holds (c_b, g) with V_i k_b + V_j k_r = g I + c_b s_b s_b^T
+/// (= g I + c_r s_r s_r^T: s_r is -s_b's direction).
 struct FamilyHessians {
   std::span<const Vec2> s;
-  std::span<Sym2> kbond;
+  std::span<BondStiffness> kbond;
   std::span<const Vec2> s_self;
   std::span<const double> beta_volume;
 };
@@ -63,8 +65,8 @@ class TangentAction {
   /// m_y_full += H m_v_full over the families and contact pairs (with `share`, those of this
   /// rank's rows), colour by colour.
   void multiply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows, const RankShare* share);
-  /// Turns h.kbond into the pairs' stiffnesses (V_i k_b + V_j k_r on both bonds), so that
-  /// apply() reads row i's bond terms from family i alone.
+  /// Turns h.kbond into the pairs' stiffnesses (V_i k_b + V_j k_r, FamilyHessians), so that
+  /// apply() reads row i's bond terms from family i alone, with the s_b it reads already.
   void pair_stiffness(const FamilyHessians& h) const;
   /// The largest diagonal entry of K over the unknowns (the fragments' diagonal), from the
   /// factored Hessians (mirror ghosts' folds not included: it only sets a scale).

@@ -17,12 +17,31 @@ namespace peristat {
 /// Symmetric 2x2 block stored as (xx, xy, yy).
 using Sym2 = std::array<double, 3>;
 
-/// Outputs of one family, written into caller-owned arrays of the family's size.
+/// A bond's stiffness k_b = axial M M^T + transverse (I - M M^T), stored as (axial,
+/// transverse): a central force t M has no other form, and M is s_b's direction, kept
+/// already (8 bytes per bond less than a Sym2).
+using BondStiffness = std::array<double, 2>;
+
+/// k_b as a block, its direction M_b = s_b / |s_b| (FamilyOutputs::s); a bond without weight
+/// (s_b = 0, broken) has no stiffness.
+inline Sym2 bond_block(const BondStiffness& k, const Vec2& s) {
+  const double ss = s.squaredNorm();
+  if (ss == 0.0) return Sym2{k[1], 0.0, k[1]};
+  const double c = (k[0] - k[1]) / ss;
+  return Sym2{k[1] + c * s.x() * s.x(), c * s.x() * s.y(), k[1] + c * s.y() * s.y()};
+}
+
+/// Outputs of one family, written into caller-owned arrays of the family's size. M_b is the
+/// unit current bond direction (the reference one if small) and t_b = dW/de_b the scalar force
+/// state times the bond weight [Pa m^2 / m]; the bond force t_b M_b is kept as one vector, not
+/// as t_b and M_b (8 bytes less per bond): the tangent's s_b holds the direction where needed.
 struct FamilyOutputs {
-  std::span<double> t;        ///< dW/de_b: scalar force state times bond weight [Pa m^2 / m]
-  std::span<Vec2> direction;  ///< M_b: unit current bond direction (reference one if small)
+  std::span<Vec2> force;        ///< t_b M_b
+  std::span<double> extension;  ///< e_b = |xi_b + eta_b| - |xi_b| (the kernel's scratch too)
   std::span<Vec2> s;          ///< b_b M_b with b_b = omega w_b |xi_b| (rank-one vectors)
-  std::span<Sym2> k_bond;     ///< alpha omega w_b M M^T + (t_b / y_b)(I - M M^T) (finite only)
+  /// (alpha omega w_b, t_b / y_b): alpha omega w_b M M^T + (t_b / y_b)(I - M M^T), the second
+  /// term finite kinematics' only (0 if small)
+  std::span<BondStiffness> k_bond;
 };
 
 struct FamilyResult {
@@ -39,7 +58,7 @@ class FamilyKernel {
   virtual ~FamilyKernel() = default;
   /// Evaluates one family: reference bond vectors xi, quadrature weights w (0 for a broken
   /// bond), relative displacements eta_b = u_j - u_i, weighted volume m of the intact
-  /// reference family. When want_tangent is false only t and direction are written.
+  /// reference family. When want_tangent is false only force and extension are written.
   virtual FamilyResult evaluate(double m, std::span<const Vec2> xi, std::span<const double> weight,
                                 std::span<const Vec2> eta, const FamilyOutputs& out,
                                 bool want_tangent) const = 0;

@@ -35,7 +35,7 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
   const double alpha = 8.0 * material.mu / m;  // eq 8
   const double cm = material.c / m;
 
-  // Pass 1: extensions (kept temporarily in t), directions, dilatation (eq 3).
+  // Pass 1: extensions, directions (kept in force until pass 3), dilatation (eq 3).
   double sum_bxe = 0.0;
   double sum_bxx = 0.0;  // sum w x^2: m itself until bonds break (m stays at its reference value)
   for (std::size_t b = 0; b < n; ++b) {
@@ -45,15 +45,15 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
     if (finite) {
       const Vec2 y = xi[b] + eta[b];
       const double ylen = y.norm();
-      out.direction[b] = y / ylen;
+      out.force[b] = y / ylen;
       // |y| - |x| without cancellation: (|y|^2 - |x|^2) / (|y| + |x|). At strains of 1e-6
       // the direct difference would lose ten digits and put a floor under the residual.
       e = (2.0 * xi[b].dot(eta[b]) + eta[b].squaredNorm()) / (ylen + x);
     } else {
-      out.direction[b] = xi[b] / x;
-      e = out.direction[b].dot(eta[b]);
+      out.force[b] = xi[b] / x;
+      e = out.force[b].dot(eta[b]);
     }
-    out.t[b] = e;
+    out.extension[b] = e;
     sum_bxe += weight[b] * x * e;
   }
   const double theta = cm * sum_bxe;
@@ -62,7 +62,7 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
   double sum_bxed = 0.0, sum_ed2 = 0.0;
   for (std::size_t b = 0; b < n; ++b) {
     const double x = xi[b].norm();
-    const double ed = out.t[b] - theta * x / 3.0;
+    const double ed = out.extension[b] - theta * x / 3.0;
     sum_bxed += weight[b] * x * ed;
     sum_ed2 += weight[b] * ed * ed;
   }
@@ -77,23 +77,15 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
   result.beta = cm * cm * (material.k_prime + alpha * sum_bxx / 9.0) - 2.0 * alpha * cm / 3.0;
   for (std::size_t b = 0; b < n; ++b) {
     const double x = xi[b].norm();
-    const double e = out.t[b];
+    const double e = out.extension[b];
     const double ed = e - theta * x / 3.0;
     const double t = weight[b] * (scalar * x + alpha * ed);
-    out.t[b] = t;
+    const Vec2 M = out.force[b];
+    out.force[b] = t * M;
     if (!want_tangent) continue;
-    const Vec2& M = out.direction[b];
     out.s[b] = weight[b] * x * M;
-    const double a = alpha * weight[b];
-    Sym2 k{a * M.x() * M.x(), a * M.x() * M.y(), a * M.y() * M.y()};
-    if (finite) {
-      // Geometric part: t/y (I - M M^T), y = |xi + eta| = x + e.
-      const double g = t / (x + e);
-      k[0] += g * (1.0 - M.x() * M.x());
-      k[1] -= g * M.x() * M.y();
-      k[2] += g * (1.0 - M.y() * M.y());
-    }
-    out.k_bond[b] = k;
+    // Geometric part (finite): t/y (I - M M^T), y = |xi + eta| = x + e.
+    out.k_bond[b] = BondStiffness{alpha * weight[b], finite ? t / (x + e) : 0.0};
   }
   return result;
 }

@@ -241,7 +241,7 @@ int action(const std::string& path, int reps, const std::vector<Override>& overr
   const double bonds = model.bonds.n_bonds();
   // Per bond, the data the single pass streams: the neighbour index, s_b and the pair stiffness
   // (v, the dilatation rates and y are per particle and stay in cache).
-  const double bytes = bonds * (sizeof(Index) + 2 * sizeof(double) + 3 * sizeof(double));
+  const double bytes = bonds * (sizeof(Index) + sizeof(Vec2) + sizeof(BondStiffness));
   std::printf("scene=%s particles=%d bonds=%.0f unknowns=%d threads=%d best=%.3fms median=%.3fms "
               "bond data read at %.1f GB/s checksum=%.6e\n",
               scene.name.c_str(), model.particles.size(), bonds, problem.n_unknowns(), omp_get_max_threads(),

@@ -27,13 +27,13 @@ Model cracked_model(const std::string& correction) {
 double family_energy(const Model& model, const SurfaceCorrection& sc, Index i, const Mat2& eps) {
   const Bonds& bonds = model.bonds;
   const Index b0 = bonds.start[i], nb = bonds.family_size(i);
-  std::vector<Vec2> eta(nb), dir(nb), s(nb);
-  std::vector<double> t(nb);
-  std::vector<Sym2> k(nb);
+  std::vector<Vec2> eta(nb), force(nb), s(nb);
+  std::vector<double> extension(nb);
+  std::vector<BondStiffness> k(nb);
   for (Index b = 0; b < nb; ++b) eta[b] = eps * bonds.xi[b0 + b];
   const OsbConstants c = OsbConstants::from(model.bodies[0].material);
-  return osb_family(c, sc.weighted_volume()[i], std::span(bonds.xi).subspan(b0, nb), sc.weights().subspan(b0, nb),
-                    eta, FamilyOutputs{t, dir, s, k}, false)
+  return osb_family(c, sc.weighted_volume()[i], std::span(bonds.xi).subspan(b0, nb),
+                    sc.weights().subspan(b0, nb), eta, FamilyOutputs{force, extension, s, k}, false)
       .energy_density;
 }
 
