@@ -27,16 +27,18 @@ struct SizeEstimate {
 };
 
 /// Bytes per tangent nonzero of the model, problem state and tangent together, measured with
-/// `check` on the paper cases and the tension plate (24.4-24.9 B, 2026-11-24).
-inline constexpr double kBytesPerNonzero = 25.0;
+/// `check --set solver.linear=cg` on the paper cases, the LEFM case and the tension plate
+/// (21.1-23.9 B, 2026-12-03).
+inline constexpr double kBytesPerNonzero = 22.5;
 /// The same without the tangent and its pattern (solver.linear: matrix_free), per nonzero the
-/// tangent would have: 8.47-8.85 B measured with `check` on the tension plate (100 x 100 and
-/// 1000 x 1000) and cases 4.1 and 4.3 (2026-11-27, after the single-pass tangent action
-/// dropped the per-bond weight ratio; 9.75-9.93 B before) ...
-inline constexpr double kMatrixFreeBytesPerNonzero = 8.6;
-/// ... and with a failure criterion 2.6 B more (the bonds' displacements and the failure
-/// state: case 4.4, 11.2 B).
-inline constexpr double kMatrixFreeFailureBytesPerNonzero = 2.6;
+/// tangent would have: 6.60-7.84 B measured with `check` on the tension plate (1000 x 1000 and
+/// 100 x 100) and cases 4.1 (7.01) and 4.3 (7.30), and 7.63 B per nonzero of the estimate at
+/// 2000 x 2000 (16.33 GB; 2026-12-03). The largest, so that a refusal errs on the safe side
+/// (that plate, about 25 GB with its V-cycle, is refused on a 24 GiB machine) ...
+inline constexpr double kMatrixFreeBytesPerNonzero = 7.9;
+/// ... and with a failure criterion 1.5 B more (the bonds' displacements and the failure
+/// state: case 4.4, 9.36 B).
+inline constexpr double kMatrixFreeFailureBytesPerNonzero = 1.5;
 /// Matrix-free bytes per tangent nonzero of a scene.
 inline double matrix_free_bytes_per_nonzero(bool failure) {
   return kMatrixFreeBytesPerNonzero + (failure ? kMatrixFreeFailureBytesPerNonzero : 0.0);

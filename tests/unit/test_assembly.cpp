@@ -2,6 +2,7 @@
 // residuals and tangents (each entry is summed by one thread in a fixed order).
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <functional>
 #include <limits>
 #include <random>
@@ -13,8 +14,8 @@
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
 #include "parallel/thread_ranks.hpp"
-#include "support/owners.hpp"
 #include "support/finite_difference.hpp"
+#include "support/owners.hpp"
 #include "support/scenes.hpp"
 #include "support/solve.hpp"
 
@@ -56,6 +57,29 @@ TEST(Assembly, BitIdenticalForAnyThreadCount) {
 }
 
 // The second make_tangent() rebuilds the same pattern the first one handed over.
+// A bond's stiffness is kept as (axial, transverse) and its direction taken from s_b = b_b M_b
+// (FamilyOutputs): bond_block() must give axial M M^T + transverse (I - M M^T) for any
+// positive b_b and direction, to rounding (1e-15 of the largest coefficient: a handful of
+// products of numbers of order one), and a bond without weight (s_b = 0) no axial part.
+TEST(Assembly, BondBlockIsTheCentralForceStiffnessAlongS) {
+  std::mt19937 gen(7);
+  std::uniform_real_distribution<double> angle(0.0, 6.283185307179586), scale(1e-3, 1e3);
+  for (int trial = 0; trial < 100; ++trial) {
+    const double phi = angle(gen), a = scale(gen), g = scale(gen) - 500.0, b = scale(gen);
+    const Vec2 M(std::cos(phi), std::sin(phi));
+    const Mat2 expected = a * M * M.transpose() + g * (Mat2::Identity() - M * M.transpose());
+    const Sym2 k = bond_block(BondStiffness{a, g}, b * M);
+    const double tolerance = 1e-15 * 4.0 * std::max(std::abs(a), std::abs(g));
+    EXPECT_NEAR(k[0], expected(0, 0), tolerance);
+    EXPECT_NEAR(k[1], expected(0, 1), tolerance);
+    EXPECT_NEAR(k[2], expected(1, 1), tolerance);
+  }
+  const Sym2 none = bond_block(BondStiffness{0.0, 0.0}, Vec2::Zero());
+  EXPECT_EQ(none[0], 0.0);
+  EXPECT_EQ(none[1], 0.0);
+  EXPECT_EQ(none[2], 0.0);
+}
+
 TEST(Assembly, RebuiltPatternEqualsTheFirst) {
   test::PlateSpec spec;
   spec.nx = 10;

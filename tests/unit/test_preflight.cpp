@@ -1,7 +1,8 @@
 // The size estimate made before discretising (issue 15, src/app/preflight.cpp) against the
 // sizes measured on the built model: it decides whether a run is refused, so it must be of
-// the right size. Measured 2026-11-24: memory within 8% on the tension plate, the paper's
-// case 4.4 and the LEFM case (157 against 146 MB, 274 against 290 MB, 577 against 606 MB).
+// the right size. Measured 2026-12-03 with cg: memory within 12% on the tension plate, the
+// paper's case 4.4 and the LEFM case (142 against 131 MB, 248 against 279 MB, 520 against
+// 581 MB).
 #include <chrono>
 #include <cmath>
 #include <string>
