@@ -20,7 +20,7 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
   for (Index i = 0; i < n; ++i) {
     double m = 0.0;
     for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
-      if (bonds.xi[b].squaredNorm() <= r2) m += weight[b] * bonds.xi[b].squaredNorm();
+      if (const double x2 = model.xi(i, b).squaredNorm(); x2 <= r2) m += weight[b] * x2;
     m_alpha_volume[i] =
         m > 0.0 ? 8.0 * shear_modulus(model.bodies[part.body[i]].material) / m * part.volume[i] : 0.0;
   }
@@ -37,7 +37,8 @@ void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weigh
     for (Index p = m_pattern.col_first; p < m_pattern.col_end; ++p) {
       if (!col.begin(p)) continue;
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
-        if (bonds.xi[b].squaredNorm() > r2) continue;
+        const Vec2 xi = m_model.xi(p, b);
+        if (xi.squaredNorm() > r2) continue;
         const Index j = bonds.neighbour[b], r = bonds.reverse[b];
         // Partitioned bonds: no reverse when j's family is not held; then neither p nor j is
         // this rank's row (a row's neighbours' families are held), so the block is not its.
@@ -45,7 +46,7 @@ void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weigh
         const double k = m_alpha_volume[p] * weight[b] + m_alpha_volume[j] * weight[r];
         const Vec2 M = s[b].squaredNorm() > 0.0   ? s[b].normalized()
                        : s[r].squaredNorm() > 0.0 ? Vec2(-s[r].normalized())
-                                                  : bonds.xi[b].normalized();
+                                                  : xi.normalized();
         col.add_outer(p, k, M, M);
         col.add_outer(j, -k, M, M);
       }

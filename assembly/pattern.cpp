@@ -14,7 +14,8 @@ namespace {
 class RowCollector {
  public:
   RowCollector(const Model& model, PatternReach reach_kind, double radius, const ContactSystem* contact)
-      : m_bonds(model.bonds),
+      : m_model(model),
+        m_bonds(model.bonds),
         m_cons(model.constraints),
         m_reach_kind(reach_kind),
         m_radius2(radius * radius * (1.0 + kBondRadiusMargin)),
@@ -37,7 +38,8 @@ class RowCollector {
     const auto reach_from = [&](Index c, auto take) {
       for (Index b = bonds.start[c]; b < bonds.start[c + 1]; ++b) {
         const Index i = bonds.neighbour[b];
-        if (m_reach_kind == PatternReach::bonds_within && bonds.xi[b].squaredNorm() > m_radius2) continue;
+        if (m_reach_kind == PatternReach::bonds_within && m_model.xi(c, b).squaredNorm() > m_radius2)
+          continue;
         take(i);
         if (m_reach_kind != PatternReach::two_horizons) continue;
         for (Index k = bonds.start[i]; k < bonds.start[i + 1]; ++k) take(bonds.neighbour[k]);
@@ -61,6 +63,7 @@ class RowCollector {
   }
 
  private:
+  const Model& m_model;
   const Bonds& m_bonds;
   const Constraints& m_cons;
   PatternReach m_reach_kind;

@@ -170,7 +170,8 @@ Vec2 QuasiStaticProblem::reaction(std::size_t k) const {
 Mat2 QuasiStaticProblem::stress(Index i) const {
   const Bonds& bonds = m_model.bonds;
   Mat2 P = Mat2::Zero();
-  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) P += m_force_bond[b] * bonds.xi[b].transpose();
+  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+    P += m_force_bond[b] * m_model.xi(i, b).transpose();
   return P;
 }
 
@@ -414,9 +415,8 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
                               std::span(extension, static_cast<std::size_t>(nb)),
                               std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
       const FamilyResult res = m_kernels[p.body[i]]->evaluate(
-          m_correction.weighted_volume()[i], std::span(bonds.xi).subspan(b0, nb),
-          m_correction.weights().subspan(b0, nb), std::span<const Vec2>(eta, static_cast<std::size_t>(nb)), out,
-          want_tangent);
+          m_correction.weighted_volume()[i], m_model.family_xi(i), m_correction.weights().subspan(b0, nb),
+          std::span<const Vec2>(eta, static_cast<std::size_t>(nb)), out, want_tangent);
       const double e = p.volume[i] * res.energy_density;
       if (rows.contains(i))
         own_energy += e;

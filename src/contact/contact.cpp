@@ -268,7 +268,7 @@ Eigen::Vector3d family_strain(const Model& model, Index i, const VectorXd& u,
     const double w = weight[k];
     if (w <= 0.0) continue;
     const Index j = b.neighbour[k];
-    const Vec2& xi = b.xi[k];
+    const Vec2 xi = model.xi(i, k);
     const double L2 = xi.squaredNorm();
     const Vec2 eta(u[2 * j] - u[2 * i], u[2 * j + 1] - u[2 * i + 1]);
     const double stretch = xi.dot(eta) / L2;  // linearised: xi.eta / |xi|^2

@@ -166,7 +166,6 @@ class ModelMaker {
     for (Index i = 0; i < n; ++i) n_held += held(i);
     const std::size_t capacity = static_cast<std::size_t>(n_held) * s.offset.size();  // an upper bound
     reserve_huge(bonds.neighbour, capacity);
-    reserve_huge(bonds.xi, capacity);
     reserve_huge(bonds.weight, capacity);
     reserve_huge(stencil_index, capacity);
     bonds.start.assign(static_cast<std::size_t>(n) + 1, 0);
@@ -185,7 +184,6 @@ class ModelMaker {
     }
     pair_reverse_bonds(stencil_index);
     shrink_huge(bonds.neighbour);
-    shrink_huge(bonds.xi);
     shrink_huge(bonds.weight);
   }
 
@@ -219,7 +217,6 @@ class ModelMaker {
         continue;
       }
       bonds.neighbour.push_back(j);
-      bonds.xi.push_back(p.position[j] - p.position[i]);
       bonds.weight.push_back(s.weight[k]);
       stencil_index.push_back(static_cast<int>(k));
     }
@@ -393,14 +390,22 @@ void Constraints::gather(const VectorXd& full, VectorXd& x) const {
     if (free_index[d] >= 0) x[free_index[d]] = full[d];
 }
 
+std::span<const Vec2> Model::family_xi(Index i) const {
+  thread_local std::vector<Vec2> buffer;
+  const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+  if (buffer.size() < static_cast<std::size_t>(nb)) buffer.resize(static_cast<std::size_t>(nb));
+  const Vec2 X = particles.position[i];
+  for (Index k = 0; k < nb; ++k) buffer[k] = particles.position[bonds.neighbour[b0 + k]] - X;
+  return std::span<const Vec2>(buffer.data(), static_cast<std::size_t>(nb));
+}
+
 std::size_t Model::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   const Particles& p = particles;
   return bytes(p.position) + bytes(p.volume) + bytes(p.body) + bytes(p.fictitious) + bytes(p.lattice) +
-         bytes(bonds.start) + bytes(bonds.neighbour) + bytes(bonds.xi) + bytes(bonds.weight) +
-         bytes(bonds.reverse) + bytes(family_held) + bytes(whole_start) + bytes(constraints.prescribed) +
-         bytes(constraints.value) + bytes(constraints.free_index) + bytes(constraints.images) +
-         bytes(constraints.image_start) +
+         bytes(bonds.start) + bytes(bonds.neighbour) + bytes(bonds.weight) + bytes(bonds.reverse) +
+         bytes(family_held) + bytes(whole_start) + bytes(constraints.prescribed) + bytes(constraints.value) +
+         bytes(constraints.free_index) + bytes(constraints.images) + bytes(constraints.image_start) +
          [&] {
            std::size_t b = 0;
            for (const auto& dofs : constraints.condition_dofs) b += bytes(dofs);

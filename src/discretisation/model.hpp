@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -40,11 +41,12 @@ Stencil make_stencil(double horizon_factor, double spacing, Quadrature quadratur
 int mirror_layers(double horizon_factor);
 
 /// Bond families in CSR form: the bonds of particle i are start[i] .. start[i+1]-1.
-/// Bonds are symmetric: reverse[b] is the index of the bond j -> i for b = i -> j.
+/// Bonds are symmetric: reverse[b] is the index of the bond j -> i for b = i -> j. The
+/// reference bond vector X_j - X_i is not stored (16 bytes per bond): Model::xi() computes
+/// it from the positions, the same bits every time.
 struct Bonds {
   std::vector<Index> start;
   std::vector<Index> neighbour;
-  std::vector<Vec2> xi;        ///< reference bond vector X_j - X_i
   std::vector<double> weight;  ///< quadrature area of the neighbour [m^2]
   std::vector<Index> reverse;
   Index n_bonds() const { return static_cast<Index>(neighbour.size()); }
@@ -115,6 +117,12 @@ struct Model {
   std::vector<std::int64_t> whole_start;
 
   bool holds_every_family() const { return family_held.empty(); }
+
+  /// Bond b's reference vector X_j - X_i, b one of particle i's bonds.
+  Vec2 xi(Index i, Index b) const { return particles.position[bonds.neighbour[b]] - particles.position[i]; }
+  /// The reference vectors of particle i's family, in a buffer of the calling thread's that
+  /// the thread's next call overwrites (it grows to the largest family once).
+  std::span<const Vec2> family_xi(Index i) const;
 
   /// Bytes held by the particles, bonds, constraints and lattice index.
   std::size_t memory_bytes() const;

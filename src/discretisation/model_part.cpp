@@ -153,7 +153,6 @@ void part_bonds(const Model& whole, const std::vector<Index>& order, const std::
   for (const Index g : order)
     if (held[static_cast<std::size_t>(g)]) n_part_bonds += static_cast<std::size_t>(wb.family_size(g));
   b.neighbour.reserve(n_part_bonds);
-  b.xi.reserve(n_part_bonds);
   b.weight.reserve(n_part_bonds);
   std::vector<Index> bond_of(static_cast<std::size_t>(wb.n_bonds()), -1);  // whole bond -> part bond
   for (Index l = 0; l < nl; ++l) {
@@ -165,7 +164,6 @@ void part_bonds(const Model& whole, const std::vector<Index>& order, const std::
         if (j < 0) throw std::logic_error("extract_part: a held family's neighbour is not kept");
         bond_of[static_cast<std::size_t>(wbnd)] = b.n_bonds();
         b.neighbour.push_back(j);
-        b.xi.push_back(wb.xi[wbnd]);
         b.weight.push_back(wb.weight[wbnd]);
       }
     }

@@ -34,8 +34,8 @@ BondFailure::BondFailure(const Model& model, const FailureOptions& options, cons
   if (options.criterion == FailureCriterion::skew) {
     m_reference_bond.assign(n, -1);
     for (Index i = 0; i < n; ++i) {
-      const Index b0 = bonds.start[i], nb = bonds.family_size(i);
-      const Index r = reference_bond(std::span(bonds.xi).subspan(b0, nb), options.direction);
+      const Index b0 = bonds.start[i];
+      const Index r = reference_bond(model.family_xi(i), options.direction);
       if (r >= 0) m_reference_bond[i] = b0 + r;
     }
   }
@@ -84,11 +84,11 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
     const double critical = m_critical[p.body[i]];
     if (skew) {
       if (m_reference_bond[i] < 0) continue;
-      bond_skews(std::span(bonds.xi).subspan(b0, nb), eta.subspan(b0, nb), m_reference_bond[i] - b0, m_min_sin,
+      bond_skews(m_model.family_xi(i), eta.subspan(b0, nb), m_reference_bond[i] - b0, m_min_sin,
                  std::span(m_ratio).subspan(b0, nb));
       for (Index b = b0; b < b0 + nb; ++b) m_ratio[b] /= critical;
     } else {
-      for (Index b = b0; b < b0 + nb; ++b) m_ratio[b] = bond_stretch(bonds.xi[b], eta[b]) / critical;
+      for (Index b = b0; b < b0 + nb; ++b) m_ratio[b] = bond_stretch(m_model.xi(i, b), eta[b]) / critical;
     }
   }
   // The pairs over the criterion, proposed by the ranks that hold their first particle's
@@ -195,7 +195,7 @@ void BondFailure::reselect_references() {
   for (const auto& [i, c] : m_round_bonds) {
     if (m_reference_bond[i] != c) continue;
     const Index b0 = bonds.start[i], nb = bonds.family_size(i);
-    const Index r = reference_bond(std::span(bonds.xi).subspan(b0, nb), m_options.direction,
+    const Index r = reference_bond(m_model.family_xi(i), m_options.direction,
                                    std::span<const double>(m_weight).subspan(b0, nb));
     m_round_references.emplace_back(i, c);
     m_reference_bond[i] = r >= 0 ? b0 + r : -1;

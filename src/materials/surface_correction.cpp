@@ -25,18 +25,18 @@ constexpr int kMaxBoundPasses = 30;
 constexpr double kFree = -1.0;
 
 /// The multipliers `lambda` of the bounded least-change solve of the family of bonds [b0, b1)
-/// (moments), fixing in `fixed` each factor that leaves [kMinInfluence, kMaxInfluence] at the
-/// bound; whether any factor was fixed.
-bool bounded_multipliers(const Bonds& bonds, Index b0, Index b1, std::span<const double> intact,
+/// (moments; xi their reference vectors, xi[0] bond b0's), fixing in `fixed` each factor that leaves
+/// [kMinInfluence, kMaxInfluence] at the bound; whether any factor was fixed.
+bool bounded_multipliers(std::span<const Vec2> xi, Index b0, Index b1, std::span<const double> intact,
                          const Vec5& q0, std::vector<double>& fixed, Vec5& lambda) {
   bool clipped = false;
   for (int pass = 0; pass < kMaxBoundPasses; ++pass) {
     Mat5 G = Mat5::Zero();
     Vec5 r = q0;
     for (Index b = b0; b < b1; ++b) {
-      const double a = intact[b] * bonds.xi[b].squaredNorm();
+      const double a = intact[b] * xi[b - b0].squaredNorm();
       if (a == 0.0) continue;
-      const Vec5 q = as_vec(quartic_monomials(bonds.xi[b].normalized()));
+      const Vec5 q = as_vec(quartic_monomials(xi[b - b0].normalized()));
       const double f = fixed[b - b0];
       if (f != kFree) {
         r -= a * f * q;
@@ -50,7 +50,7 @@ bool bounded_multipliers(const Bonds& bonds, Index b0, Index b1, std::span<const
     bool changed = false;
     for (Index b = b0; b < b1; ++b) {
       if (fixed[b - b0] != kFree || intact[b] == 0.0) continue;
-      const double omega = 1.0 + as_vec(quartic_monomials(bonds.xi[b].normalized())).dot(lambda);
+      const double omega = 1.0 + as_vec(quartic_monomials(xi[b - b0].normalized())).dot(lambda);
       if (omega < kMinInfluence || omega > kMaxInfluence) {
         fixed[b - b0] = omega < kMinInfluence ? kMinInfluence : kMaxInfluence;
         changed = clipped = true;
@@ -86,8 +86,8 @@ SurfaceCorrection::SurfaceCorrection(const Model& model, SurfaceCorrectionMethod
 #pragma omp parallel for schedule(static)
   for (Index i = 0; i < n; ++i) {
     const Index b0 = model.bonds.start[i], nb = model.bonds.family_size(i);
-    m_volume[i] = peristat::weighted_volume(std::span(model.bonds.xi).subspan(b0, nb),
-                                  std::span(model.bonds.weight).subspan(b0, nb));
+    m_volume[i] =
+        peristat::weighted_volume(model.family_xi(i), std::span(model.bonds.weight).subspan(b0, nb));
   }
   if (method != SurfaceCorrectionMethod::none) update_all(model.bonds.weight);
 }
@@ -134,12 +134,13 @@ void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, 
     for (Index b = b0; b < b1; ++b) m_weight[b] = intact[b];
     return;
   }
+  const std::span<const Vec2> xi = m_model.family_xi(i);
   // An interior family with every bond intact keeps omega = 1 exactly.
   bool complete = static_cast<std::size_t>(b1 - b0) == m_model.stencil.offset.size();
   double m = 0.0;
   for (Index b = b0; b < b1; ++b) {
     complete = complete && intact[b] == bonds.weight[b];
-    m += intact[b] * bonds.xi[b].squaredNorm();
+    m += intact[b] * xi[b - b0].squaredNorm();
   }
   if (complete || m <= 0.0) {
     for (Index b = b0; b < b1; ++b) m_weight[b] = intact[b];
@@ -160,7 +161,7 @@ void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, 
   thread_local std::vector<double> fixed;
   fixed.assign(static_cast<std::size_t>(b1 - b0), kFree);
   Vec5 lambda = Vec5::Zero();
-  stats.clipped += bounded_multipliers(bonds, b0, b1, intact, q0, fixed, lambda);
+  stats.clipped += bounded_multipliers(xi, b0, b1, intact, q0, fixed, lambda);
   Vec5 moment = Vec5::Zero();
   double volume = 0.0;
   for (Index b = b0; b < b1; ++b) {
@@ -168,12 +169,12 @@ void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, 
       m_weight[b] = 0.0;
       continue;
     }
-    const Vec5 q = as_vec(quartic_monomials(bonds.xi[b].normalized()));
+    const Vec5 q = as_vec(quartic_monomials(xi[b - b0].normalized()));
     const double f = fixed[b - b0];
     const double omega = std::clamp(f != kFree ? f : 1.0 + q.dot(lambda), kMinInfluence, kMaxInfluence);
     record(omega);
     m_weight[b] = omega * intact[b];
-    const double a = m_weight[b] * bonds.xi[b].squaredNorm();
+    const double a = m_weight[b] * xi[b - b0].squaredNorm();
     volume += a;
     moment += a * q;
   }

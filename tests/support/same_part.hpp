@@ -30,7 +30,6 @@ inline void expect_same_part(const ModelPart& a, const ModelPart& b) {
   EXPECT_EQ(x.bonds.neighbour, y.bonds.neighbour);
   EXPECT_EQ(x.bonds.reverse, y.bonds.reverse);
   EXPECT_EQ(x.bonds.weight, y.bonds.weight);
-  EXPECT_EQ(x.bonds.xi, y.bonds.xi);
   const Constraints &c = x.constraints, &d = y.constraints;
   EXPECT_EQ(c.prescribed, d.prescribed);
   EXPECT_EQ(c.value, d.value);

@@ -114,7 +114,7 @@ void expect_parts_map_onto_the_whole(const Model& whole) {
           const Index b = m.bonds.start[l] + k, wb = whole.bonds.start[g] + k;
           ASSERT_EQ(part.global_id[static_cast<std::size_t>(m.bonds.neighbour[b])],
                     whole.bonds.neighbour[wb]);
-          ASSERT_EQ(m.bonds.xi[b], whole.bonds.xi[wb]);
+          ASSERT_EQ(m.xi(l, b), whole.xi(g, wb));
           ASSERT_EQ(m.bonds.weight[b], whole.bonds.weight[wb]);
           const Index r = m.bonds.reverse[b];
           ASSERT_EQ(r >= 0, m.family_held[static_cast<std::size_t>(m.bonds.neighbour[b])] != 0);

@@ -337,7 +337,7 @@ solver: {linear: cg, newton: {rtol: 1.0e-12}}
       const Index j = m.bonds.neighbour[b];
       if (m.particles.fictitious[j]) continue;
       const Vec2 eta(s->u[2 * j] - s->u[2 * i], s->u[2 * j + 1] - s->u[2 * i + 1]);
-      smax = std::max(smax, bond_stretch(m.bonds.xi[b], eta));
+      smax = std::max(smax, bond_stretch(m.xi(i, b), eta));
     }
   }
   double reaction = 0.0;
