@@ -6,7 +6,7 @@
 namespace peristat {
 
 BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
-                                       const ContactSystem* contact, std::span<const double> weight,
+                                       const ContactSystem* contact, const SurfaceCorrection* weights,
                                        const OwnedRows& owned)
     : m_model(model),
       m_contact(contact),
@@ -18,15 +18,19 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
   const double r2 = m_radius * m_radius * (1.0 + kBondRadiusMargin);
   m_alpha_volume.resize(n);
   for (Index i = 0; i < n; ++i) {
+    const Index b0 = bonds.start[i];
+    const std::span<const double> w =
+        weights ? weights->family_weights(i)
+                : std::span<const double>(bonds.weight).subspan(b0, bonds.family_size(i));
     double m = 0.0;
-    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
-      if (const double x2 = model.xi(i, b).squaredNorm(); x2 <= r2) m += weight[b] * x2;
+    for (Index b = b0; b < bonds.start[i + 1]; ++b)
+      if (const double x2 = model.xi(i, b).squaredNorm(); x2 <= r2) m += w[b - b0] * x2;
     m_alpha_volume[i] =
         m > 0.0 ? 8.0 * shear_modulus(model.bodies[part.body[i]].material) / m * part.volume[i] : 0.0;
   }
 }
 
-void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weight,
+void BondPreconditioner::assemble(SparseMatrix& P, const SurfaceCorrection& weights,
                                   std::span<const Vec2> s) const {
   const Bonds& bonds = m_model.bonds;
   const double r2 = m_radius * m_radius * (1.0 + kBondRadiusMargin);
@@ -36,14 +40,16 @@ void BondPreconditioner::assemble(SparseMatrix& P, std::span<const double> weigh
 #pragma omp for schedule(static)
     for (Index p = m_pattern.col_first; p < m_pattern.col_end; ++p) {
       if (!col.begin(p)) continue;
-      for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
+      const Index b0 = bonds.start[p];
+      const std::span<const double> w = weights.family_weights(p);
+      for (Index b = b0; b < bonds.start[p + 1]; ++b) {
         const Vec2 xi = m_model.xi(p, b);
         if (xi.squaredNorm() > r2) continue;
         const Index j = bonds.neighbour[b], r = bonds.reverse[b];
         // Partitioned bonds: no reverse when j's family is not held; then neither p nor j is
         // this rank's row (a row's neighbours' families are held), so the block is not its.
         if (r < 0) continue;
-        const double k = m_alpha_volume[p] * weight[b] + m_alpha_volume[j] * weight[r];
+        const double k = m_alpha_volume[p] * w[b - b0] + m_alpha_volume[j] * weights.weight(j, r);
         const Vec2 M = s[b].squaredNorm() > 0.0   ? s[b].normalized()
                        : s[r].squaredNorm() > 0.0 ? Vec2(-s[r].normalized())
                                                   : xi.normalized();

@@ -12,18 +12,20 @@
 #include "contact/contact.hpp"
 #include "core/options.hpp"
 #include "discretisation/model.hpp"
+#include "materials/surface_correction.hpp"
 
 namespace peristat {
 
 class BondPreconditioner {
  public:
   /// `contact`: its candidate pairs join the pattern and their blocks the values (null
-  /// without contact); it must outlive the preconditioner. `weight`: the bond weights its
+  /// without contact); it must outlive the preconditioner. `weights`: the bond weights its
   /// alpha' is measured with (the kernel's, so surface-corrected families are not counted
-  /// twice: a family's missing bonds raise its factors, not also its alpha').
+  /// twice: a family's missing bonds raise its factors, not also its alpha'); null: the
+  /// model's.
   /// `owned`: the rows this rank assembles (build_pattern()); every row by default.
   BondPreconditioner(const Model& model, const BondPreconditionerOptions& options,
-                     const ContactSystem* contact, std::span<const double> weight,
+                     const ContactSystem* contact, const SurfaceCorrection* weights,
                      const OwnedRows& owned = {});
 
   /// A matrix with the preconditioner's pattern and zero values.
@@ -33,10 +35,10 @@ class BondPreconditioner {
   /// (g_b g_b^T), g_b the gradient of the extension along the current direction M_b,
   /// alpha' = 8 mu / m' with m' the weighted volume of those bonds (so the short stencil
   /// keeps the long-wave stiffness), plus each contact pair's preconditioner block.
-  /// `weight`: the intact bond weights; `s`: s_b = b_b M_b of the last evaluation with a
+  /// `weights`: the kernel's bond weights; `s`: s_b = b_b M_b of the last evaluation with a
   /// tangent (FamilyOutputs), whose direction M_b is: s_b / |s_b|, else -s_r / |s_r| from the
   /// reverse bond r (M_r = -M_b), else (no weight either way, or no tangent yet) xi_b / |xi_b|.
-  void assemble(SparseMatrix& P, std::span<const double> weight, std::span<const Vec2> s) const;
+  void assemble(SparseMatrix& P, const SurfaceCorrection& weights, std::span<const Vec2> s) const;
 
   std::size_t memory_bytes() const;
 

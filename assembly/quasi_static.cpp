@@ -415,7 +415,7 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
                               std::span(extension, static_cast<std::size_t>(nb)),
                               std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
       const FamilyResult res = m_kernels[p.body[i]]->evaluate(
-          m_correction.weighted_volume()[i], m_model.family_xi(i), m_correction.weights().subspan(b0, nb),
+          m_correction.weighted_volume()[i], m_model.family_xi(i), m_correction.family_weights(i),
           std::span<const Vec2>(eta, static_cast<std::size_t>(nb)), out, want_tangent);
       const double e = p.volume[i] * res.energy_density;
       if (rows.contains(i))
@@ -565,15 +565,13 @@ SparseMatrix QuasiStaticProblem::make_preconditioner() {
   if (!m_preconditioner)
     m_preconditioner = std::make_unique<BondPreconditioner>(
         m_model, m_options.bond_preconditioner, m_contact.get(),
-        m_correction.method() == SurfaceCorrectionMethod::none ? std::span<const double>(m_model.bonds.weight)
-                                                               : m_correction.weights(),
-        m_options.rows);
+        m_correction.method() == SurfaceCorrectionMethod::none ? nullptr : &m_correction, m_options.rows);
   return m_preconditioner->make_matrix();
 }
 
 void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
   if (!m_preconditioner) make_preconditioner();
-  m_preconditioner->assemble(P, m_correction.weights(), m_s);
+  m_preconditioner->assemble(P, m_correction, m_s);
   m_fragments.decouple(P);
 }
 

@@ -27,17 +27,17 @@ struct SizeEstimate {
 };
 
 /// Bytes per tangent nonzero of the model, problem state and tangent together, per nonzero of
-/// the estimate, measured with `check --set solver.linear=cg` on the tension plate (19.5), the
-/// paper's cases 4.1 (21.4), 4.3 (20.7) and 4.4 (24.0) and the LEFM inclined crack (23.8;
+/// the estimate, measured with `check --set solver.linear=cg` on the tension plate (18.9), the
+/// paper's cases 4.1 (20.9), 4.3 (20.2) and 4.4 (23.5) and the LEFM inclined crack (23.2;
 /// 2026-12-03).
-inline constexpr double kBytesPerNonzero = 21.5;
+inline constexpr double kBytesPerNonzero = 21.0;
 /// The same without the tangent and its pattern (solver.linear: matrix_free), per nonzero of the
-/// estimate: 6.04-6.29 B measured with `check` on the tension plate (100 x 100 and 1000 x 1000)
-/// and cases 4.1 (6.24) and 4.3 (6.18; 2026-12-03). The largest, rounded up, so that a refusal
+/// estimate: 5.50-5.64 B measured with `check` on the tension plate (100 x 100 and 1000 x 1000)
+/// and cases 4.1 (5.67) and 4.3 (5.70; 2026-12-03). The largest, rounded up, so that a refusal
 /// errs on the safe side ...
-inline constexpr double kMatrixFreeBytesPerNonzero = 6.4;
+inline constexpr double kMatrixFreeBytesPerNonzero = 5.8;
 /// ... and with a failure criterion 2.6 B more (the bonds' displacements and the failure
-/// state: case 4.4, 8.82 B; the LEFM inclined crack, 8.92 B).
+/// state: case 4.4, 8.26 B; the LEFM inclined crack, 8.32 B).
 inline constexpr double kMatrixFreeFailureBytesPerNonzero = 2.6;
 /// Matrix-free bytes per tangent nonzero of a scene.
 inline double matrix_free_bytes_per_nonzero(bool failure) {

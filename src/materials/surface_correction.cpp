@@ -79,8 +79,9 @@ SurfaceCorrection::SurfaceCorrection(const Model& model, SurfaceCorrectionMethod
     q0 += a * as_vec(quartic_monomials(xi.normalized()));
   }
   for (int c = 0; c < 5; ++c) m_q0[c] = q0[c];
-  m_weight = model.bonds.weight;
   const Index n = model.particles.size();
+  m_shared.assign(static_cast<std::size_t>(n), 1);
+  m_offset.assign(static_cast<std::size_t>(n), -1);
   m_volume.assign(n, 0.0);
   // The weighted volume each family was built with: `none` keeps it when bonds break.
 #pragma omp parallel for schedule(static)
@@ -101,17 +102,34 @@ void SurfaceCorrection::update_all(std::span<const double> intact) {
 
 void SurfaceCorrection::update(std::span<const double> intact, std::span<const Index> particles) {
   const double t0 = wall_seconds();
+  const Bonds& bonds = m_model.bonds;
   SurfaceCorrectionStats total;
   const Index count = static_cast<Index>(particles.size());
 #pragma omp parallel
   {
     SurfaceCorrectionStats local, uncounted;
+    thread_local std::vector<double> w;
+    std::vector<Index> added;           // families that need their own weights for the first time
+    std::vector<double> added_weights;  // theirs, one after the other
 #pragma omp for schedule(dynamic, 64)
     for (Index k = 0; k < count; ++k) {
       const Index i = particles[k];
-      compute_family(i, intact,
-                     m_counted.empty() || m_counted[static_cast<std::size_t>(i)] ? local : uncounted);
+      const std::size_t ki = static_cast<std::size_t>(i);
+      const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+      w.resize(static_cast<std::size_t>(nb));
+      compute_family(i, intact, w, m_counted.empty() || m_counted[ki] ? local : uncounted);
+      const auto model_w = std::span<const double>(bonds.weight).subspan(b0, nb);
+      if (std::equal(w.begin(), w.end(), model_w.begin())) {
+        m_shared[ki] = 1;
+      } else if (m_offset[ki] >= 0) {  // storage of its own from an earlier update
+        std::copy(w.begin(), w.end(), m_own.begin() + m_offset[ki]);
+        m_shared[ki] = 0;
+      } else {
+        added.push_back(i);
+        added_weights.insert(added_weights.end(), w.begin(), w.end());
+      }
     }
+    // After the loop's barrier: no thread writes m_own while it grows.
 #pragma omp critical
     {
       total.families += local.families;
@@ -120,18 +138,41 @@ void SurfaceCorrection::update(std::span<const double> intact, std::span<const I
       total.unmatched += local.unmatched;
       total.min_influence = std::min(total.min_influence, local.min_influence);
       total.max_influence = std::max(total.max_influence, local.max_influence);
+      std::size_t at = 0;
+      for (const Index i : added) {
+        const std::size_t nb = static_cast<std::size_t>(bonds.family_size(i));
+        m_offset[static_cast<std::size_t>(i)] = static_cast<Index>(m_own.size());
+        m_shared[static_cast<std::size_t>(i)] = 0;
+        m_own.insert(m_own.end(), added_weights.begin() + at, added_weights.begin() + at + nb);
+        at += nb;
+      }
     }
   }
   total.seconds = wall_seconds() - t0;
   m_stats = total;
 }
 
-void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, SurfaceCorrectionStats& stats) {
+std::vector<double> SurfaceCorrection::bond_weights() const {
+  std::vector<double> all;
+  all.reserve(static_cast<std::size_t>(m_model.bonds.n_bonds()));
+  for (Index i = 0; i < m_model.particles.size(); ++i) {
+    const std::span<const double> w = family_weights(i);
+    all.insert(all.end(), w.begin(), w.end());
+  }
+  return all;
+}
+
+Index SurfaceCorrection::own_families() const {
+  return static_cast<Index>(std::count(m_shared.begin(), m_shared.end(), 0));
+}
+
+void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, std::span<double> w,
+                                       SurfaceCorrectionStats& stats) {
   const Bonds& bonds = m_model.bonds;
   const Index b0 = bonds.start[i], b1 = bonds.start[i + 1];
   ++stats.families;
   if (m_method == SurfaceCorrectionMethod::none) {
-    for (Index b = b0; b < b1; ++b) m_weight[b] = intact[b];
+    for (Index b = b0; b < b1; ++b) w[b - b0] = intact[b];
     return;
   }
   const std::span<const Vec2> xi = m_model.family_xi(i);
@@ -143,7 +184,7 @@ void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, 
     m += intact[b] * xi[b - b0].squaredNorm();
   }
   if (complete || m <= 0.0) {
-    for (Index b = b0; b < b1; ++b) m_weight[b] = intact[b];
+    for (Index b = b0; b < b1; ++b) w[b - b0] = intact[b];
     m_volume[i] = m;
     return;
   }
@@ -166,15 +207,15 @@ void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, 
   double volume = 0.0;
   for (Index b = b0; b < b1; ++b) {
     if (intact[b] == 0.0) {
-      m_weight[b] = 0.0;
+      w[b - b0] = 0.0;
       continue;
     }
     const Vec5 q = as_vec(quartic_monomials(xi[b - b0].normalized()));
     const double f = fixed[b - b0];
     const double omega = std::clamp(f != kFree ? f : 1.0 + q.dot(lambda), kMinInfluence, kMaxInfluence);
     record(omega);
-    m_weight[b] = omega * intact[b];
-    const double a = m_weight[b] * xi[b - b0].squaredNorm();
+    w[b - b0] = omega * intact[b];
+    const double a = w[b - b0] * xi[b - b0].squaredNorm();
     volume += a;
     moment += a * q;
   }
@@ -183,7 +224,8 @@ void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, 
 }
 
 std::size_t SurfaceCorrection::memory_bytes() const {
-  return (m_weight.capacity() + m_volume.capacity()) * sizeof(double);
+  return (m_own.capacity() + m_volume.capacity()) * sizeof(double) + m_shared.capacity() +
+         m_offset.capacity() * sizeof(Index);
 }
 
 }  // namespace peristat

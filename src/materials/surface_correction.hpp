@@ -53,8 +53,22 @@ class SurfaceCorrection {
   void update_all(std::span<const double> intact);
 
   SurfaceCorrectionMethod method() const { return m_method; }
-  /// The kernel's inputs: per bond omega_b w_b (0 when broken), per particle m.
-  std::span<const double> weights() const { return m_weight; }
+  /// The kernel's inputs: per bond of particle i's family omega_b w_b (0 when broken), per
+  /// particle m. A family whose weights are the model's (every factor 1, every bond intact: the
+  /// interior) reads the model's bond weights; the others keep their own (8 bytes per bond
+  /// fewer over the interior).
+  std::span<const double> family_weights(Index i) const {
+    const Index b0 = m_model.bonds.start[i], nb = m_model.bonds.family_size(i);
+    const std::size_t k = static_cast<std::size_t>(i);
+    return m_shared[k] ? std::span<const double>(m_model.bonds.weight).subspan(b0, nb)
+                       : std::span<const double>(m_own).subspan(m_offset[k], nb);
+  }
+  /// Bond b's weight, b one of particle i's bonds.
+  double weight(Index i, Index b) const { return family_weights(i)[b - m_model.bonds.start[i]]; }
+  /// Every bond's weight in bond order (tests and diagnostics: it allocates 8 bytes per bond).
+  std::vector<double> bond_weights() const;
+  /// Families that keep their own weights (cut by a surface, a crack or broken bonds).
+  Index own_families() const;
   std::span<const double> weighted_volume() const { return m_volume; }
   /// The interior weighted volume m0.
   double interior_volume() const { return m_m0; }
@@ -62,13 +76,17 @@ class SurfaceCorrection {
   std::size_t memory_bytes() const;
 
  private:
-  void compute_family(Index i, std::span<const double> intact, SurfaceCorrectionStats& stats);
+  /// Family i's weights from `intact` into `w` (its size).
+  void compute_family(Index i, std::span<const double> intact, std::span<double> w,
+                      SurfaceCorrectionStats& stats);
 
   const Model& m_model;
   SurfaceCorrectionMethod m_method;
   double m_m0 = 0.0;
   std::array<double, 5> m_q0{};  ///< interior fourth moment sum w x^2 q(n) (xxxx, xxxy, xxyy, xyyy, yyyy)
-  std::vector<double> m_weight;  ///< per bond
+  std::vector<char> m_shared;    ///< per particle: 1 when its family's weights are the model's
+  std::vector<Index> m_offset;   ///< per particle: the start of its own weights in m_own, or -1
+  std::vector<double> m_own;     ///< the weights of the families that do not share the model's
   std::vector<double> m_volume;  ///< per particle
   SurfaceCorrectionStats m_stats;
   std::vector<char> m_counted;  ///< per particle, or empty: every family counts in m_stats

@@ -25,15 +25,14 @@ Model cracked_model(const std::string& correction) {
 
 /// Energy density of family i under the homogeneous small strain eps (eta_b = eps xi_b).
 double family_energy(const Model& model, const SurfaceCorrection& sc, Index i, const Mat2& eps) {
-  const Bonds& bonds = model.bonds;
-  const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+  const Index nb = model.bonds.family_size(i);
   std::vector<Vec2> eta(nb), force(nb), s(nb);
   std::vector<double> extension(nb);
   std::vector<BondStiffness> k(nb);
   const std::span<const Vec2> xi = model.family_xi(i);
   for (Index b = 0; b < nb; ++b) eta[b] = eps * xi[b];
   const OsbConstants c = OsbConstants::from(model.bodies[0].material);
-  return osb_family(c, sc.weighted_volume()[i], xi, sc.weights().subspan(b0, nb), eta,
+  return osb_family(c, sc.weighted_volume()[i], xi, sc.family_weights(i), eta,
                     FamilyOutputs{force, extension, s, k}, false)
       .energy_density;
 }
@@ -60,7 +59,7 @@ TEST(SurfaceCorrection, CutFamiliesHaveTheInteriorEnergy) {
     for (Index i = 0; i < model.particles.size(); ++i) {
       double m = 0.0;
       for (Index b = model.bonds.start[i]; b < model.bonds.start[i + 1]; ++b)
-        m += sc.weights()[b] * model.xi(i, b).squaredNorm();
+        m += sc.weight(i, b) * model.xi(i, b).squaredNorm();
       // Only families the correction changed and matched: weighted volume at m0 to 1e-9.
       if (std::abs(m / sc.interior_volume() - 1.0) > 1e-9) continue;
       ++matched;
@@ -81,7 +80,7 @@ TEST(SurfaceCorrection, InteriorFamiliesAreUntouched) {
   for (Index i = 0; i < model.particles.size(); ++i) {
     const bool complete = static_cast<std::size_t>(bonds.family_size(i)) == model.stencil.offset.size();
     for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
-      const double omega = sc.weights()[b] / bonds.weight[b];
+      const double omega = sc.weight(i, b) / bonds.weight[b];
       if (complete) {
         EXPECT_EQ(omega, 1.0);
       }
@@ -89,6 +88,28 @@ TEST(SurfaceCorrection, InteriorFamiliesAreUntouched) {
       EXPECT_LE(omega, kMaxInfluence + 1e-12);
     }
   }
+}
+
+// The interior families read the model's bond weights instead of a copy (8 bytes per bond):
+// exactly the complete families share them, every cut family keeps its own factors, and
+// without a correction no family needs storage of its own.
+TEST(SurfaceCorrection, OnlyCutFamiliesKeepTheirOwnWeights) {
+  const Model model = cracked_model("moments");
+  const SurfaceCorrection sc(model, SurfaceCorrectionMethod::moments);
+  const SurfaceCorrection none(model, SurfaceCorrectionMethod::none);
+  const Bonds& bonds = model.bonds;
+  Index complete_families = 0;
+  for (Index i = 0; i < model.particles.size(); ++i) {
+    const bool complete = static_cast<std::size_t>(bonds.family_size(i)) == model.stencil.offset.size();
+    complete_families += complete;
+    const bool shares = sc.family_weights(i).data() == bonds.weight.data() + bonds.start[i];
+    EXPECT_EQ(shares, complete) << "particle " << i;
+    EXPECT_EQ(none.family_weights(i).data(), bonds.weight.data() + bonds.start[i]) << "particle " << i;
+  }
+  ASSERT_GT(complete_families, 10);  // not vacuous: both kinds occur
+  ASSERT_GT(sc.stats().corrected, 100);
+  EXPECT_EQ(sc.own_families(), sc.stats().corrected);
+  EXPECT_EQ(none.own_families(), 0);
 }
 
 }  // namespace
