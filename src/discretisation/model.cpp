@@ -394,8 +394,7 @@ std::span<const Vec2> Model::family_xi(Index i) const {
   thread_local std::vector<Vec2> buffer;
   const Index b0 = bonds.start[i], nb = bonds.family_size(i);
   if (buffer.size() < static_cast<std::size_t>(nb)) buffer.resize(static_cast<std::size_t>(nb));
-  const Vec2 X = particles.position[i];
-  for (Index k = 0; k < nb; ++k) buffer[k] = particles.position[bonds.neighbour[b0 + k]] - X;
+  for (Index k = 0; k < nb; ++k) buffer[k] = xi(i, b0 + k);
   return std::span<const Vec2>(buffer.data(), static_cast<std::size_t>(nb));
 }
 
