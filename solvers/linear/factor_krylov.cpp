@@ -6,6 +6,7 @@
 
 #include "core/clock.hpp"
 #include "core/stop.hpp"
+#include "solvers/linear/krylov_vectors.hpp"
 #include "solvers/linear/preconditioner_reuse.hpp"
 
 namespace peristat {
@@ -138,7 +139,8 @@ class FactorPreconditionedKrylov final : public LinearSolver {
 
   // Right-preconditioned restarted GMRES(m) (Saad, Iterative Methods, alg. 9.5) with
   // modified Gram-Schmidt and Givens rotations; stops at ||b - A x|| <= rtol ||b||. The
-  // residual it minimises is the true one, so it falls monotonically within a cycle.
+  // residual it minimises is the true one, so it falls monotonically within a cycle. The
+  // Gram-Schmidt runs on the threads, with the same bits on any number (KrylovVectors).
   void run_gmres(const VectorXd& b, VectorXd& x) {
     constexpr int m = 60;  // restart length: 60 basis vectors of the unknowns' size
     const double bnorm = b.norm();
@@ -160,11 +162,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
         throw_if_stop_requested();  // a long solve honours Ctrl-C within an iteration
         m_factor->solve(m_basis.col(k), m_z);
         product(m_z, m_q);
-        for (int i = 0; i <= k; ++i) {
-          H(i, k) = m_basis.col(i).dot(m_q);
-          m_q -= H(i, k) * m_basis.col(i);
-        }
-        H(k + 1, k) = m_q.norm();
+        H(k + 1, k) = m_vectors.orthogonalize(m_basis.data(), n, k + 1, m_q.data(), H.col(k).data());
         if (H(k + 1, k) > 0.0) m_basis.col(k + 1) = m_q / H(k + 1, k);
         for (int i = 0; i < k; ++i) {  // previous rotations
           const double t = cs[i] * H(i, k) + sn[i] * H(i + 1, k);
@@ -250,6 +248,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   Eigen::ComputationInfo m_info = Eigen::Success;
   VectorXd m_r, m_z, m_p, m_q;  // work vectors, reused across solves
   Eigen::MatrixXd m_basis;      // GMRES Krylov basis (unknowns x 61), reused
+  KrylovVectors m_vectors;      // GMRES's Gram-Schmidt on the threads
 };
 
 }  // namespace
