@@ -13,8 +13,8 @@ namespace peristat {
 
 class KrylovVectors {
  public:
-  /// Entries per chunk: 4096 doubles (32 KB, an L1 cache's worth of two vectors' halves) keep
-  /// a chunk's pass in cache and give a 160,000-unknown vector 40 chunks to share.
+  /// Entries per chunk: 4096 doubles, 32 KB of each vector a pass reads, and 40 chunks for the
+  /// threads to share in a vector of 160,000 unknowns (case 4.4 at dx = 0.01 m).
   static constexpr Index kChunk = 4096;
 
   /// a . b

@@ -25,6 +25,13 @@ namespace {
 
 const std::string kTension = std::string(PERISTAT_SOURCE_DIR) + "/cases/tension_plate/scene.yaml";
 
+/// `peristat run cases/NAME/scene.yaml --quiet --out DIR OPTIONS`.
+test::CliResult run_case(const std::string& name, const std::filesystem::path& dir,
+                         const std::string& options) {
+  return test::run_cli("run " + std::string(PERISTAT_SOURCE_DIR) + "/cases/" + name +
+                       "/scene.yaml --quiet --out " + dir.string() + " " + options);
+}
+
 /// The displacement in step `step` of the real particle at the lattice point X, of body
 /// `body` (Scene::bodies order; -1: any body). Fails the test when no particle sits at X.
 Vec2 displacement_at(const ResultsReader& results, int step, const Vec2& X, int body = -1) {
@@ -234,9 +241,7 @@ TEST(PaperCases, SmokeRunsReportContact) {
 TEST(PaperCases, CrackGrowthCaseGrowsFromTheTip) {
   const std::string name = "paper_4_4_crack_growth";
   const auto dir = test::fresh_directory(name);
-  const auto r =
-      test::run_cli("run " + std::string(PERISTAT_SOURCE_DIR) + "/cases/" + name +
-                    "/scene.yaml --quiet --out " + dir.string() + " --set discretization.spacing=0.05");
+  const auto r = run_case(name, dir, "--set discretization.spacing=0.05");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   const std::string summary = test::read_file(dir / "summary.json");
   for (const char* key : {"bonds_broken", "broken_bonds_total", "resolves", "break_cutbacks", "\"checks\"",
@@ -301,9 +306,7 @@ TEST(PaperCases, CrackGrowthCaseGrowsFromTheTip) {
 TEST(PaperCases, RunningCrackCrossesThePlate) {
   const std::string name = "running_crack";
   const auto dir = test::fresh_directory(name);
-  const auto r =
-      test::run_cli("run " + std::string(PERISTAT_SOURCE_DIR) + "/cases/" + name +
-                    "/scene.yaml --quiet --out " + dir.string() + " --set discretization.spacing=0.02");
+  const auto r = run_case(name, dir, "--set discretization.spacing=0.02");
   ASSERT_EQ(r.exit_code, 0) << r.err;
   ResultsReader reader((dir / (name + ".h5")).string());
   const ParticleTable& p = reader.particles();
@@ -338,10 +341,9 @@ TEST(PaperCases, CrackGrowthGivesTheSameBitsOnOneAndTwoThreads) {
   for (const int threads : {1, 2}) {
     auto& dir = dirs[threads - 1];
     dir = test::fresh_directory(name + "_threads" + std::to_string(threads));
-    const auto r =
-        test::run_cli("run " + std::string(PERISTAT_SOURCE_DIR) + "/cases/" + name +
-                      "/scene.yaml --quiet --out " + dir.string() + " --threads " + std::to_string(threads) +
-                      " --set discretization.spacing=0.05 --set solver.linear=matrix_free");
+    const auto r = run_case(name, dir,
+                            "--threads " + std::to_string(threads) +
+                                " --set discretization.spacing=0.05 --set solver.linear=matrix_free");
     ASSERT_EQ(r.exit_code, 0) << r.err;
     summaries[threads - 1] = test::read_file(dir / "summary.json");
     EXPECT_NE(summaries[threads - 1].find("\"matrix-free+bond-muelu\""), std::string::npos)
