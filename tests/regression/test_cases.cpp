@@ -191,7 +191,6 @@ struct PaperSmoke {
 };
 
 TEST(PaperCases, SmokeRunsReportContact) {
-  const std::string root = std::string(PERISTAT_SOURCE_DIR) + "/cases/";
   // clang-format off
   const std::vector<PaperSmoke> cases = {
       // Across the vertical interface x = 0.032 at y = 0.0296: right plate minus left, along y.
@@ -208,8 +207,7 @@ TEST(PaperCases, SmokeRunsReportContact) {
   for (const PaperSmoke& c : cases) {
     const std::string& name = c.name;
     const auto dir = test::fresh_directory(name);
-    const auto r = test::run_cli("run " + root + name + "/scene.yaml --quiet --out " + dir.string() +
-                                 " --set discretization.spacing=" + c.spacing);
+    const auto r = run_case(name, dir, "--set discretization.spacing=" + c.spacing);
     ASSERT_EQ(r.exit_code, 0) << name << ": " << r.err;
     const std::string summary = test::read_file(dir / "summary.json");
     for (const char* key : {"contact_candidates", "contact_open", "contact_stick", "contact_slip",
