@@ -109,7 +109,9 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   for (Index i = 0; i < n; ++i) m_largest_family = std::max(m_largest_family, bonds.family_size(i));
   m_eta_scratch.assign(static_cast<std::size_t>(omp_get_max_threads()) * m_largest_family, Vec2::Zero());
   m_extension_scratch.assign(m_eta_scratch.size(), 0.0);
-  assign_huge(m_force_bond, nbonds, Vec2(Vec2::Zero()));
+  m_force_scratch.assign(m_eta_scratch.size(), Vec2::Zero());
+  m_law.assign(n, BondForceLaw{});
+  for (const auto& kernel : m_kernels) m_finite.push_back(kernel->finite_kinematics() ? 1 : 0);
   assign_huge(m_s, nbonds, Vec2(Vec2::Zero()));
   assign_huge(m_kbond, nbonds, BondStiffness{});
   m_s_self.assign(n, Vec2::Zero());
@@ -169,9 +171,14 @@ Vec2 QuasiStaticProblem::reaction(std::size_t k) const {
 
 Mat2 QuasiStaticProblem::stress(Index i) const {
   const Bonds& bonds = m_model.bonds;
+  const bool finite = m_finite[static_cast<std::size_t>(m_model.particles.body[i])];
+  const std::span<const double> w = m_correction.family_weights(i);
   Mat2 P = Mat2::Zero();
-  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
-    P += m_force_bond[b] * m_model.xi(i, b).transpose();
+  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
+    const Vec2 xi = m_model.xi(i, b);
+    const BondKinematics k = bond_kinematics(finite, xi, bond_displacement(i, b));
+    P += (m_law[i].t(w[b - bonds.start[i]], k.x, k.e) * k.M) * xi.transpose();
+  }
   return P;
 }
 
@@ -400,6 +407,7 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
   if (m_eta_scratch.size() < scratch) {  // more threads than at the start
     m_eta_scratch.resize(scratch);
     m_extension_scratch.resize(scratch);
+    m_force_scratch.resize(scratch);
   }
 #pragma omp parallel reduction(+ : own_energy, unowned_energy)
   {
@@ -411,12 +419,17 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
       if (!m_share.family_needed(i)) continue;
       const Index b0 = bonds.start[i], nb = bonds.family_size(i);
       family_displacements(i, eta);
-      const FamilyOutputs out{std::span(m_force_bond).subspan(b0, nb),
+      // The bond forces are gathered from the laws: the kernel writes them only as the scratch
+      // of its tangent's directions.
+      const FamilyOutputs out{want_tangent
+                                  ? std::span(m_force_scratch.data() + mine, static_cast<std::size_t>(nb))
+                                  : std::span<Vec2>(),
                               std::span(extension, static_cast<std::size_t>(nb)),
                               std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
       const FamilyResult res = m_kernels[p.body[i]]->evaluate(
           m_correction.weighted_volume()[i], m_model.family_xi(i), m_correction.family_weights(i),
           std::span<const Vec2>(eta, static_cast<std::size_t>(nb)), out, want_tangent);
+      m_law[i] = res.law;
       const double e = p.volume[i] * res.energy_density;
       if (rows.contains(i))
         own_energy += e;
@@ -444,7 +457,8 @@ void QuasiStaticProblem::bond_forces(bool want_tangent) {
 
 void QuasiStaticProblem::gather_forces() {
   // dPi/du_q = -V_q sum_b t_b M_b (own family) + sum_b V_j t_r M_r (families of neighbours,
-  // r the reverse bond j -> q; t_b M_b is m_force_bond[b]).
+  // r the reverse bond j -> q). The bond's kinematics once for both: M_r = -M_b, e_r = e_b,
+  // each t from its family's law (BondForceLaw), bit for bit what the family's kernel had.
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
   const Index n = p.size();
@@ -455,9 +469,16 @@ void QuasiStaticProblem::gather_forces() {
       m_force[2 * q] = m_force[2 * q + 1] = 0.0;  // another rank's: its families are not computed here
       continue;
     }
-    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
+    const bool finite = m_finite[static_cast<std::size_t>(p.body[q])];  // bonds stay in a body
+    const Index b0 = bonds.start[q];
+    const std::span<const double> wq = m_correction.family_weights(q);
+    const BondForceLaw& law_q = m_law[q];
+    for (Index b = b0; b < bonds.start[q + 1]; ++b) {
       const Index j = bonds.neighbour[b], r = bonds.reverse[b];
-      f += p.volume[j] * m_force_bond[r] - p.volume[q] * m_force_bond[b];
+      const BondKinematics k = bond_kinematics(finite, m_model.xi(q, b), bond_displacement(q, b));
+      const Vec2 force_b = law_q.t(wq[b - b0], k.x, k.e) * k.M;
+      const Vec2 force_r = m_law[j].t(m_correction.weight(j, r), k.x, k.e) * Vec2(-k.M);
+      f += p.volume[j] * force_r - p.volume[q] * force_b;
     }
     m_force[2 * q] = f.x();
     m_force[2 * q + 1] = f.y();
@@ -665,8 +686,8 @@ std::size_t QuasiStaticProblem::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   std::size_t total =
       m_correction.memory_bytes() + bytes(m_changed_families) + bytes(m_eta) + bytes(m_eta_scratch) +
-      bytes(m_extension_scratch) + bytes(m_force_bond) + bytes(m_s) + bytes(m_kbond) + bytes(m_s_self) +
-      bytes(m_beta_volume) +
+      bytes(m_extension_scratch) + bytes(m_force_scratch) + bytes(m_law) + bytes(m_s) + bytes(m_kbond) +
+      bytes(m_s_self) + bytes(m_beta_volume) +
       static_cast<std::size_t>(m_u.size() + m_force.size() + m_velocity.size()) * sizeof(double) +
       m_pattern.memory_bytes() + m_ids.memory_bytes() + m_share.memory_bytes() + m_balance.memory_bytes() +
       m_damage.memory_bytes() + m_fragments.memory_bytes() + m_action.memory_bytes();

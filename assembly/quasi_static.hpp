@@ -212,6 +212,11 @@ class QuasiStaticProblem final : public Problem,
   /// The relative displacements eta_b = u_j - u_i of particle i's bonds from m_u, into
   /// eta[0 .. family size).
   void family_displacements(Index i, Vec2* eta) const;
+  /// eta_b = u_j - u_i of bond b, one of particle i's (the last evaluation's u)
+  Vec2 bond_displacement(Index i, Index b) const {
+    const Index j = m_model.bonds.neighbour[b];
+    return Vec2(m_u[2 * j], m_u[2 * j + 1]) - Vec2(m_u[2 * i], m_u[2 * i + 1]);
+  }
   void compute_families(bool want_tangent);
   void gather_forces();
   /// The norm of m_force over every component; with own rows only, summed over the ranks.
@@ -273,9 +278,13 @@ class QuasiStaticProblem final : public Problem,
   std::vector<Vec2> m_eta_scratch;            ///< per thread: one family's eta
   std::vector<double> m_extension_scratch;    ///< per thread: one family's extensions
   Index m_largest_family = 0;
-  /// per bond: the bond force t_b M_b of the last evaluation; s_b = b_b M_b of the last one
-  /// with a tangent (FamilyOutputs)
-  std::vector<Vec2> m_force_bond, m_s;
+  std::vector<Vec2> m_force_scratch;  ///< per thread: one family's t_b M_b
+  /// per particle: its family's force law of the last evaluation (the bond forces are
+  /// evaluated again from it where needed, not kept per bond)
+  std::vector<BondForceLaw> m_law;
+  std::vector<char> m_finite;  ///< per body: finite kinematics
+  /// per bond: s_b = b_b M_b of the last evaluation with a tangent (FamilyOutputs)
+  std::vector<Vec2> m_s;
   /// per bond: the family's bond stiffness k_b (axial, transverse); with matrix_free, after an
   /// evaluate() with a tangent, the pair's V_i k_b + V_j k_r in the action's form instead
   /// (TangentAction::prepare())

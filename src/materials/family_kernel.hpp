@@ -31,12 +31,54 @@ inline Sym2 bond_block(const BondStiffness& k, const Vec2& s) {
   return Sym2{k[1] + c * s.x() * s.x(), c * s.x() * s.y(), k[1] + c * s.y() * s.y()};
 }
 
+/// A bond's current unit direction M, reference length x = |xi| and extension e, from its
+/// reference vector xi and relative displacement eta. Finite kinematics: M = y / |y|, y = xi +
+/// eta, e = |y| - |xi| written as (|y|^2 - |xi|^2) / (|y| + |xi|), without the cancellation
+/// that at strains of 1e-6 would lose ten digits and put a floor under the residual. Small:
+/// M = xi / |xi|, e = M . eta. The reverse bond (-xi, -eta) gets -M and the same x and e, bit
+/// for bit: negation is exact.
+struct BondKinematics {
+  Vec2 M;
+  double x = 0.0;
+  double e = 0.0;
+};
+inline BondKinematics bond_kinematics(bool finite, const Vec2& xi, const Vec2& eta) {
+  BondKinematics k;
+  k.x = xi.norm();
+  if (finite) {
+    const Vec2 y = xi + eta;
+    const double ylen = y.norm();
+    k.M = y / ylen;
+    k.e = (2.0 * xi.dot(eta) + eta.squaredNorm()) / (ylen + k.x);
+  } else {
+    k.M = xi / k.x;
+    k.e = k.M.dot(eta);
+  }
+  return k;
+}
+
+/// A family's force state as a law of one bond's extension (eqs 9-10):
+///   t_b = w_b (p |xi_b| + alpha e^d_b),  e^d_b = e_b - theta |xi_b| / 3,
+/// with per-family p, alpha and the dilatation theta (a bond-based model: p = theta = 0). The
+/// family's kernel evaluates its bonds with it, and the force gather evaluates a neighbour's
+/// bond with it again instead of keeping t_b M_b for every bond (16 bytes per bond fewer): the
+/// same operations give the same bits.
+struct BondForceLaw {
+  double p = 0.0;
+  double alpha = 0.0;
+  double theta = 0.0;
+  double t(double w, double x, double e) const {
+    const double ed = e - theta * x / 3.0;
+    return w * (p * x + alpha * ed);
+  }
+};
+
 /// Outputs of one family, written into caller-owned arrays of the family's size. M_b is the
 /// unit current bond direction (the reference one if small) and t_b = dW/de_b the scalar force
-/// state times the bond weight [Pa m^2 / m]; the bond force t_b M_b is kept as one vector, not
-/// as t_b and M_b (8 bytes less per bond): the tangent's s_b holds the direction where needed.
+/// state times the bond weight [Pa m^2 / m]; the bond force t_b M_b as one vector (the
+/// assembler keeps s_b and k_bond per bond, and evaluates forces again from FamilyResult::law).
 struct FamilyOutputs {
-  std::span<Vec2> force;        ///< t_b M_b
+  std::span<Vec2> force;        ///< t_b M_b; may be empty without a tangent (the law alone)
   std::span<double> extension;  ///< e_b = |xi_b + eta_b| - |xi_b| (the kernel's scratch too)
   std::span<Vec2> s;          ///< b_b M_b with b_b = omega w_b |xi_b| (rank-one vectors)
   /// (alpha omega w_b, t_b / y_b): alpha omega w_b M M^T + (t_b / y_b)(I - M M^T), the second
@@ -48,6 +90,7 @@ struct FamilyResult {
   double energy_density = 0.0;  ///< W (eq 5) [J/m^3]
   double theta = 0.0;           ///< dilatation (eq 3)
   double beta = 0.0;            ///< coefficient of the rank-one tangent term
+  BondForceLaw law;             ///< t_b as a function of the bond's extension (0 if isolated)
 };
 
 /// Weighted volume m = sum omega |xi|^2 w (eq 4), over the bonds given.
@@ -58,12 +101,15 @@ class FamilyKernel {
   virtual ~FamilyKernel() = default;
   /// Evaluates one family: reference bond vectors xi, quadrature weights w (0 for a broken
   /// bond), relative displacements eta_b = u_j - u_i, weighted volume m of the intact
-  /// reference family. When want_tangent is false only force and extension are written.
+  /// reference family. When want_tangent is false only force and extension are written, and
+  /// with an empty out.force only extension (the caller takes FamilyResult::law alone).
   virtual FamilyResult evaluate(double m, std::span<const Vec2> xi, std::span<const double> weight,
                                 std::span<const Vec2> eta, const FamilyOutputs& out,
                                 bool want_tangent) const = 0;
   /// True when the tangent does not depend on the displacement (linearised kinematics).
   virtual bool constant_tangent() const = 0;
+  /// True with finite kinematics (bond_kinematics()' first argument).
+  virtual bool finite_kinematics() const = 0;
   /// The material's stiffness scale [Pa] (Young's modulus): a family's volume times it is the
   /// energy scale of its round-off (the energy balance's tolerance, assembly/energy_balance.hpp).
   virtual double modulus() const = 0;

@@ -32,6 +32,7 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
     return result;  // an isolated particle carries no bond energy
   }
   const bool finite = material.kinematics == Kinematics::finite;
+  const bool forces = !out.force.empty();      // the caller may take the law alone (no tangent)
   const double alpha = 8.0 * material.mu / m;  // eq 8
   const double cm = material.c / m;
 
@@ -39,22 +40,11 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
   double sum_bxe = 0.0;
   double sum_bxx = 0.0;  // sum w x^2: m itself until bonds break (m stays at its reference value)
   for (std::size_t b = 0; b < n; ++b) {
-    const double x = xi[b].norm();
-    sum_bxx += weight[b] * x * x;
-    double e;
-    if (finite) {
-      const Vec2 y = xi[b] + eta[b];
-      const double ylen = y.norm();
-      out.force[b] = y / ylen;
-      // |y| - |x| without cancellation: (|y|^2 - |x|^2) / (|y| + |x|). At strains of 1e-6
-      // the direct difference would lose ten digits and put a floor under the residual.
-      e = (2.0 * xi[b].dot(eta[b]) + eta[b].squaredNorm()) / (ylen + x);
-    } else {
-      out.force[b] = xi[b] / x;
-      e = out.force[b].dot(eta[b]);
-    }
-    out.extension[b] = e;
-    sum_bxe += weight[b] * x * e;
+    const BondKinematics k = bond_kinematics(finite, xi[b], eta[b]);
+    sum_bxx += weight[b] * k.x * k.x;
+    if (forces) out.force[b] = k.M;
+    out.extension[b] = k.e;
+    sum_bxe += weight[b] * k.x * k.e;
   }
   const double theta = cm * sum_bxe;
 
@@ -71,15 +61,16 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
 
   // Pass 3: force state (eqs 9-10), dW/de_b = w_b [c (k' theta - alpha/3 (omega e^d).x) x / m
   // + alpha e^d_b], and on request the tangent pieces.
-  const double scalar = cm * (material.k_prime * theta - alpha / 3.0 * sum_bxed);
+  const BondForceLaw law{cm * (material.k_prime * theta - alpha / 3.0 * sum_bxed), alpha, theta};
+  result.law = law;
   // d2W/de de = diag(alpha w) + beta (w x)(w x)^T; the m here is the sum over the intact
   // bonds, which differs from the weighted volume m once bonds are broken.
   result.beta = cm * cm * (material.k_prime + alpha * sum_bxx / 9.0) - 2.0 * alpha * cm / 3.0;
+  if (!forces && !want_tangent) return result;
   for (std::size_t b = 0; b < n; ++b) {
     const double x = xi[b].norm();
     const double e = out.extension[b];
-    const double ed = e - theta * x / 3.0;
-    const double t = weight[b] * (scalar * x + alpha * ed);
+    const double t = law.t(weight[b], x, e);
     const Vec2 M = out.force[b];
     out.force[b] = t * M;
     if (!want_tangent) continue;

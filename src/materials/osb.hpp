@@ -33,7 +33,8 @@ inline double bulk_modulus_2d(const Material& material) {
 
 /// Evaluates one family. Inputs: reference bond vectors xi, quadrature weights w (area),
 /// relative displacements eta_b = u_j - u_i, weighted volume m. When want_tangent is false
-/// only t and direction are written.
+/// only the forces t_b M_b and the extensions are written, and with an empty out.force only
+/// the extensions (the result's law gives the forces).
 ///
 /// Energy W(e) = k' theta^2 / 2 + alpha/2 sum_b omega w_b (e_b - theta |xi_b| / 3)^2 with
 /// theta = (c / m) sum_b omega w_b |xi_b| e_b, e_b = |xi_b + eta_b| - |xi_b| (finite) or
@@ -56,6 +57,7 @@ class OsbKernel final : public FamilyKernel {
     return osb_family(m_constants, m, xi, weight, eta, out, want_tangent);
   }
   bool constant_tangent() const override { return m_constants.kinematics == Kinematics::small; }
+  bool finite_kinematics() const override { return m_constants.kinematics == Kinematics::finite; }
   double modulus() const override { return m_modulus; }
 
  private:

@@ -8,6 +8,10 @@
 //   peristat_bench action SCENE [REPS] [--set KEY=VALUE]...   the matrix-free tangent action
 //       (apply_tangent) of SCENE at load factor 1 and zero displacement: time per action
 //       (best and median of REPS, default 200), bonds, and bytes of bond data read per second.
+//   peristat_bench residual SCENE [REPS] [--set KEY=VALUE]...   one evaluation of the residual
+//       (evaluate without a tangent: the families' force laws and the force gather) of SCENE at
+//       load factor 1 and the displacement of one Newton step from zero: best and median of
+//       REPS (default 50).
 //   peristat_bench cycle SCENE [REPS] [--set KEY=VALUE]...   one application of the bond_amg
 //       V-cycle (matrix_free's default preconditioner) of SCENE's bond matrix at load factor 1
 //       and zero displacement, applied by this program's threads (ThreadedCycle, the default)
@@ -249,6 +253,31 @@ int action(const std::string& path, int reps, const std::vector<Override>& overr
   return 0;
 }
 
+int residual(const std::string& path, int reps, const std::vector<Override>& overrides) {
+  const auto e = evaluated(path, overrides);
+  QuasiStaticProblem& problem = *e->problem;
+  // A state with every bond stretched: the residual at zero displacement (the load's) as a
+  // displacement, scaled to strains of about 1e-3.
+  VectorXd r;
+  problem.evaluate(VectorXd::Zero(problem.n_unknowns()), r, nullptr);
+  const double scale = r.cwiseAbs().maxCoeff();
+  const VectorXd x = scale > 0.0 ? VectorXd(r * (1e-3 * e->model.spacing / scale)) : r;
+  problem.evaluate(x, r, nullptr);  // first touch
+  std::vector<double> t(static_cast<std::size_t>(reps));
+  double checksum = 0.0;
+  for (double& ti : t) {
+    const double t0 = wall_seconds();
+    problem.evaluate(x, r, nullptr);
+    ti = wall_seconds() - t0;
+    checksum += r.norm();
+  }
+  std::sort(t.begin(), t.end());
+  std::printf("scene=%s particles=%d bonds=%.0f threads=%d best=%.3fms median=%.3fms checksum=%.6e\n",
+              e->scene.name.c_str(), e->model.particles.size(), static_cast<double>(e->model.bonds.n_bonds()),
+              omp_get_max_threads(), 1e3 * t.front(), 1e3 * t[t.size() / 2], checksum);
+  return 0;
+}
+
 // One application of the V-cycle of SCENE's bond matrix, by each applier in turn.
 int cycle(const std::string& path, int reps, const std::vector<Override>& overrides) {
   const auto e = evaluated(path, overrides);
@@ -454,6 +483,8 @@ int main(int argc, char** argv) {
   };
   if (argc >= 3 && std::strcmp(argv[1], "action") == 0)
     return action(argv[2], reps(200), overrides_from(argc, argv, 3));
+  if (argc >= 3 && std::strcmp(argv[1], "residual") == 0)
+    return residual(argv[2], reps(50), overrides_from(argc, argv, 3));
   if (argc >= 3 && std::strcmp(argv[1], "cycle") == 0)
     return cycle(argv[2], reps(20), overrides_from(argc, argv, 3));
   if (argc >= 4 && std::strcmp(argv[1], "partition") == 0)
@@ -468,6 +499,7 @@ int main(int argc, char** argv) {
                "usage: peristat_bench tension N [--set KEY=VALUE]...\n"
                "       peristat_bench factor N tangent|bond default|amd|metis|nesdis\n"
                "       peristat_bench action SCENE [REPS] [--set KEY=VALUE]...\n"
+               "       peristat_bench residual SCENE [REPS] [--set KEY=VALUE]...\n"
                "       peristat_bench cycle SCENE [REPS] [--set KEY=VALUE]...\n"
                "       peristat_bench stream [MB]\n"
                "       peristat_bench partition SCENE P [--set KEY=VALUE]...\n"

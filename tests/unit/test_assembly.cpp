@@ -13,6 +13,8 @@
 
 #include "app/setup.hpp"
 #include "assembly/quasi_static.hpp"
+#include "materials/osb.hpp"
+#include "materials/surface_correction.hpp"
 #include "parallel/thread_ranks.hpp"
 #include "support/finite_difference.hpp"
 #include "support/owners.hpp"
@@ -22,20 +24,32 @@
 namespace peristat {
 namespace {
 
-TEST(Assembly, BitIdenticalForAnyThreadCount) {
+/// A 24 x 14 plate pulled at its right edge, with an inclined crack (the default surface
+/// correction: the families it cuts keep their own weights).
+Scene pulled_cracked_plate() {
   test::PlateSpec spec;
   spec.nx = 24;
   spec.ny = 14;
   spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n  - {body: plate, edge: right, ux: 1.0e-5}\n";
   spec.cracks = "  - {from: [0.008, 0.004], to: [0.014, 0.01]}\n";
-  const Scene scene = test::scene_from_yaml(test::plate_yaml(spec));
+  return test::scene_from_yaml(test::plate_yaml(spec));
+}
+
+/// Unknowns drawn uniformly from +-1e-5 m (strains of about 1e-2: every bond's kinematics matters).
+VectorXd random_state(Index n, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::uniform_real_distribution<double> d(-1e-5, 1e-5);
+  VectorXd x(n);
+  for (Index i = 0; i < n; ++i) x[i] = d(gen);
+  return x;
+}
+
+TEST(Assembly, BitIdenticalForAnyThreadCount) {
+  const Scene scene = pulled_cracked_plate();
   const Model model = discretise(scene);
   QuasiStaticProblem problem(model, problem_options(scene));
   problem.set_load_factor(1.0);
-  std::mt19937 gen(5);
-  std::uniform_real_distribution<double> d(-1e-5, 1e-5);
-  VectorXd x(problem.n_unknowns());
-  for (Index i = 0; i < x.size(); ++i) x[i] = d(gen);
+  const VectorXd x = random_state(problem.n_unknowns(), 5);
 
   const int saved = omp_get_max_threads();
   SparseMatrix K1 = problem.make_tangent(), K2 = problem.make_tangent();
@@ -54,6 +68,99 @@ TEST(Assembly, BitIdenticalForAnyThreadCount) {
   EXPECT_TRUE(std::equal(K1.valuePtr(), K1.valuePtr() + K1.nonZeros(), K2.valuePtr()));
   EXPECT_TRUE(std::equal(P1.valuePtr(), P1.valuePtr() + P1.nonZeros(), P2.valuePtr()));
   EXPECT_GT(r1.norm(), 0.0);  // a non-trivial state
+}
+
+// The force gather does not keep the kernel's bond forces: it evaluates each bond again, once
+// for both of its families, from bond_kinematics() and each family's BondForceLaw. That gives
+// the kernel's bits only if (a) the law reproduces the kernel's t_b M_b exactly and (b) the
+// reverse bond (-xi, -eta) has the direction -M and the same length and extension exactly.
+// Both are asserted with ==: no tolerance, since a last-bit difference would make the residual
+// depend on which family's copy is read. Random families, finite and small kinematics.
+TEST(Assembly, ForceLawAndReverseKinematicsGiveTheKernelsBondForcesBitForBit) {
+  std::mt19937 gen(11);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0), weight(0.2, 1.5);
+  for (const Kinematics kinematics : {Kinematics::finite, Kinematics::small}) {
+    Material material;
+    material.E = 192e9;
+    material.nu = 1.0 / 3.0;
+    material.kinematics = kinematics;
+    const OsbConstants constants = OsbConstants::from(material);
+    const bool finite = kinematics == Kinematics::finite;
+    for (int trial = 0; trial < 20; ++trial) {
+      const std::size_t n = 28;
+      std::vector<Vec2> xi(n), eta(n), force(n), s(n);
+      std::vector<double> w(n), extension(n);
+      std::vector<BondStiffness> k(n);
+      for (std::size_t b = 0; b < n; ++b) {
+        xi[b] = 1e-3 * Vec2(3.0 * unit(gen), 3.0 * unit(gen));
+        if (xi[b].norm() < 1e-4) xi[b] = Vec2(1e-3, 0.0);
+        eta[b] = 1e-6 * Vec2(unit(gen), unit(gen));
+        w[b] = trial % 3 == 0 && b % 5 == 0 ? 0.0 : 1e-6 * weight(gen);  // some bonds broken
+      }
+      const FamilyResult res = osb_family(constants, weighted_volume(xi, w), xi, w, eta,
+                                          FamilyOutputs{force, extension, s, k}, true);
+      for (std::size_t b = 0; b < n; ++b) {
+        const BondKinematics kin = bond_kinematics(finite, xi[b], eta[b]);
+        const Vec2 gathered = res.law.t(w[b], kin.x, kin.e) * kin.M;
+        EXPECT_EQ(gathered.x(), force[b].x()) << "bond " << b;
+        EXPECT_EQ(gathered.y(), force[b].y()) << "bond " << b;
+        const BondKinematics reverse = bond_kinematics(finite, Vec2(-xi[b]), Vec2(-eta[b]));
+        EXPECT_EQ(reverse.x, kin.x);
+        EXPECT_EQ(reverse.e, kin.e);
+        EXPECT_EQ(reverse.M.x(), -kin.M.x());
+        EXPECT_EQ(reverse.M.y(), -kin.M.y());
+      }
+      EXPECT_GT(std::abs(res.law.p) + std::abs(res.law.alpha), 0.0);  // a non-trivial law
+    }
+  }
+}
+
+// The same at the level of the problem: the internal forces of evaluate() are, bit for bit,
+// what summing every family kernel's own t_b M_b gives (the forces of the families of q and of
+// its neighbours, in q's bond order: dPi/du_q = sum_b V_j t_r M_r - V_q t_b M_b), computed here
+// independently of the gather, from osb_family and a surface correction of the scene's kind.
+// A cracked plate with the surface correction (families with their own weights) at a random
+// state; exact equality, since the gather claims the kernel's bits.
+TEST(Assembly, GatheredForcesAreTheKernelsForcesBitForBit) {
+  const Scene scene = pulled_cracked_plate();
+  const Model model = discretise(scene);
+  const ProblemOptions options = problem_options(scene);
+  QuasiStaticProblem problem(model, options);
+  problem.set_load_factor(1.0);
+  const VectorXd x = random_state(problem.n_unknowns(), 3);
+  VectorXd r, u;
+  problem.evaluate(x, r, nullptr);
+  problem.expand(x, u);
+
+  const SurfaceCorrection correction(model, options.surface_correction);
+  ASSERT_GT(correction.stats().corrected, 0);
+  const OsbConstants constants = OsbConstants::from(model.bodies[0].material);
+  const Bonds& bonds = model.bonds;
+  const Particles& p = model.particles;
+  std::vector<Vec2> force(static_cast<std::size_t>(bonds.n_bonds()));
+  for (Index i = 0; i < p.size(); ++i) {
+    const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+    std::vector<Vec2> eta(nb), s(nb);
+    std::vector<double> extension(nb);
+    std::vector<BondStiffness> k(nb);
+    for (Index b = b0; b < b0 + nb; ++b) {
+      const Index j = bonds.neighbour[b];
+      eta[b - b0] = Vec2(u[2 * j], u[2 * j + 1]) - Vec2(u[2 * i], u[2 * i + 1]);
+    }
+    osb_family(constants, correction.weighted_volume()[i], model.family_xi(i), correction.family_weights(i),
+               eta, FamilyOutputs{std::span(force).subspan(b0, nb), extension, s, k}, false);
+  }
+  const VectorXd& gathered = problem.internal_force();
+  Index compared = 0;
+  for (Index q = 0; q < p.size(); ++q) {
+    Vec2 f = Vec2::Zero();
+    for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b)
+      f += p.volume[bonds.neighbour[b]] * force[bonds.reverse[b]] - p.volume[q] * force[b];
+    EXPECT_EQ(gathered[2 * q], f.x()) << "particle " << q;
+    EXPECT_EQ(gathered[2 * q + 1], f.y()) << "particle " << q;
+    compared += f.norm() > 0.0;
+  }
+  EXPECT_GT(compared, p.size() / 2);  // a non-trivial state
 }
 
 // The second make_tangent() rebuilds the same pattern the first one handed over.
