@@ -62,7 +62,8 @@ inline BondKinematics bond_kinematics(bool finite, const Vec2& xi, const Vec2& e
 /// with per-family p, alpha and the dilatation theta (a bond-based model: p = theta = 0). The
 /// family's kernel evaluates its bonds with it, and the force gather evaluates a neighbour's
 /// bond with it again instead of keeping t_b M_b for every bond (16 bytes per bond fewer): the
-/// same operations give the same bits.
+/// same operations give the same bits. A kernel whose bond force is not of this form (one
+/// with per-bond history, say) needs its forces kept per bond again.
 struct BondForceLaw {
   double p = 0.0;
   double alpha = 0.0;
