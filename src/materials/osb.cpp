@@ -1,6 +1,7 @@
 #include "materials/osb.hpp"
 
 #include <cmath>
+#include <vector>
 
 namespace peristat {
 
@@ -39,8 +40,13 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
   // Pass 1: extensions, directions (kept in force until pass 3), dilatation (eq 3).
   double sum_bxe = 0.0;
   double sum_bxx = 0.0;  // sum w x^2: m itself until bonds break (m stays at its reference value)
+  // |xi_b| for passes 2 and 3 (one square root per bond instead of three): the calling
+  // thread's buffer, grown to the largest family once.
+  thread_local std::vector<double> lengths;
+  if (lengths.size() < n) lengths.resize(n);
   for (std::size_t b = 0; b < n; ++b) {
     const BondKinematics k = bond_kinematics(finite, xi[b], eta[b]);
+    lengths[b] = k.x;
     sum_bxx += weight[b] * k.x * k.x;
     if (forces) out.force[b] = k.M;
     out.extension[b] = k.e;
@@ -51,7 +57,7 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
   // Pass 2: deviatoric extensions (eq 6) and (omega e^d) . x.
   double sum_bxed = 0.0, sum_ed2 = 0.0;
   for (std::size_t b = 0; b < n; ++b) {
-    const double x = xi[b].norm();
+    const double x = lengths[b];
     const double ed = out.extension[b] - theta * x / 3.0;
     sum_bxed += weight[b] * x * ed;
     sum_ed2 += weight[b] * ed * ed;
@@ -68,7 +74,7 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
   result.beta = cm * cm * (material.k_prime + alpha * sum_bxx / 9.0) - 2.0 * alpha * cm / 3.0;
   if (!forces && !want_tangent) return result;
   for (std::size_t b = 0; b < n; ++b) {
-    const double x = xi[b].norm();
+    const double x = lengths[b];
     const double e = out.extension[b];
     const double t = law.t(weight[b], x, e);
     const Vec2 M = out.force[b];
