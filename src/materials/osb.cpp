@@ -40,7 +40,7 @@ FamilyResult osb_family(const OsbConstants& material, double m, std::span<const 
   // Pass 1: extensions, directions (kept in force until pass 3), dilatation (eq 3).
   double sum_bxe = 0.0;
   double sum_bxx = 0.0;  // sum w x^2: m itself until bonds break (m stays at its reference value)
-  // |xi_b| for passes 2 and 3 (one square root per bond instead of three): the calling
+  // |xi_b| for passes 2 and 3 (one square root per bond instead of up to three): the calling
   // thread's buffer, grown to the largest family once.
   thread_local std::vector<double> lengths;
   if (lengths.size() < n) lengths.resize(n);
