@@ -387,11 +387,8 @@ void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
 
 void QuasiStaticProblem::family_displacements(Index i, Vec2* eta) const {
   const Bonds& bonds = m_model.bonds;
-  const Vec2 ui(m_u[2 * i], m_u[2 * i + 1]);
-  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
-    const Index j = bonds.neighbour[b];
-    eta[b - bonds.start[i]] = Vec2(m_u[2 * j], m_u[2 * j + 1]) - ui;
-  }
+  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b)
+    eta[b - bonds.start[i]] = bond_displacement(i, b);
 }
 
 void QuasiStaticProblem::compute_families(bool want_tangent) {
