@@ -75,8 +75,7 @@ class TpetraCopy {
   double padding = 1.0;  ///< the padding rows' diagonal of the last fill()
 
  private:
-  std::vector<Index> m_row_start;  ///< Tpetra's local row offsets
-  std::vector<Index> m_source;     ///< per local value: its position in A's values, or -1
+  std::vector<Index> m_remote_unknown;  ///< per column of another rank's row: its unknown, or -1
   std::vector<Index> m_diagonal;   ///< per local row: the position of its diagonal value
 };
 
