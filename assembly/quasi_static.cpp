@@ -357,6 +357,16 @@ ProblemTraits QuasiStaticProblem::traits() const {
 
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {
   m_balance.discard();  // a check measured an earlier evaluation
+  ++m_evaluations;
+  if (K) {
+    m_tangent_evaluation = m_evaluations;
+    m_tangent_broken = m_failure ? m_failure->broken() : 0;
+    if (m_action_suspended) restore_action_storage();
+  } else if (m_tangent_evaluation == m_evaluations - 1 && m_options.matrix_free &&
+             m_model.bonds.neighbour.size() >= m_suspend_bonds) {
+    m_u_tangent = m_u;  // the tangent's state, before it goes (suspend_action())
+    m_u_tangent_evaluation = m_tangent_evaluation;
+  }
   expand_state(x);
   if (m_own_rows_only && K)
     throw std::logic_error("QuasiStaticProblem::evaluate: own rows only, with a tangent");
@@ -380,7 +390,50 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   }
 }
 
+bool QuasiStaticProblem::suspend_action() {
+  const Index broken = m_failure ? m_failure->broken() : 0;
+  const bool at_tangent = m_tangent_evaluation == m_evaluations;
+  if (!m_options.matrix_free || m_action_suspended || m_model.bonds.neighbour.size() < m_suspend_bonds ||
+      m_tangent_evaluation == 0 || broken != m_tangent_broken || m_own_rows_only ||
+      (!at_tangent && m_u_tangent_evaluation != m_tangent_evaluation))
+    return false;
+  // The state the factors were made at: m_u now, or the one kept when the first evaluation
+  // without a tangent followed (the predictor's, a line search's).
+  if (at_tangent) {
+    m_u_tangent = m_u;
+    m_u_tangent_evaluation = m_tangent_evaluation;
+  }
+  std::vector<Vec2>().swap(m_s);
+  std::vector<BondStiffness>().swap(m_kbond);
+  m_action_suspended = true;
+  return true;
+}
+
+void QuasiStaticProblem::restore_action_storage() {
+  const std::size_t nbonds = m_model.bonds.neighbour.size();
+  assign_huge(m_s, nbonds, Vec2(Vec2::Zero()));
+  assign_huge(m_kbond, nbonds, BondStiffness{});
+  m_action_suspended = false;
+}
+
+void QuasiStaticProblem::resume_action() {
+  if (!m_action_suspended) return;
+  restore_action_storage();
+  // The families at the tangent's state, then the last evaluation's laws and energy back:
+  // the factors are the bits that evaluate() made (the same kernels on the same state).
+  const std::vector<BondForceLaw> law = m_law;
+  const double energy = m_energy;
+  m_u.swap(m_u_tangent);
+  compute_families(true);
+  m_u.swap(m_u_tangent);
+  m_law = law;
+  m_energy = energy;
+  m_action.prepare_families(hessians());  // the contact pairs' Jacobians were kept
+}
+
 void QuasiStaticProblem::apply_tangent(const VectorXd& v, VectorXd& y) {
+  if (m_action_suspended)
+    throw std::logic_error("QuasiStaticProblem::apply_tangent: the action is suspended");
   m_action.apply(hessians(), m_contact.get(), m_options.rows, &m_share,
                  m_fragments.unknowns(), v, y);
 }
@@ -422,7 +475,8 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
                                   ? std::span(m_force_scratch.data() + mine, static_cast<std::size_t>(nb))
                                   : std::span<Vec2>(),
                               std::span(extension, static_cast<std::size_t>(nb)),
-                              std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)};
+                              want_tangent ? std::span(m_s).subspan(b0, nb) : std::span<Vec2>(),
+                              want_tangent ? std::span(m_kbond).subspan(b0, nb) : std::span<BondStiffness>()};
       const FamilyResult res = m_kernels[p.body[i]]->evaluate(
           m_correction.weighted_volume()[i], m_model.family_xi(i), m_correction.family_weights(i),
           std::span<const Vec2>(eta, static_cast<std::size_t>(nb)), out, want_tangent);
@@ -685,7 +739,8 @@ std::size_t QuasiStaticProblem::memory_bytes() const {
       m_correction.memory_bytes() + bytes(m_changed_families) + bytes(m_eta) + bytes(m_eta_scratch) +
       bytes(m_extension_scratch) + bytes(m_force_scratch) + bytes(m_law) + bytes(m_s) + bytes(m_kbond) +
       bytes(m_s_self) + bytes(m_beta_volume) +
-      static_cast<std::size_t>(m_u.size() + m_force.size() + m_velocity.size()) * sizeof(double) +
+      static_cast<std::size_t>(m_u.size() + m_u_tangent.size() + m_force.size() + m_velocity.size()) *
+          sizeof(double) +
       m_pattern.memory_bytes() + m_ids.memory_bytes() + m_share.memory_bytes() + m_balance.memory_bytes() +
       m_damage.memory_bytes() + m_fragments.memory_bytes() + m_action.memory_bytes();
   if (m_failure) total += m_failure->memory_bytes();

@@ -9,6 +9,7 @@
 // computes (bookkeeping.hpp).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -63,6 +64,10 @@ struct ProblemOptions {
   std::vector<std::int64_t> global_unknown;
 };
 
+/// Bonds from which a matrix-free problem drops its per-bond tangent factors while the
+/// preconditioner is set up (QuasiStaticProblem::suspend_action()): 0.5 GB of them. Below,
+/// the factors' second evaluation costs more than the memory is worth.
+inline constexpr std::size_t kSuspendActionBonds = 16'000'000;
 
 class QuasiStaticProblem final : public Problem,
                                  public PreconditionerSource,
@@ -88,6 +93,17 @@ class QuasiStaticProblem final : public Problem,
   }
   /// True when the tangent is never assembled (ProblemOptions::matrix_free).
   bool matrix_free() const { return m_options.matrix_free; }
+  /// Matrix-free, while a solver sets up its preconditioner (LinearSystem::suspend_action):
+  /// drops the families' per-bond factors (s_b and k_b, 32 bytes per bond) when the model has
+  /// at least kSuspendActionBonds bonds (set_suspend_bonds()) and no bond broke since the
+  /// evaluate() with a tangent that made them. False when nothing was dropped.
+  bool suspend_action();
+  /// Computes the dropped factors again at the state of the evaluate() that made them (kept
+  /// when evaluations without a tangent followed), the same bits, and turns them into the
+  /// action's form as it did; the last evaluation's force laws and energy stay.
+  void resume_action();
+  /// Tests: suspend_action()'s threshold (default kSuspendActionBonds).
+  void set_suspend_bonds(std::size_t bonds) { m_suspend_bonds = bonds; }
   /// y = K v with K the tangent of the last evaluate() that asked for one, computed from the
   /// families' factored Hessians (bond stiffnesses and dilatation vectors, docs/theory/osb.md
   /// "Assembly") and the contact pairs' Jacobians without forming K: O(bonds) per product,
@@ -238,6 +254,8 @@ class QuasiStaticProblem final : public Problem,
   /// was the last (may evaluate the bonds at the midpoint, then x again). Returns why the
   /// energy balance fails, or "" (failures are reported only when `check`).
   std::string measure_increment(const VectorXd& x, bool check);
+  /// m_s and m_kbond allocated again (zero) after suspend_action().
+  void restore_action_storage();
   /// The families' factored Hessians of the last evaluate() with a tangent.
   FamilyHessians hessians() { return {m_s, m_kbond, m_s_self, m_beta_volume}; }
 
@@ -290,6 +308,16 @@ class QuasiStaticProblem final : public Problem,
   /// (TangentAction::prepare())
   std::vector<BondStiffness> m_kbond;
   std::vector<Vec2> m_s_self;                 ///< per particle: -sum_b s_b
+  /// evaluate() calls, and the call of the last one with a tangent (suspend_action() needs
+  /// m_u to be that state)
+  std::uint64_t m_evaluations = 0, m_tangent_evaluation = 0;
+  Index m_tangent_broken = 0;  ///< broken bonds at the last evaluate() with a tangent
+  std::size_t m_suspend_bonds = kSuspendActionBonds;
+  bool m_action_suspended = false;  ///< m_s and m_kbond dropped (suspend_action())
+  /// Above m_suspend_bonds: m_u of the last evaluate() with a tangent, once an evaluation
+  /// without one has followed (resume_action() computes the factors there again)
+  VectorXd m_u_tangent;
+  std::uint64_t m_u_tangent_evaluation = 0;   ///< the evaluate() whose state m_u_tangent is
   std::vector<double> m_beta_volume;          ///< per particle: beta_i V_i
 };
 

@@ -54,6 +54,10 @@ class TangentAction {
   /// recomputes the pairs without them, and the product must stay the tangent's) and, with
   /// fragments, the largest diagonal entry of K over the unknowns (their diagonal).
   void prepare(const FamilyHessians& h, const ContactSystem* contact, bool fragments);
+  /// prepare()'s work on h.kbond alone, for factors computed again at the same state
+  /// (QuasiStaticProblem::resume_action()): the pairs' Jacobians and the fragments' diagonal
+  /// it kept stay.
+  void prepare_families(const FamilyHessians& h) const { pair_stiffness(h); }
   /// y = K v with K the tangent prepare() saw; the fragments' unknowns decoupled (zero row
   /// and column, the diagonal of prepare()). With `share` (distributed: rows a part), only
   /// this rank's rows of y, bit for bit the whole product's; the other rows are zero.

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "core/clock.hpp"
+#include "core/scope_exit.hpp"
 #include "core/stop.hpp"
 #include "solvers/linear/krylov_vectors.hpp"
 #include "solvers/linear/preconditioner_reuse.hpp"
@@ -90,6 +91,11 @@ class FactorPreconditionedKrylov final : public LinearSolver {
     const double t0 = wall_seconds();
     if (m_source == FactorSource::preconditioner_matrix) {
       if (!m_loaded) load_preconditioner_matrix();  // a set-up factorize() did not announce
+      // The set-up reads the factor's copy of P only: the system's action may go meanwhile.
+      const bool suspended = m_system->suspend_action();
+      const ScopeExit resume([&] {
+        if (suspended) m_system->resume_action();
+      });
       m_factor->set_up_loaded();
       m_loaded = false;
     } else {

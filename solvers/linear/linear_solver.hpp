@@ -61,6 +61,12 @@ class LinearSystem {
   /// for it then and drop it afterwards, so that nobody holds P between set-ups (at a million
   /// particles 1.4 GB, and its assembly at every Newton iteration).
   virtual void preconditioner(SparseMatrix& P) = 0;
+  /// While a solver sets up its preconditioner from a matrix it already holds, apply() is not
+  /// called: the system may drop what apply() reads (suspend_action(), true when it did) and
+  /// must have it back, the same bits, after resume_action(). The set-up of a million-particle
+  /// run's V-cycle is then no longer its memory's peak.
+  virtual bool suspend_action() { return false; }
+  virtual void resume_action() {}
 };
 
 /// What a solver is told once, when it is made (make_linear_solver()).

@@ -21,6 +21,8 @@ class ProblemSystem final : public LinearSystem {
     if (P.rows() == 0) P = m_problem.make_preconditioner();
     m_problem.assemble_preconditioner(P);
   }
+  bool suspend_action() override { return m_problem.suspend_action(); }
+  void resume_action() override { m_problem.resume_action(); }
 
  private:
   QuasiStaticProblem& m_problem;

@@ -81,9 +81,9 @@ struct BondForceLaw {
 struct FamilyOutputs {
   std::span<Vec2> force;        ///< t_b M_b; may be empty without a tangent (the law alone)
   std::span<double> extension;  ///< e_b = |xi_b + eta_b| - |xi_b| (the kernel's scratch too)
-  std::span<Vec2> s;          ///< b_b M_b with b_b = omega w_b |xi_b| (rank-one vectors)
+  std::span<Vec2> s;  ///< b_b M_b with b_b = omega w_b |xi_b| (rank-one vectors); with a tangent only
   /// (alpha omega w_b, t_b / y_b): alpha omega w_b M M^T + (t_b / y_b)(I - M M^T), the second
-  /// term finite kinematics' only (0 if small)
+  /// term finite kinematics' only (0 if small); with a tangent only (may be empty without)
   std::span<BondStiffness> k_bond;
 };
 

@@ -169,23 +169,40 @@ TEST(MatrixFree, ActionInSmallChunksIsTheTangentOnAnyNumberOfThreads) {
 // cut: the pairs' Jacobians enter the action. Then a residual-only evaluation at another
 // state (Newton's first iteration of a step, docs/theory/newton.md "Predictor") must leave the
 // action at the tangent of the last state that asked for one, as the assembled matrix is.
-TEST(MatrixFree, ActionEqualsTheAssembledTangentWithFrictionalContact) {
-  const double dx = 1e-3;
+/// A plate cut through by a crack, its faces pressed together and sliding (friction 0.2),
+/// and a state x at which pairs stick and slip.
+struct FrictionalScene {
+  std::unique_ptr<Pair> p;
+  VectorXd x;
+  double dx = 1e-3;
+};
+
+FrictionalScene frictional_scene() {
+  FrictionalScene f;
   test::PlateSpec spec;
   spec.nx = 12;
   spec.ny = 8;
-  spec.dx = dx;
+  spec.dx = f.dx;
   spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
   spec.cracks = "  - {from: [0.0061, -0.001], to: [0.0061, 0.009]}\n";
-  auto p = both(test::plate_yaml(spec) + "contact:\n  friction: 0.2\n  radius_factor: 1.2\n");
+  f.p = both(test::plate_yaml(spec) + "contact:\n  friction: 0.2\n  radius_factor: 1.2\n");
   std::mt19937 gen(11);
   std::uniform_real_distribution<double> d(-1.0, 1.0);
-  const Index n = p->assembled->n_unknowns();
-  VectorXd x(n);
-  for (Index q = 0; q < p->model.particles.size(); ++q)
+  const Model& model = f.p->model;
+  f.x.resize(f.p->assembled->n_unknowns());
+  for (Index q = 0; q < model.particles.size(); ++q)
     for (int c = 0; c < 2; ++c)
-      if (const Index k = p->model.constraints.free_index[2 * q + c]; k >= 0)
-        x[k] = (c == 0 ? -0.08 * p->model.particles.position[q].x() : 0.0) + 0.02 * dx * d(gen);
+      if (const Index k = model.constraints.free_index[2 * q + c]; k >= 0)
+        f.x[k] = (c == 0 ? -0.08 * model.particles.position[q].x() : 0.0) + 0.02 * f.dx * d(gen);
+  return f;
+}
+
+TEST(MatrixFree, ActionEqualsTheAssembledTangentWithFrictionalContact) {
+  FrictionalScene f = frictional_scene();
+  Pair* p = f.p.get();
+  const VectorXd& x = f.x;
+  const double dx = f.dx;
+  const Index n = p->assembled->n_unknowns();
   const SparseMatrix K = expect_action_is_the_tangent(*p, x);
   const ContactCounts counts = p->matrix_free->contact()->counts();
   EXPECT_GT(counts.stick, 0);
@@ -198,6 +215,57 @@ TEST(MatrixFree, ActionEqualsTheAssembledTangentWithFrictionalContact) {
   VectorXd y;
   p->matrix_free->apply_tangent(v, y);
   EXPECT_LT((y - K * v).norm(), 1e-12 * (K * v).norm()) << "the action moved with a residual-only evaluation";
+}
+
+// While a preconditioner is set up the problem may drop the action's per-bond factors
+// (suspend_action(), 32 bytes per bond) and compute them again (resume_action()): the action
+// must come back bit for bit the tangent's, at the state of the evaluation with the tangent
+// even after a residual-only evaluation moved the state (as the predictor's do), with the
+// contact pairs' Jacobians of that evaluation (slipping pairs: unsymmetric), and the last
+// evaluation's energy and stresses must stay.
+TEST(MatrixFree, SuspendedActionComesBackBitForBitAtTheTangentsState) {
+  FrictionalScene f = frictional_scene();
+  Pair* p = f.p.get();
+  const VectorXd& x = f.x;
+  const double dx = f.dx;
+  QuasiStaticProblem& problem = *p->matrix_free;
+  const Index n = problem.n_unknowns();
+  SparseMatrix placeholder = problem.make_tangent();
+  VectorXd r, y_before, y_after;
+  problem.evaluate(x, r, &placeholder);
+  EXPECT_GT(problem.contact()->counts().slip, 0);
+  const VectorXd v = random_vector(n, 1.0, 9u);
+  problem.apply_tangent(v, y_before);
+  EXPECT_FALSE(problem.suspend_action()) << "below kSuspendActionBonds the factors stay";
+
+  problem.set_suspend_bonds(0);
+  problem.evaluate(x, r, &placeholder);
+  problem.set_suspend_bonds(kSuspendActionBonds);
+  problem.evaluate(x + random_vector(n, 0.01 * dx, 5u), r, nullptr);
+  problem.set_suspend_bonds(0);
+  EXPECT_FALSE(problem.suspend_action()) << "the tangent's state was not kept: it cannot come back";
+
+  problem.evaluate(x, r, &placeholder);
+  problem.evaluate(x + random_vector(n, 0.01 * dx, 5u), r, nullptr);  // the state moves on
+  const double energy = problem.energy();
+  const Mat2 stress = problem.stress(p->model.particles.size() / 2);
+  const std::size_t held = problem.memory_bytes();
+  ASSERT_TRUE(problem.suspend_action());
+  const std::size_t bonds = p->model.bonds.neighbour.size();
+  EXPECT_GE(held - problem.memory_bytes(), 32 * bonds) << "s_b and k_b are freed";
+  EXPECT_THROW(problem.apply_tangent(v, y_after), std::logic_error);
+  problem.resume_action();
+  problem.apply_tangent(v, y_after);
+  ASSERT_EQ(y_after.size(), y_before.size());
+  for (Index k = 0; k < n; ++k) ASSERT_EQ(y_after[k], y_before[k]) << "row " << k;
+  EXPECT_EQ(problem.energy(), energy);
+  EXPECT_EQ(problem.stress(p->model.particles.size() / 2), stress);
+
+  // Suspended, then a new evaluation with a tangent: the factors are that one's.
+  ASSERT_TRUE(problem.suspend_action());
+  problem.evaluate(x, r, &placeholder);
+  problem.apply_tangent(v, y_after);
+  for (Index k = 0; k < n; ++k) ASSERT_EQ(y_after[k], y_before[k]) << "row " << k;
 }
 
 // The action is the directional derivative of the residual: central differences of r along
