@@ -21,7 +21,7 @@ std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options, Lin
 /// Who applies the MueLu V-cycle, and from what copy of its finest matrix.
 enum class CycleApply {
   /// This program's OpenMP threads on MueLu's hierarchy (solvers/trilinos/threaded_cycle.hpp),
-  /// the finest matrix in 2 x 2 blocks of floats up to kAmgMemoryFirstRows rows. The default.
+  /// the finest matrix in 2 x 2 blocks of floats. The default.
   threads,
   /// The same threads, blocks of doubles: MueLu's own arithmetic, to rounding (for tests).
   threads_exact,
@@ -35,12 +35,8 @@ enum class CycleApply {
 /// setup.may_be_unsymmetric (the cycle may serve GMRES: Chebyshev degree 2).
 std::unique_ptr<Preconditioner> make_muelu_cycle(const LinearSetup& setup, CycleApply apply = CycleApply::threads);
 
-/// Above this many rows the MueLu V-cycle puts memory before set-up and cycle time: the
-/// Galerkin product without its AP temporary, no blocked copy of the finest matrix
-/// (solvers/trilinos/threaded_cycle.hpp, Blocks). The preflight's memory estimate uses it too.
-/// The 1000 x 1000 tension plate (2 million rows) is below it: 6.87 GB peak and 133 s with the
-/// faster set-up and the blocked cycle, against 6.48 GB and 154 s without (docs/performance.md,
-/// "The V-cycle"); the bound is 8 GB.
+/// Above this many rows the MueLu V-cycle puts memory before set-up time: the Galerkin
+/// product without its AP temporary (docs/performance.md, "The V-cycle").
 inline constexpr long long kAmgMemoryFirstRows = 2'500'000;
 
 }  // namespace peristat

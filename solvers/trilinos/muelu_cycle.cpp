@@ -47,7 +47,7 @@ class MueLuCycle final : public Preconditioner {
 
   void factorize(const SparseMatrix& P) override {
     m_info = Eigen::Success;
-    if (m_copy.matrix.is_null()) analyzePattern(P);
+    if (!m_copy.analyzed()) analyzePattern(P);
     m_copy.fill(P);
     set_up();
   }
@@ -62,7 +62,7 @@ class MueLuCycle final : public Preconditioner {
   void load(SparseMatrix& P) override {
     m_info = Eigen::Success;
     release_factor();
-    if (m_copy.matrix.is_null()) analyzePattern(P);
+    if (!m_copy.analyzed()) analyzePattern(P);
     m_copy.fill(P);
     release(P);
     m_loaded = true;
@@ -150,11 +150,11 @@ class MueLuCycle final : public Preconditioner {
       m_muelu = MueLu::CreateTpetraPreconditioner(RCP<op_t>(m_copy.matrix), p);
       // The cycle on this program's threads (MueLu's apply runs on one core: Debian's Kokkos
       // is Serial only); a hierarchy it cannot repeat is applied by MueLu, and said so in name().
-      // Its finest level in 2 x 2 blocks too, where memory allows (up to kAmgMemoryFirstRows), of
-      // floats by default (ThreadedCycle::Blocks).
+      // Its finest level in 2 x 2 blocks, of floats by default (ThreadedCycle::Blocks), which
+      // replace the copy's CSR values (below).
       if (m_apply != CycleApply::muelu) {
         using Finest = ThreadedCycle::Finest;
-        const bool blocked = m_copy.d.per_node == 2 && m_copy.d.n_rows <= kAmgMemoryFirstRows;
+        const bool blocked = m_copy.d.per_node == 2;
         const Finest finest =
             !blocked ? Finest::csr : m_apply == CycleApply::threads ? Finest::float_blocks : Finest::blocks;
         m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not, finest);
@@ -162,6 +162,9 @@ class MueLuCycle final : public Preconditioner {
         // owners): MueLu's hierarchy, its smoothers' vectors and near-null spaces go (22 MB
         // at 500 x 500).
         if (m_cycle) m_muelu = Teuchos::null;
+        // Its blocks are all it reads of the finest matrix: the copy's values go too (8 bytes
+        // per entry against the blocks' 5) until the next fill().
+        if (m_cycle && finest != Finest::csr) m_copy.release_values();
       }
     } catch (const std::exception&) {  // a Trilinos failure (e.g. a zero pivot): the seam's terms
       release_factor();

@@ -338,6 +338,9 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
     }
     level.work.assign(static_cast<std::size_t>(n), 0.0);
   }
+  // The finest level read in blocks: its CSR values are not read again (its graph gives the
+  // rows), and the cycle no longer holds them (their owner may drop them).
+  if (!c->m_levels[0].blocks.empty()) c->m_levels[0].A.values = decltype(local_t::values)();
   for (int i = 0; i + 1 < levels; ++i) {
     Level& level = c->m_levels[static_cast<std::size_t>(i)];
     level.chunks.assign(static_cast<std::size_t>(kChunks) * c->m_levels[i + 1].b.size(), 0.0);

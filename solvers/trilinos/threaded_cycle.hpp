@@ -6,7 +6,7 @@
 // eigenvalue estimates); this class reads it and repeats MueLu's cycle (Hierarchy::Iterate)
 // with Ifpack2's Chebyshev and Jacobi arithmetic (Ifpack2::Details::Chebyshev::
 // ifpackApplyImpl, Ifpack2::Relaxation) on the same matrices, held, not copied (except the
-// finest one's 2 x 2 blocks, up to kAmgMemoryFirstRows rows: Blocks). A hierarchy it
+// finest one's 2 x 2 blocks: Blocks, after which the cycle holds its CSR graph only). A hierarchy it
 // does not recognise is reported, and MueLu applies the cycle itself. Compiled as C++17 with
 // the rest of the Trilinos adapter.
 #pragma once

@@ -214,11 +214,17 @@ void TpetraCopy::analyze(const SparseMatrix& A, const UnknownLayout& layout, con
         m_remote_unknown[at - remote.begin()] = k;
   RCP<graph_t> graph = rcp(new graph_t(map, col_map, row_pointers, column_indices));
   graph->expertStaticFillComplete(map, map);
-  matrix = rcp(new crs_t(graph));
+  m_graph = graph;
+  make_matrix();
+}
+
+void TpetraCopy::make_matrix() {
+  matrix = rcp(new crs_t(m_graph));
   matrix->fillComplete(map, map);
 }
 
 void TpetraCopy::fill(const SparseMatrix& A) {
+  if (matrix.is_null()) make_matrix();  // after release_values()
   const auto M = matrix->getLocalMatrixHost();
   const auto& row_pointers = M.graph.row_map;
   const LO* column = M.graph.entries.data();

@@ -63,9 +63,16 @@ class TpetraCopy {
  public:
   void analyze(const SparseMatrix& A, const UnknownLayout& layout, const RCP<const comm_t>& comm);
   /// A's values into the matrix's local storage (one memory space: Debian's Kokkos is Serial
-  /// only). The padding rows' diagonal: the mean of A's diagonal over the local unknowns (a
-  /// scale like the rest, so that neither the preconditioners nor the Krylov norms see a jump).
+  /// only), the matrix made again on the kept graph after release_values(). The padding rows'
+  /// diagonal: the mean of A's diagonal over the local unknowns (a scale like the rest, so
+  /// that neither the preconditioners nor the Krylov norms see a jump).
   void fill(const SparseMatrix& A);
+  /// Drops the matrix (its values: 8 bytes per entry) until the next fill(); the graph stays.
+  /// For a user that holds what it reads of the matrix in its own form (the threaded V-cycle's
+  /// blocks) once nobody else holds the matrix.
+  void release_values() { matrix = Teuchos::null; }
+  /// analyze() was called.
+  bool analyzed() const { return !m_graph.is_null(); }
   /// Translations in x and y and the in-plane rotation about the centroid, per local row.
   RCP<mv_t> rigid_body_modes(const UnknownLayout& layout) const;
 
@@ -75,6 +82,9 @@ class TpetraCopy {
   double padding = 1.0;  ///< the padding rows' diagonal of the last fill()
 
  private:
+  void make_matrix();
+
+  RCP<const graph_t> m_graph;
   std::vector<Index> m_remote_unknown;  ///< per column of another rank's row: its unknown, or -1
   std::vector<Index> m_diagonal;   ///< per local row: the position of its diagonal value
 };

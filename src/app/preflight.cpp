@@ -127,7 +127,7 @@ void price_bond_preconditioner(const RunPlan& plan, double n, SizeEstimate& e) {
   if (plan.preconditioner == PreconditionerKind::bond_amg) {
     e.factor_of = "the bond matrix, its copy in Tpetra and MueLu's hierarchy";
     e.factor_bytes = kBytesPerAmgNonzero * nnz;
-    if (2.0 * n <= static_cast<double>(kAmgMemoryFirstRows)) e.factor_bytes += kBytesPerBlockedNonzero * nnz;
+    e.factor_bytes += kBytesPerBlockedNonzero * nnz;  // (the copy's CSR values go then: not counted)
   } else {
     e.factor_of = "the bond preconditioner";
     e.factor_nonzeros = factor_fill(n, true) * nnz;

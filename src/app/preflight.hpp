@@ -56,9 +56,8 @@ inline constexpr double kBytesPerFactorNonzero = 10.0;
 /// copy in Tpetra and MueLu's hierarchy, measured at 1000 x 1000 (2.4 GB beyond the model for
 /// 3.6e7 nonzeros at radius 1.42, 2026-11-25).
 inline constexpr double kBytesPerAmgNonzero = 65.0;
-/// Up to kAmgMemoryFirstRows rows (solvers/trilinos/belos_solver.hpp) the threaded V-cycle
-/// also keeps the finest matrix in 2 x 2 blocks (solvers/trilinos/threaded_cycle.hpp, Blocks:
-/// 4 float values and one index per block of four nonzeros, written straight as floats).
+/// The threaded V-cycle also keeps the finest matrix in 2 x 2 blocks (solvers/trilinos/threaded_cycle.hpp,
+/// Blocks: 4 float values and one index per block of four nonzeros, written straight as floats).
 inline constexpr double kBytesPerBlockedNonzero = 5.0;
 inline constexpr double kBytesPerCopiedNonzero = 12.0;
 /// Largest family accepted (bonds of an interior particle): horizon_factor up to about 24.
