@@ -65,8 +65,10 @@ struct ProblemOptions {
 };
 
 /// Bonds from which a matrix-free problem drops its per-bond tangent factors while the
-/// preconditioner is set up (QuasiStaticProblem::suspend_action()): 0.5 GB of them. Below,
-/// the factors' second evaluation costs more than the memory is worth.
+/// preconditioner is set up (QuasiStaticProblem::suspend_action()): 0.5 GB of them, for one
+/// more evaluation of the families per set-up (the 1000 x 1000 plate's four evaluations, 44.6M
+/// bonds, take about 5 s). A judgement, not a measured optimum: smaller runs, and crack growth
+/// with its many set-ups, keep the factors.
 inline constexpr std::size_t kSuspendActionBonds = 16'000'000;
 
 class QuasiStaticProblem final : public Problem,
