@@ -363,8 +363,7 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
     if (m_action_suspended) restore_action_storage();
   } else if (m_tangent_evaluation == m_evaluations - 1 && m_options.matrix_free &&
              m_model.bonds.neighbour.size() >= m_suspend_bonds) {
-    m_u_tangent = m_u;  // the tangent's state, before it goes (suspend_action())
-    m_u_tangent_evaluation = m_tangent_evaluation;
+    keep_tangent_state();  // before m_u moves on (suspend_action())
   }
   expand_state(x);
   if (m_own_rows_only && K)

@@ -258,6 +258,8 @@ class QuasiStaticProblem final : public Problem,
   std::string measure_increment(const VectorXd& x, bool check);
   /// m_s and m_kbond allocated again (zero) after suspend_action().
   void restore_action_storage();
+  /// m_u, the state of the last evaluate() with a tangent, into m_u_tangent.
+  void keep_tangent_state();
   /// The families' factored Hessians of the last evaluate() with a tangent.
   FamilyHessians hessians() { return {m_s, m_kbond, m_s_self, m_beta_volume}; }
 

@@ -18,14 +18,16 @@ bool QuasiStaticProblem::suspend_action() {
     return false;
   // The state the factors were made at: m_u now, or the one kept when the first evaluation
   // without a tangent followed (the predictor's, a line search's).
-  if (at_tangent) {
-    m_u_tangent = m_u;
-    m_u_tangent_evaluation = m_tangent_evaluation;
-  }
+  if (at_tangent) keep_tangent_state();
   std::vector<Vec2>().swap(m_s);
   std::vector<BondStiffness>().swap(m_kbond);
   m_action_suspended = true;
   return true;
+}
+
+void QuasiStaticProblem::keep_tangent_state() {
+  m_u_tangent = m_u;
+  m_u_tangent_evaluation = m_tangent_evaluation;
 }
 
 void QuasiStaticProblem::restore_action_storage() {

@@ -1,6 +1,4 @@
 #include "app/preflight.hpp"
-#include "app/setup.hpp"
-#include "assembly/pattern.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,10 +8,11 @@
 #include <numbers>
 #include <sstream>
 
+#include "app/setup.hpp"
+#include "assembly/pattern.hpp"
 #include "core/error.hpp"
-#include "discretisation/model.hpp"
 #include "core/geometry.hpp"
-#include "solvers/trilinos/belos_solver.hpp"
+#include "discretisation/model.hpp"
 #include "parallel/mpi/session.hpp"
 
 namespace peristat {
