@@ -19,9 +19,7 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
   m_alpha_volume.resize(n);
   for (Index i = 0; i < n; ++i) {
     const Index b0 = bonds.start[i];
-    const std::span<const double> w =
-        weights ? weights->family_weights(i)
-                : std::span<const double>(bonds.weight).subspan(b0, bonds.family_size(i));
+    const std::span<const double> w = weights ? weights->family_weights(i) : bonds.weights(i);
     double m = 0.0;
     for (Index b = b0; b < bonds.start[i + 1]; ++b)
       if (const double x2 = model.xi(i, b).squaredNorm(); x2 <= r2) m += w[b - b0] * x2;
@@ -45,7 +43,7 @@ void BondPreconditioner::assemble(SparseMatrix& P, const SurfaceCorrection& weig
       for (Index b = b0; b < bonds.start[p + 1]; ++b) {
         const Vec2 xi = m_model.xi(p, b);
         if (xi.squaredNorm() > r2) continue;
-        const Index j = bonds.neighbour[b], r = bonds.reverse[b];
+        const Index j = bonds.neighbour[b], r = bonds.reverse(p, b);
         // Partitioned bonds: no reverse when j's family is not held; then neither p nor j is
         // this rank's row (a row's neighbours' families are held), so the block is not its.
         if (r < 0) continue;

@@ -189,8 +189,8 @@ void QuasiStaticProblem::set_load_factor(double lambda) {
 ConstraintUpdate QuasiStaticProblem::update_multipliers(const VectorXd& x) {
   if (!m_contact) return {};
   expand_state(x);
-  const MultiplierUpdate m = m_contact->update_multipliers(
-      m_u, m_failure ? m_failure->weights() : std::span<const double>(m_model.bonds.weight));
+  const MultiplierUpdate m =
+      m_contact->update_multipliers(m_u, m_failure ? m_failure->weights() : std::span<const double>());
   ConstraintUpdate out;
   out.violation = m.violation;
   out.updates = m.updates;
@@ -475,7 +475,7 @@ void QuasiStaticProblem::gather_forces() {
     const std::span<const double> wq = m_correction.family_weights(q);
     const BondForceLaw& law_q = m_law[q];
     for (Index b = b0; b < bonds.start[q + 1]; ++b) {
-      const Index j = bonds.neighbour[b], r = bonds.reverse[b];
+      const Index j = bonds.neighbour[b], r = bonds.reverse(q, b);
       const BondKinematics k = bond_kinematics(finite, m_model.xi(q, b), bond_displacement(q, b));
       const Vec2 force_b = law_q.t(wq[b - b0], k.x, k.e) * k.M;
       const Vec2 force_r = m_law[j].t(m_correction.weight(j, r), k.x, k.e) * Vec2(-k.M);

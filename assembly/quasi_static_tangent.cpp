@@ -86,7 +86,7 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
       }
       // Families of the neighbours of p.
       for (Index b = bonds.start[p]; b < bonds.start[p + 1]; ++b) {
-        const Index i = bonds.neighbour[b], r = bonds.reverse[b];
+        const Index i = bonds.neighbour[b], r = bonds.reverse(p, b);
         // Partitioned bonds: no reverse when i's family is not held; then neither i nor any
         // particle of its family is this rank's row (check_partition()), so nothing is lost.
         if (r < 0) continue;

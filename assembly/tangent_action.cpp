@@ -207,7 +207,7 @@ void TangentAction::pair_stiffness(const FamilyHessians& h) const {
 #pragma omp parallel for schedule(static)
   for (Index q = 0; q < n; ++q)
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
-      const Index r = bonds.reverse[b];
+      const Index r = bonds.reverse(q, b);
       if (r < b) continue;
       const double Vq = part.volume[q], Vj = part.volume[bonds.neighbour[b]];
       const BondStiffness &kb = h.kbond[b], &kr = h.kbond[r];
@@ -227,7 +227,7 @@ double TangentAction::tangent_diagonal_max(const FamilyHessians& h, const Contac
   for (Index q = 0; q < part.size(); ++q) {
     Vec2 d(h.beta_volume[q] * h.s_self[q].x() * h.s_self[q].x(), h.beta_volume[q] * h.s_self[q].y() * h.s_self[q].y());
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {  // pair_stiffness()'s data
-      const Index r = bonds.reverse[b];  // -1: the neighbour's family is another rank's
+      const Index r = bonds.reverse(q, b);  // -1: the neighbour's family is another rank's
       const Vec2 sr = r >= 0 ? h.s[r] : Vec2::Zero();
       const double bVj = h.beta_volume[bonds.neighbour[b]];
       const Vec2& sb = h.s[b];

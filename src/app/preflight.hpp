@@ -27,17 +27,17 @@ struct SizeEstimate {
 };
 
 /// Bytes per tangent nonzero of the model, problem state and tangent together, per nonzero of
-/// the estimate, measured with `check --set solver.linear=cg` on the tension plate (17.7), the
-/// paper's cases 4.1 (19.6), 4.3 (19.0) and 4.4 (22.3) and the LEFM inclined crack (22.0;
-/// 2026-12-03).
-inline constexpr double kBytesPerNonzero = 20.0;
+/// the estimate, measured with `check --set solver.linear=cg` on the tension plate (16.9), the
+/// paper's cases 4.1 (18.8), 4.3 (18.2) and 4.4 (21.4) and the LEFM inclined crack (21.1;
+/// 2026-12-04).
+inline constexpr double kBytesPerNonzero = 19.0;
 /// The same without the tangent and its pattern (solver.linear: matrix_free), per nonzero of the
-/// estimate: 4.28-4.37 B measured with `check` on the tension plate (100 x 100 and 1000 x 1000)
-/// and cases 4.1 (4.44) and 4.3 (4.48; 2026-12-03). The largest, rounded up, so that a refusal
+/// estimate: 3.40-3.43 B measured with `check` on the tension plate (100 x 100 and 1000 x 1000)
+/// and cases 4.1 (3.59) and 4.3 (3.68; 2026-12-04). The largest, rounded up, so that a refusal
 /// errs on the safe side ...
-inline constexpr double kMatrixFreeBytesPerNonzero = 4.6;
+inline constexpr double kMatrixFreeBytesPerNonzero = 3.7;
 /// ... and with a failure criterion 2.6 B more (the bonds' displacements and the failure
-/// state: case 4.4, 7.03 B, 7.11 B at dx = 0.01 m; the LEFM inclined crack, 7.06 B).
+/// state: case 4.4, 6.19 B, 6.20 B at dx = 0.01 m; the LEFM inclined crack, 6.16 B).
 inline constexpr double kMatrixFreeFailureBytesPerNonzero = 2.6;
 /// Matrix-free bytes per tangent nonzero of a scene.
 inline double matrix_free_bytes_per_nonzero(bool failure) {

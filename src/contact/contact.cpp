@@ -257,15 +257,17 @@ void ContactSystem::start_trial(double ratio) { m_state.start_trial(ratio); }
 namespace {
 
 /// The small strain (exx, eyy, exy) that fits the stretches of particle i's bonds with a
-/// weight at u best (least squares over its family, each bond by its weight); zero when the
-/// intact bonds do not span the three components.
+/// weight at u best (least squares over its family, each bond by its weight: `weight`'s, one
+/// per bond, or the model's when it is empty); zero when the intact bonds do not span the three
+/// components.
 Eigen::Vector3d family_strain(const Model& model, Index i, const VectorXd& u,
                               std::span<const double> weight) {
   const Bonds& b = model.bonds;
   Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
   Eigen::Vector3d r = Eigen::Vector3d::Zero();
+  const std::span<const double> model_w = b.weights(i);
   for (Index k = b.start[i]; k < b.start[i + 1]; ++k) {
-    const double w = weight[k];
+    const double w = weight.empty() ? model_w[static_cast<std::size_t>(k - b.start[i])] : weight[k];
     if (w <= 0.0) continue;
     const Index j = b.neighbour[k];
     const Vec2 xi = model.xi(i, k);

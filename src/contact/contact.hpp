@@ -110,8 +110,8 @@ class ContactSystem {
   /// the slip of a stuck pair from its anchor); otherwise each facing pair's multiplier
   /// becomes max(0, lambda + C s) (Uzawa), its tangential one its friction force, and the caller solves
   /// again, up to contact.max_multiplier_updates times (then `exhausted`). Penalty: satisfied.
-  /// `bond_weights` (one per bond, 0 for a broken one) serve the material closure reference:
-  /// each facing pair's strain is set first, from the families of its two particles at u.
+  /// `bond_weights` (one per bond, 0 for a broken one; empty: the model's, no bond broken) serve the material
+  /// closure reference: each facing pair's strain is set first, from the families of its two particles at u.
   MultiplierUpdate update_multipliers(const VectorXd& u, std::span<const double> bond_weights);
   /// The first candidate that has crossed at u (n.Y < 0 while facing, `crossed()`), or -1.
   Index first_crossed(const VectorXd& u) const;

@@ -166,12 +166,17 @@ class ModelMaker {
     for (Index i = 0; i < n; ++i) n_held += held(i);
     const std::size_t capacity = static_cast<std::size_t>(n_held) * s.offset.size();  // an upper bound
     reserve_huge(bonds.neighbour, capacity);
-    reserve_huge(bonds.weight, capacity);
     reserve_huge(stencil_index, capacity);
     bonds.start.assign(static_cast<std::size_t>(n) + 1, 0);
+    bonds.stencil_weight = s.weight;
+    bonds.own_start.assign(1, 0);
+    bonds.own_start.reserve(static_cast<std::size_t>(n) + 1);
+    std::vector<double> w;  // the family's weights
     for (Index i = 0; i < n; ++i) {
-      if (held(i)) add_family(i, near, reach, stencil_index);
+      w.clear();
+      if (held(i)) add_family(i, near, reach, stencil_index, w);
       bonds.start[static_cast<std::size_t>(i) + 1] = static_cast<Index>(bonds.neighbour.size());
+      bonds.add_weights(w);
     }
     if (m_whole) {
       m_model.n_bonds_whole = bonds.n_bonds();
@@ -184,12 +189,13 @@ class ModelMaker {
     }
     pair_reverse_bonds(stencil_index);
     shrink_huge(bonds.neighbour);
-    shrink_huge(bonds.weight);
+    bonds.own_weight.shrink_to_fit();
   }
 
   /// Particle i's family: its stencil's particles of the same body whose bonds no pre-crack
   /// cuts (the whole model counts each cut pair once).
-  void add_family(Index i, std::vector<const Crack*>& near, double reach, std::vector<int>& stencil_index) {
+  void add_family(Index i, std::vector<const Crack*>& near, double reach, std::vector<int>& stencil_index,
+                  std::vector<double>& weight) {
     const Particles& p = m_model.particles;
     const Stencil& s = m_model.stencil;
     Bonds& bonds = m_model.bonds;
@@ -217,7 +223,7 @@ class ModelMaker {
         continue;
       }
       bonds.neighbour.push_back(j);
-      bonds.weight.push_back(s.weight[k]);
+      weight.push_back(s.weight[k]);
       stencil_index.push_back(static_cast<int>(k));
     }
   }
@@ -229,17 +235,19 @@ class ModelMaker {
     Bonds& bonds = m_model.bonds;
     const Index n = m_model.particles.size();
     // mirror[k]: the stencil index of -offset[k], the offset of the reverse bond.
-    std::vector<int> mirror(s.offset.size());
+    std::vector<Index>& mirror = bonds.stencil_mirror;
+    mirror.resize(s.offset.size());
     for (std::size_t k = 0; k < s.offset.size(); ++k) {
       const auto it =
           std::find(s.offset.begin(), s.offset.end(), std::array<int, 2>{-s.offset[k][0], -s.offset[k][1]});
-      mirror[k] = static_cast<int>(it - s.offset.begin());
+      mirror[k] = static_cast<Index>(it - s.offset.begin());
     }
     const std::vector<char>& hold = m_model.family_held;
     const auto held = [&hold](Index i) { return hold.empty() || hold[static_cast<std::size_t>(i)]; };
     // Reverse bonds: a family lists its bonds in increasing stencil index, so the bond
     // j -> i (stencil index mirror[k]) is found by binary search in j's family.
-    assign_huge(bonds.reverse, bonds.neighbour.size(), Index{-1});
+    std::vector<Index> reverse;
+    assign_huge(reverse, bonds.neighbour.size(), Index{-1});
     Index unpaired = -1;  // a bond without its reverse (cut in one direction only): a defect
 #pragma omp parallel for schedule(static) reduction(max : unpaired)
     for (Index i = 0; i < n; ++i) {
@@ -253,12 +261,13 @@ class ModelMaker {
           unpaired = std::max(unpaired, b);
           continue;
         }
-        bonds.reverse[b] = static_cast<Index>(it - stencil_index.begin());
+        reverse[b] = static_cast<Index>(it - stencil_index.begin());
       }
     }
     if (unpaired >= 0)
       throw std::logic_error("discretise: bond " + std::to_string(unpaired) + " (to particle " +
                              std::to_string(bonds.neighbour[unpaired]) + ") has no reverse bond");
+    bonds.set_reverse(reverse);
   }
 };
 
@@ -390,6 +399,52 @@ void Constraints::gather(const VectorXd& full, VectorXd& x) const {
     if (free_index[d] >= 0) x[free_index[d]] = full[d];
 }
 
+void Bonds::add_weights(std::span<const double> w) {
+  if (w.size() == stencil_weight.size()) {
+    // Every stencil bond, in stencil order: the stencil's weights.
+    if (!std::equal(w.begin(), w.end(), stencil_weight.begin()))
+      throw std::logic_error("Bonds::add_weights: a whole family's weights are not the stencil's");
+  } else {
+    own_weight.insert(own_weight.end(), w.begin(), w.end());
+  }
+  own_start.push_back(static_cast<Index>(own_weight.size()));
+}
+
+void Bonds::set_reverse(std::span<const Index> every) {
+  const Index n = static_cast<Index>(start.size()) - 1;
+  const auto whole = [&](Index i) {
+    return static_cast<std::size_t>(family_size(i)) == stencil_weight.size();
+  };
+  own_reverse_start.assign(1, 0);
+  own_reverse_start.reserve(static_cast<std::size_t>(n) + 1);
+  own_reverse.clear();
+  for (Index i = 0; i < n; ++i) {
+    bool computed = whole(i);
+    for (Index b = start[i]; computed && b < start[i + 1]; ++b) computed = whole(neighbour[b]);
+    if (computed) {
+      for (Index b = start[i]; b < start[i + 1]; ++b)
+        if (every[static_cast<std::size_t>(b)] !=
+            start[neighbour[b]] + stencil_mirror[static_cast<std::size_t>(b - start[i])])
+          throw std::logic_error("Bonds::set_reverse: bond " + std::to_string(b) +
+                                 "'s reverse is not its mirror's");
+    } else {
+      own_reverse.insert(own_reverse.end(), every.begin() + start[i], every.begin() + start[i + 1]);
+    }
+    own_reverse_start.push_back(static_cast<Index>(own_reverse.size()));
+  }
+  own_reverse.shrink_to_fit();
+}
+
+std::vector<double> Bonds::every_weight() const {
+  std::vector<double> all;
+  all.reserve(neighbour.size());
+  for (Index i = 0; i + 1 < static_cast<Index>(start.size()); ++i) {
+    const std::span<const double> w = weights(i);
+    all.insert(all.end(), w.begin(), w.end());
+  }
+  return all;
+}
+
 std::span<const Vec2> Model::family_xi(Index i) const {
   thread_local std::vector<Vec2> buffer;
   const Index b0 = bonds.start[i], nb = bonds.family_size(i);
@@ -402,9 +457,11 @@ std::size_t Model::memory_bytes() const {
   auto bytes = [](const auto& v) { return v.capacity() * sizeof(v[0]); };
   const Particles& p = particles;
   return bytes(p.position) + bytes(p.volume) + bytes(p.body) + bytes(p.fictitious) + bytes(p.lattice) +
-         bytes(bonds.start) + bytes(bonds.neighbour) + bytes(bonds.weight) + bytes(bonds.reverse) +
-         bytes(family_held) + bytes(whole_start) + bytes(constraints.prescribed) + bytes(constraints.value) +
-         bytes(constraints.free_index) + bytes(constraints.images) + bytes(constraints.image_start) +
+         bytes(bonds.start) + bytes(bonds.neighbour) + bytes(bonds.stencil_weight) + bytes(bonds.own_start) +
+         bytes(bonds.own_weight) + bytes(bonds.stencil_mirror) + bytes(bonds.own_reverse_start) +
+         bytes(bonds.own_reverse) + bytes(family_held) + bytes(whole_start) + bytes(constraints.prescribed) +
+         bytes(constraints.value) + bytes(constraints.free_index) + bytes(constraints.images) +
+         bytes(constraints.image_start) +
          [&] {
            std::size_t b = 0;
            for (const auto& dofs : constraints.condition_dofs) b += bytes(dofs);

@@ -41,16 +41,57 @@ Stencil make_stencil(double horizon_factor, double spacing, Quadrature quadratur
 int mirror_layers(double horizon_factor);
 
 /// Bond families in CSR form: the bonds of particle i are start[i] .. start[i+1]-1.
-/// Bonds are symmetric: reverse[b] is the index of the bond j -> i for b = i -> j. The
+/// Bonds are symmetric: reverse(i, b) is the index of the bond j -> i for b = i -> j. The
 /// reference bond vector X_j - X_i is not stored (16 bytes per bond): Model::xi() computes
 /// it from the positions, the same bits every time.
+///
+/// A family with every bond of the stencil (a whole family: the interior, most of a model)
+/// lists them in stencil order. Two facts follow that spare the interior 12 bytes per bond:
+/// its weights are the stencil's, and the reverse of its k-th bond, when the neighbour's
+/// family is whole too, is that family's bond of the mirrored offset, start[j] + mirror[k].
+/// The other families (cut by an edge, a pre-crack, another body or a rank's part, and the
+/// whole ones next to them for the reverse) keep their own.
+/// The bonds' quadrature weights (the neighbour's area seen from the centre [m^2]) are kept by
+/// family: a family with every bond of the stencil (the interior: most of a model) lists them
+/// in stencil order, so its weights are the stencil's; a family cut by an edge, a pre-crack,
+/// another body or a rank keeps its own. 8 bytes per bond fewer over the interior.
 struct Bonds {
   std::vector<Index> start;
   std::vector<Index> neighbour;
-  std::vector<double> weight;  ///< quadrature area of the neighbour [m^2]
-  std::vector<Index> reverse;
+  std::vector<double> stencil_weight;  ///< Stencil::weight: a whole family's weights
+  std::vector<Index> own_start{0};     ///< N + 1 (CSR): the weights of the other families
+  std::vector<double> own_weight;
+  std::vector<Index> stencil_mirror;        ///< per stencil index k, the index of -offset[k]
+  std::vector<Index> own_reverse_start{0};  ///< N + 1 (CSR): the reverses kept
+  std::vector<Index> own_reverse;
   Index n_bonds() const { return static_cast<Index>(neighbour.size()); }
   Index family_size(Index i) const { return start[i + 1] - start[i]; }
+  /// Particle i's bond weights, in its family's order.
+  std::span<const double> weights(Index i) const {
+    const Index o = own_start[static_cast<std::size_t>(i)],
+                n = own_start[static_cast<std::size_t>(i) + 1] - o;
+    return n == family_size(i) ? std::span<const double>(own_weight)
+                                     .subspan(static_cast<std::size_t>(o), static_cast<std::size_t>(n))
+                               : std::span<const double>(stencil_weight);
+  }
+  /// Bond b's weight, b one of particle i's bonds.
+  double weight(Index i, Index b) const { return weights(i)[static_cast<std::size_t>(b - start[i])]; }
+  /// The bond j -> i of bond b = i -> j, b one of particle i's bonds; -1 when j's family is
+  /// not held (a rank's part).
+  Index reverse(Index i, Index b) const {
+    const auto o = static_cast<std::size_t>(own_reverse_start[static_cast<std::size_t>(i)]);
+    const Index k = b - start[i];
+    return static_cast<std::size_t>(own_reverse_start[static_cast<std::size_t>(i) + 1]) != o
+               ? own_reverse[o + static_cast<std::size_t>(k)]
+               : start[neighbour[b]] + stencil_mirror[static_cast<std::size_t>(k)];
+  }
+  /// Keeps `every` (each bond's reverse, in bond order) where reverse() cannot compute it;
+  /// throws std::logic_error where it computes another. stencil_mirror first.
+  void set_reverse(std::span<const Index> every);
+  /// Appends the next particle's weights (families in particle order, after its bonds).
+  void add_weights(std::span<const double> w);
+  /// Every bond's weight in bond order (8 bytes per bond: transient copies and tests).
+  std::vector<double> every_weight() const;
 };
 
 /// A fictitious particle of a mirror condition and the real particle it reflects:

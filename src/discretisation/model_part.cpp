@@ -153,21 +153,25 @@ void part_bonds(const Model& whole, const std::vector<Index>& order, const std::
   for (const Index g : order)
     if (held[static_cast<std::size_t>(g)]) n_part_bonds += static_cast<std::size_t>(wb.family_size(g));
   b.neighbour.reserve(n_part_bonds);
-  b.weight.reserve(n_part_bonds);
+  b.stencil_weight = wb.stencil_weight;
+  b.own_start.assign(1, 0);
+  b.own_start.reserve(static_cast<std::size_t>(nl) + 1);
   std::vector<Index> bond_of(static_cast<std::size_t>(wb.n_bonds()), -1);  // whole bond -> part bond
   for (Index l = 0; l < nl; ++l) {
     const Index g = order[l];
+    std::span<const double> w;
     if (held[static_cast<std::size_t>(g)]) {
       m.family_held[static_cast<std::size_t>(l)] = 1;
+      w = wb.weights(g);
       for (Index wbnd = wb.start[g]; wbnd < wb.start[g + 1]; ++wbnd) {
         const Index j = local[static_cast<std::size_t>(wb.neighbour[wbnd])];
         if (j < 0) throw std::logic_error("extract_part: a held family's neighbour is not kept");
         bond_of[static_cast<std::size_t>(wbnd)] = b.n_bonds();
         b.neighbour.push_back(j);
-        b.weight.push_back(wb.weight[wbnd]);
       }
     }
     b.start[static_cast<std::size_t>(l) + 1] = b.n_bonds();
+    b.add_weights(w);
   }
   // The whole model's index of each held family's first bond: a broken bond's identity
   // across the ranks and in a checkpoint (bond k of the family is whole_start[l] + k).
@@ -177,11 +181,14 @@ void part_bonds(const Model& whole, const std::vector<Index>& order, const std::
     m.whole_start[static_cast<std::size_t>(l)] =
         whole.holds_every_family() ? wb.start[g] : whole.whole_start[static_cast<std::size_t>(g)];
   }
-  b.reverse.assign(b.neighbour.size(), -1);
-  for (std::size_t wbnd = 0; wbnd < bond_of.size(); ++wbnd)
-    if (const Index pb = bond_of[wbnd]; pb >= 0)
-      if (const Index wr = wb.reverse[wbnd]; wr >= 0)
-        b.reverse[static_cast<std::size_t>(pb)] = bond_of[static_cast<std::size_t>(wr)];
+  std::vector<Index> reverse(b.neighbour.size(), -1);
+  for (Index g = 0; g < whole.particles.size(); ++g)
+    for (Index wbnd = wb.start[g]; wbnd < wb.start[g + 1]; ++wbnd)
+      if (const Index pb = bond_of[static_cast<std::size_t>(wbnd)]; pb >= 0)
+        if (const Index wr = wb.reverse(g, wbnd); wr >= 0)
+          reverse[static_cast<std::size_t>(pb)] = bond_of[static_cast<std::size_t>(wr)];
+  b.stencil_mirror = wb.stencil_mirror;
+  b.set_reverse(reverse);
 }
 
 

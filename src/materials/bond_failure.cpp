@@ -15,13 +15,14 @@
 
 namespace peristat {
 
-BondFailure::BondFailure(const Model& model, const FailureOptions& options, const Ranks& ranks, FailureRanks share)
+BondFailure::BondFailure(const Model& model, const FailureOptions& options, const Ranks& ranks,
+                         FailureRanks share)
     : m_model(model),
       m_options(options),
       m_ranks(ranks),
       m_share(std::move(share)),
       m_min_sin(std::sin(options.skew_min_angle * std::numbers::pi / 180.0)),
-      m_weight(model.bonds.weight) {
+      m_weight(model.bonds.every_weight()) {
   const Bonds& bonds = model.bonds;
   const Index n = model.particles.size();
   for (const BodyInfo& body : model.bodies) {
@@ -108,7 +109,7 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
 
 void BondFailure::gather_candidates() {
   // Each rank proposes the pairs (i, j > i) of the families it is the proposer of, the same
-  // pairs one process loops over (b < reverse[b]). Particles go by their whole model's index
+  // pairs one process loops over (b < reverse(i, b)). Particles go by their whole model's index
   // (global(), the part's own index otherwise).
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
@@ -123,7 +124,7 @@ void BondFailure::gather_candidates() {
       const std::int64_t gj = global(j);
       if (gj < gi || m_weight[b] == 0.0) continue;
       if (p.fictitious[i] && p.fictitious[j]) continue;
-      const Index r = bonds.reverse[b];
+      const Index r = bonds.reverse(i, b);
       if (r < 0)
         throw std::logic_error("BondFailure: the proposer of a pair does not hold its reverse family");
       const double ratio = std::max(m_ratio[b], m_ratio[r]);
@@ -211,7 +212,7 @@ void BondFailure::commit() {
 
 void BondFailure::revert() {
   const Bonds& bonds = m_model.bonds;
-  for (const auto& [particle, b] : m_round_bonds) m_weight[b] = bonds.weight[b];
+  for (const auto& [particle, b] : m_round_bonds) m_weight[b] = bonds.weight(particle, b);
   m_broken -= m_round_pairs;
   m_broken_whole.resize(m_broken_whole.size() - static_cast<std::size_t>(m_round_pairs));
   for (auto it = m_round_references.rbegin(); it != m_round_references.rend(); ++it)
@@ -225,8 +226,9 @@ void BondFailure::damage(VectorXd& d) const {
   d.resize(n);
   for (Index i = 0; i < n; ++i) {
     double all = 0.0, intact = 0.0;
+    const std::span<const double> w = bonds.weights(i);
     for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
-      all += bonds.weight[b];
+      all += w[static_cast<std::size_t>(b - bonds.start[i])];
       intact += m_weight[b];
     }
     d[i] = all > 0.0 ? 1.0 - intact / all : 0.0;
@@ -286,7 +288,7 @@ std::vector<BondFailure::Candidate> BondFailure::restored_pairs(const std::vecto
     const Index i = it->second;
     if (w >= it->first + bonds.family_size(i)) continue;  // another rank's family
     const Index b = bonds.start[i] + static_cast<Index>(w - it->first);
-    const Index j = bonds.neighbour[b], r = bonds.reverse[b];
+    const Index j = bonds.neighbour[b], r = bonds.reverse(i, b);
     if (global(j) < global(i) || r < 0) throw InputError("the checkpoint's 'failure/broken_bonds' holds a bond twice");
     mine.push_back({static_cast<double>(at), global(i), b - bonds.start[i], global(j), r - bonds.start[j], w});
   }

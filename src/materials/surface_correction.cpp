@@ -24,20 +24,21 @@ constexpr int kMaxBoundPasses = 30;
 /// The mark of a factor not held at a bound (SurfaceCorrection::compute_family's `fixed`).
 constexpr double kFree = -1.0;
 
-/// The multipliers `lambda` of the bounded least-change solve of the family of bonds [b0, b1)
-/// (moments; xi their reference vectors, xi[0] bond b0's), fixing in `fixed` each factor that leaves
-/// [kMinInfluence, kMaxInfluence] at the bound; whether any factor was fixed.
-bool bounded_multipliers(std::span<const Vec2> xi, Index b0, Index b1, std::span<const double> intact,
-                         const Vec5& q0, std::vector<double>& fixed, Vec5& lambda) {
+/// The multipliers `lambda` of the bounded least-change solve of a family (moments; xi its
+/// bonds' reference vectors, `intact` their weights, 0 when broken), fixing in `fixed` each
+/// factor that leaves [kMinInfluence, kMaxInfluence] at the bound; whether any factor was fixed.
+bool bounded_multipliers(std::span<const Vec2> xi, std::span<const double> intact, const Vec5& q0,
+                         std::vector<double>& fixed, Vec5& lambda) {
+  const std::size_t nb = intact.size();
   bool clipped = false;
   for (int pass = 0; pass < kMaxBoundPasses; ++pass) {
     Mat5 G = Mat5::Zero();
     Vec5 r = q0;
-    for (Index b = b0; b < b1; ++b) {
-      const double a = intact[b] * xi[b - b0].squaredNorm();
+    for (std::size_t b = 0; b < nb; ++b) {
+      const double a = intact[b] * xi[b].squaredNorm();
       if (a == 0.0) continue;
-      const Vec5 q = as_vec(quartic_monomials(xi[b - b0].normalized()));
-      const double f = fixed[b - b0];
+      const Vec5 q = as_vec(quartic_monomials(xi[b].normalized()));
+      const double f = fixed[b];
       if (f != kFree) {
         r -= a * f * q;
       } else {
@@ -48,11 +49,11 @@ bool bounded_multipliers(std::span<const Vec2> xi, Index b0, Index b1, std::span
     // Minimum-norm solution: a family with fewer than five bond directions has a singular G.
     lambda = G.completeOrthogonalDecomposition().solve(r);
     bool changed = false;
-    for (Index b = b0; b < b1; ++b) {
-      if (fixed[b - b0] != kFree || intact[b] == 0.0) continue;
-      const double omega = 1.0 + as_vec(quartic_monomials(xi[b - b0].normalized())).dot(lambda);
+    for (std::size_t b = 0; b < nb; ++b) {
+      if (fixed[b] != kFree || intact[b] == 0.0) continue;
+      const double omega = 1.0 + as_vec(quartic_monomials(xi[b].normalized())).dot(lambda);
       if (omega < kMinInfluence || omega > kMaxInfluence) {
-        fixed[b - b0] = omega < kMinInfluence ? kMinInfluence : kMaxInfluence;
+        fixed[b] = omega < kMinInfluence ? kMinInfluence : kMaxInfluence;
         changed = clipped = true;
       }
     }
@@ -85,12 +86,9 @@ SurfaceCorrection::SurfaceCorrection(const Model& model, SurfaceCorrectionMethod
   m_volume.assign(n, 0.0);
   // The weighted volume each family was built with: `none` keeps it when bonds break.
 #pragma omp parallel for schedule(static)
-  for (Index i = 0; i < n; ++i) {
-    const Index b0 = model.bonds.start[i], nb = model.bonds.family_size(i);
-    m_volume[i] =
-        peristat::weighted_volume(model.family_xi(i), std::span(model.bonds.weight).subspan(b0, nb));
-  }
-  if (method != SurfaceCorrectionMethod::none) update_all(model.bonds.weight);
+  for (Index i = 0; i < n; ++i)
+    m_volume[i] = peristat::weighted_volume(model.family_xi(i), model.bonds.weights(i));
+  if (method != SurfaceCorrectionMethod::none) update_all({});
 }
 
 void SurfaceCorrection::update_all(std::span<const double> intact) {
@@ -115,10 +113,10 @@ void SurfaceCorrection::update(std::span<const double> intact, std::span<const I
     for (Index k = 0; k < count; ++k) {
       const Index i = particles[k];
       const std::size_t ki = static_cast<std::size_t>(i);
-      const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+      const Index nb = bonds.family_size(i);
       w.resize(static_cast<std::size_t>(nb));
       compute_family(i, intact, w, m_counted.empty() || m_counted[ki] ? local : uncounted);
-      const auto model_w = std::span<const double>(bonds.weight).subspan(b0, nb);
+      const std::span<const double> model_w = bonds.weights(i);
       if (std::equal(w.begin(), w.end(), model_w.begin())) {
         m_shared[ki] = 1;
       } else if (m_offset[ki] >= 0) {  // storage of its own from an earlier update
@@ -166,25 +164,29 @@ Index SurfaceCorrection::own_families() const {
   return static_cast<Index>(std::count(m_shared.begin(), m_shared.end(), 0));
 }
 
-void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, std::span<double> w,
+void SurfaceCorrection::compute_family(Index i, std::span<const double> all_intact, std::span<double> w,
                                        SurfaceCorrectionStats& stats) {
   const Bonds& bonds = m_model.bonds;
-  const Index b0 = bonds.start[i], b1 = bonds.start[i + 1];
+  const Index b0 = bonds.start[i];
+  const std::size_t nb = static_cast<std::size_t>(bonds.family_size(i));
+  const std::span<const double> model_w = bonds.weights(i);
+  const std::span<const double> in =
+      all_intact.empty() ? model_w : all_intact.subspan(static_cast<std::size_t>(b0), nb);
   ++stats.families;
   if (m_method == SurfaceCorrectionMethod::none) {
-    for (Index b = b0; b < b1; ++b) w[b - b0] = intact[b];
+    std::copy(in.begin(), in.end(), w.begin());
     return;
   }
   const std::span<const Vec2> xi = m_model.family_xi(i);
   // An interior family with every bond intact keeps omega = 1 exactly.
-  bool complete = static_cast<std::size_t>(b1 - b0) == m_model.stencil.offset.size();
+  bool complete = nb == m_model.stencil.offset.size();
   double m = 0.0;
-  for (Index b = b0; b < b1; ++b) {
-    complete = complete && intact[b] == bonds.weight[b];
-    m += intact[b] * xi[b - b0].squaredNorm();
+  for (std::size_t b = 0; b < nb; ++b) {
+    complete = complete && in[b] == model_w[b];
+    m += in[b] * xi[b].squaredNorm();
   }
   if (complete || m <= 0.0) {
-    for (Index b = b0; b < b1; ++b) w[b - b0] = intact[b];
+    std::copy(in.begin(), in.end(), w.begin());
     m_volume[i] = m;
     return;
   }
@@ -200,22 +202,22 @@ void SurfaceCorrection::compute_family(Index i, std::span<const double> intact, 
   const Vec5 q0 = as_vec(m_q0);
   // fixed[b - b0]: the bound a factor is held at, or kFree. Families hold a few dozen bonds.
   thread_local std::vector<double> fixed;
-  fixed.assign(static_cast<std::size_t>(b1 - b0), kFree);
+  fixed.assign(nb, kFree);
   Vec5 lambda = Vec5::Zero();
-  stats.clipped += bounded_multipliers(xi, b0, b1, intact, q0, fixed, lambda);
+  stats.clipped += bounded_multipliers(xi, in, q0, fixed, lambda);
   Vec5 moment = Vec5::Zero();
   double volume = 0.0;
-  for (Index b = b0; b < b1; ++b) {
-    if (intact[b] == 0.0) {
-      w[b - b0] = 0.0;
+  for (std::size_t b = 0; b < nb; ++b) {
+    if (in[b] == 0.0) {
+      w[b] = 0.0;
       continue;
     }
-    const Vec5 q = as_vec(quartic_monomials(xi[b - b0].normalized()));
-    const double f = fixed[b - b0];
+    const Vec5 q = as_vec(quartic_monomials(xi[b].normalized()));
+    const double f = fixed[b];
     const double omega = std::clamp(f != kFree ? f : 1.0 + q.dot(lambda), kMinInfluence, kMaxInfluence);
     record(omega);
-    w[b - b0] = omega * intact[b];
-    const double a = w[b - b0] * xi[b - b0].squaredNorm();
+    w[b] = omega * in[b];
+    const double a = w[b] * xi[b].squaredNorm();
     volume += a;
     moment += a * q;
   }

@@ -45,7 +45,8 @@ class SurfaceCorrection {
   /// distributed run counts its own, so that the sum over the ranks counts each family once).
   SurfaceCorrection(const Model& model, SurfaceCorrectionMethod method, std::vector<char> counted = {});
 
-  /// Recomputes the families of `particles` from `intact` (per bond, 0 when broken). Under
+  /// Recomputes the families of `particles` from `intact` (per bond, 0 when broken; empty: the
+  /// model's weights, every bond intact). Under
   /// `none` the families keep the weighted volume they were built with (bond breaking then
   /// softens a particle, as in the paper).
   void update(std::span<const double> intact, std::span<const Index> particles);
@@ -58,10 +59,9 @@ class SurfaceCorrection {
   /// interior) reads the model's bond weights; the others keep their own (8 bytes per bond
   /// fewer over the interior).
   std::span<const double> family_weights(Index i) const {
-    const Index b0 = m_model.bonds.start[i], nb = m_model.bonds.family_size(i);
+    const Index nb = m_model.bonds.family_size(i);
     const std::size_t k = static_cast<std::size_t>(i);
-    return m_shared[k] ? std::span<const double>(m_model.bonds.weight).subspan(b0, nb)
-                       : std::span<const double>(m_own).subspan(m_offset[k], nb);
+    return m_shared[k] ? m_model.bonds.weights(i) : std::span<const double>(m_own).subspan(m_offset[k], nb);
   }
   /// Bond b's weight, b one of particle i's bonds.
   double weight(Index i, Index b) const { return family_weights(i)[b - m_model.bonds.start[i]]; }
@@ -76,8 +76,8 @@ class SurfaceCorrection {
   std::size_t memory_bytes() const;
 
  private:
-  /// Family i's weights from `intact` into `w` (its size).
-  void compute_family(Index i, std::span<const double> intact, std::span<double> w,
+  /// Family i's weights from `all_intact` (update()'s `intact`) into `w` (its size).
+  void compute_family(Index i, std::span<const double> all_intact, std::span<double> w,
                       SurfaceCorrectionStats& stats);
 
   const Model& m_model;

@@ -1,6 +1,7 @@
 // The parallel assembly is deterministic: one thread and two threads give bit-identical
 // residuals and tangents (each entry is summed by one thread in a fixed order).
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <functional>
@@ -155,7 +156,7 @@ TEST(Assembly, GatheredForcesAreTheKernelsForcesBitForBit) {
   for (Index q = 0; q < p.size(); ++q) {
     Vec2 f = Vec2::Zero();
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b)
-      f += p.volume[bonds.neighbour[b]] * force[bonds.reverse[b]] - p.volume[q] * force[b];
+      f += p.volume[bonds.neighbour[b]] * force[bonds.reverse(q, b)] - p.volume[q] * force[b];
     EXPECT_EQ(gathered[2 * q], f.x()) << "particle " << q;
     EXPECT_EQ(gathered[2 * q + 1], f.y()) << "particle " << q;
     compared += f.norm() > 0.0;
@@ -221,11 +222,49 @@ TEST(Discretise, ABondThroughACrackTipIsCutBothWaysOrNeither) {
   const Bonds& bonds = model.bonds;
   for (Index i = 0; i < model.particles.size(); ++i)
     for (Index k = bonds.start[i]; k < bonds.start[i + 1]; ++k) {
-      const Index r = bonds.reverse[k];
+      const Index r = bonds.reverse(i, k);
       ASSERT_GE(r, 0);
       ASSERT_EQ(bonds.neighbour[r], i) << "the reverse of bond " << k << " ends at its particle";
-      ASSERT_EQ(bonds.reverse[r], k);
+      ASSERT_EQ(bonds.reverse(bonds.neighbour[k], r), k);
     }
+}
+
+// Each bond's weight is the stencil's weight of its lattice offset (found here from the two
+// particles' lattice points, not from the storage); the families with every stencil bond read
+// the stencil's weights themselves, and only the others keep weights of their own: on this
+// cracked plate with a clamped edge both kinds occur, and the own weights are a minority.
+TEST(Discretise, BondWeightsAreTheStencilsAndOnlyCutFamiliesStoreTheirOwn) {
+  test::PlateSpec spec;
+  spec.nx = 30;
+  spec.ny = 24;
+  spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
+  spec.cracks = "  - {from: [0.008, 0.012], to: [0.02, 0.012]}\n";
+  const Model model = discretise(test::scene_from_yaml(test::plate_yaml(spec)));
+  const Bonds& bonds = model.bonds;
+  const Stencil& st = model.stencil;
+  ASSERT_GT(model.n_cut_bonds, 0);
+  Index whole = 0, cut = 0;
+  for (Index i = 0; i < model.particles.size(); ++i) {
+    const auto& li = model.particles.lattice[i];
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
+      const auto& lj = model.particles.lattice[bonds.neighbour[b]];
+      const auto k =
+          std::find(st.offset.begin(), st.offset.end(), std::array<int, 2>{lj[0] - li[0], lj[1] - li[1]});
+      ASSERT_NE(k, st.offset.end());
+      ASSERT_EQ(bonds.weight(i, b), st.weight[static_cast<std::size_t>(k - st.offset.begin())])
+          << "bond " << b;
+    }
+    const bool complete = static_cast<std::size_t>(bonds.family_size(i)) == st.offset.size();
+    EXPECT_EQ(bonds.weights(i).data() == bonds.stencil_weight.data(), complete) << "particle " << i;
+    (complete ? whole : cut) += 1;
+  }
+  ASSERT_GT(whole, 0);
+  ASSERT_GT(cut, 0);
+  EXPECT_LT(bonds.own_weight.size(), static_cast<std::size_t>(bonds.n_bonds()) / 2);
+  const std::vector<double> all = bonds.every_weight();
+  ASSERT_EQ(all.size(), static_cast<std::size_t>(bonds.n_bonds()));
+  for (Index i = 0; i < model.particles.size(); ++i)
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) ASSERT_EQ(all[b], bonds.weight(i, b));
 }
 
 TEST(Discretise, BlockSelectorAddsTheFreeLatticePointsOfItsBox) {

@@ -115,11 +115,11 @@ void expect_parts_map_onto_the_whole(const Model& whole) {
           ASSERT_EQ(part.global_id[static_cast<std::size_t>(m.bonds.neighbour[b])],
                     whole.bonds.neighbour[wb]);
           ASSERT_EQ(m.xi(l, b), whole.xi(g, wb));
-          ASSERT_EQ(m.bonds.weight[b], whole.bonds.weight[wb]);
-          const Index r = m.bonds.reverse[b];
+          ASSERT_EQ(m.bonds.weight(l, b), whole.bonds.weight(g, wb));
+          const Index r = m.bonds.reverse(l, b);
           ASSERT_EQ(r >= 0, m.family_held[static_cast<std::size_t>(m.bonds.neighbour[b])] != 0);
           if (r >= 0) {
-            ASSERT_EQ(m.bonds.reverse[r], b);
+            ASSERT_EQ(m.bonds.reverse(m.bonds.neighbour[b], r), b);
           }
         }
       }

@@ -258,7 +258,7 @@ TEST(PartitionedFailure, PiecesAcrossThePartsAreThoseOfOneProcess) {
                     model.constraints.free_index[2 * p + 1] < 0;
   ASSERT_GT(unowned_in_d, 10) << "D's layers must have no unknown";
   const auto cut = [&](const Model& m) {  // the intact weights: the bonds across an island's edge cut
-    std::vector<double> intact = m.bonds.weight;
+    std::vector<double> intact = m.bonds.every_weight();
     for (Index i = 0; i < m.particles.size(); ++i)
       for (Index b = m.bonds.start[i]; b < m.bonds.start[i + 1]; ++b)
         if (island(m.particles.position[i]) != island(m.particles.position[m.bonds.neighbour[b]]))

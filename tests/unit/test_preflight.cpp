@@ -1,8 +1,8 @@
 // The size estimate made before discretising (issue 15, src/app/preflight.cpp) against the
 // sizes measured on the built model: it decides whether a run is refused, so it must be of
-// the right size. Measured 2026-12-03 with cg: memory within 12% on the tension plate, the
-// paper's case 4.4 and the LEFM case (142 against 131 MB, 248 against 279 MB, 520 against
-// 581 MB).
+// the right size. Measured 2026-12-04 with cg: memory within 13% on the tension plate, the
+// paper's case 4.4 and the LEFM case (119.6 against 106.1 MB, 208.2 against 235.5 MB, 438.4
+// against 487.0 MB; `peristat check --set solver.linear=cg`).
 #include <chrono>
 #include <cmath>
 #include <string>
