@@ -10,9 +10,9 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <unistd.h>
 
 #include <omp.h>
-#include <unistd.h>
 
 #include "app/interrupt.hpp"
 #include "app/model_size.hpp"
@@ -24,14 +24,15 @@
 #include "assembly/quasi_static.hpp"
 #include "core/clock.hpp"
 #include "core/error.hpp"
+#include "core/huge_pages.hpp"
 #include "discretisation/model.hpp"
 #include "io/checkpoint.hpp"
 #include "io/results.hpp"
+#include "parallel/mpi/mpi_ranks.hpp"
 #include "solvers/adr.hpp"
 #include "solvers/linear/linear_solver.hpp"
 #include "solvers/load_stepping.hpp"
 #include "solvers/newton.hpp"
-#include "parallel/mpi/mpi_ranks.hpp"
 
 namespace peristat {
 
@@ -429,6 +430,7 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   std::printf("  estimate       %.3g particles, %.3g nonzeros, %.1f MB before discretising (%.1f MB available)\n",
               estimate.particles + estimate.fictitious, estimate.nonzeros, estimate.memory_bytes / 1e6,
               estimate.available_bytes / 1e6);
+  std::printf("  huge pages     malloc's large blocks: %s\n", malloc_huge_pages_state().c_str());
   if (estimate.factor_nonzeros > 0.0)
     std::printf("  factorisation  of %s: about %.3g factor nonzeros, %.1f MB more (estimated)\n",
                 estimate.factor_of.c_str(), estimate.factor_nonzeros, estimate.factor_bytes / 1e6);

@@ -1,7 +1,12 @@
 #include "core/huge_pages.hpp"
 
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <string>
 #include <sys/mman.h>
+#include <unistd.h>
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
@@ -11,6 +16,65 @@ namespace peristat {
 void return_large_blocks() noexcept {
 #ifdef __GLIBC__
   (void)mallopt(M_MMAP_THRESHOLD, 1 << 20);
+#endif
+}
+
+namespace {
+constexpr const char* kTunable = "glibc.malloc.hugetlb";
+
+bool sanitized() {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  return true;
+#else
+  return false;
+#endif
+}
+}  // namespace
+
+std::string transparent_huge_page_mode() {
+  std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string line;
+  if (!std::getline(in, line)) return {};
+  const auto open = line.find('['), close = line.find(']');
+  return open != std::string::npos && close > open ? line.substr(open + 1, close - open - 1) : std::string{};
+}
+
+std::string malloc_huge_pages_state() {
+#ifdef __GLIBC__
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  const std::string t = tunables ? tunables : "";
+  if (t.find(std::string(kTunable) + "=1") != std::string::npos) return "on (GLIBC_TUNABLES " + t + ")";
+  if (t.find(kTunable) != std::string::npos) return "off (GLIBC_TUNABLES " + t + ")";
+  const std::string mode = transparent_huge_page_mode();
+  if (mode.empty() || mode == "never") return "off (the kernel offers no transparent huge pages)";
+  if (sanitized()) return "off (a sanitizer's allocator)";
+  if (const char* preload = std::getenv("LD_PRELOAD"); preload && *preload) return "off (LD_PRELOAD is set)";
+  return "off (not started by peristat's main)";
+#else
+  return "off (not glibc)";
+#endif
+}
+
+void ask_malloc_for_huge_pages(char** argv) {
+#ifdef __GLIBC__
+  if (sanitized()) return;
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  if (tunables && std::strstr(tunables, kTunable)) return;  // set already, or the user's choice
+  if (const char* preload = std::getenv("LD_PRELOAD"); preload && *preload) return;
+  const std::string mode = transparent_huge_page_mode();
+  if (mode.empty() || mode == "never") return;
+  const bool had = tunables != nullptr;
+  const std::string old = had ? tunables : "";
+  const std::string value = (old.empty() ? std::string() : old + ":") + kTunable + "=1";
+  if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  // Not executed (no /proc): go on as started, with the environment as it was.
+  if (had)
+    setenv("GLIBC_TUNABLES", old.c_str(), 1);
+  else
+    unsetenv("GLIBC_TUNABLES");
+#else
+  (void)argv;
 #endif
 }
 

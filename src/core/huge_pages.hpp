@@ -8,6 +8,7 @@
 // Where the kernel grants huge pages only on request (/sys/kernel/mm/transparent_hugepage/
 // enabled = madvise, Debian's default), an array asks for them before it is first written.
 #include <cstddef>
+#include <string>
 #include <vector>
 
 namespace peristat {
@@ -19,6 +20,24 @@ namespace peristat {
 /// threshold fixed (docs/guide/distributed.md, the 700 x 700 plate under "Measured"). Call
 /// once, at the program's start; a no-op outside glibc.
 void return_large_blocks() noexcept;
+
+/// glibc's malloc asks for transparent huge pages for the blocks it maps from the kernel only
+/// with its tunable glibc.malloc.hugetlb=1, which it reads from the environment at the
+/// program's start. Unless the environment names that tunable already (a user's choice: 0
+/// turns it off), the kernel offers no huge pages ("never"), or a tool is preloaded (valgrind,
+/// heaptrack: LD_PRELOAD), this adds it to GLIBC_TUNABLES and executes the program again with
+/// the same arguments (same process). The 1000 x 1000 plate then spends less time faulting in
+/// the preconditioner's set-up and the model (docs/performance.md, "Page faults and huge
+/// pages"). Call first in main(); returns when it does not execute again.
+void ask_malloc_for_huge_pages(char** argv);
+
+/// What the process's malloc was started with: "on" (glibc.malloc.hugetlb=1 in
+/// GLIBC_TUNABLES), or why not.
+std::string malloc_huge_pages_state();
+
+/// The kernel's transparent huge page mode (the bracketed word of
+/// /sys/kernel/mm/transparent_hugepage/enabled), or "" where there is none.
+std::string transparent_huge_page_mode();
 
 /// Advises the kernel to back [data, data + bytes) with huge pages: the 2 MB-aligned part
 /// of it, for ranges of at least 4 MB; a no-op where the kernel does not support the advice.

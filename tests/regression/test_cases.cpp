@@ -477,6 +477,40 @@ TEST(ExitCodes, CheckPrintsTheModelSize) {
     EXPECT_NE(r.out.find(word), std::string::npos) << word;
 }
 
+// glibc's malloc asks for transparent huge pages when peristat starts it with
+// glibc.malloc.hugetlb=1 (core/huge_pages.hpp): `check` reports the tunable its process was
+// started with. Started without the tunable, peristat adds it and executes itself again,
+// wherever the kernel offers huge pages; a tunable the user set already is kept as it is, and
+// the user's other tunables stay.
+TEST(ExitCodes, PeristatStartsMallocWithHugePagesUnlessTheUserChoseOtherwise) {
+  std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string modes;
+  std::getline(in, modes);
+  const bool offered = !modes.empty() && modes.find("[never]") == std::string::npos;
+  const std::string exe = std::string(PERISTAT_EXE) + " check " + kTension;
+  const auto line = [](const std::string& out) {
+    const auto at = out.find("huge pages     malloc's large blocks: ");
+    return at == std::string::npos ? std::string("(no line)")
+                                   : out.substr(at + 38, out.find('\n', at) - at - 38);
+  };
+  const auto plain = test::run_command("env -u GLIBC_TUNABLES -u LD_PRELOAD " + exe);
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  if (line(plain.out).find("sanitizer") != std::string::npos)
+    GTEST_SKIP() << "a sanitizer build: ASan's allocator, not glibc's, serves malloc";
+  EXPECT_EQ(line(plain.out), offered ? "on (GLIBC_TUNABLES glibc.malloc.hugetlb=1)"
+                                     : "off (the kernel offers no transparent huge pages)");
+  const auto other =
+      test::run_command("env -u LD_PRELOAD GLIBC_TUNABLES=glibc.malloc.trim_threshold=268435456 " + exe);
+  ASSERT_EQ(other.exit_code, 0) << other.err;
+  if (offered) {
+    EXPECT_EQ(line(other.out),
+              "on (GLIBC_TUNABLES glibc.malloc.trim_threshold=268435456:glibc.malloc.hugetlb=1)");
+  }
+  const auto declined = test::run_command("env -u LD_PRELOAD GLIBC_TUNABLES=glibc.malloc.hugetlb=0 " + exe);
+  ASSERT_EQ(declined.exit_code, 0) << declined.err;
+  EXPECT_EQ(line(declined.out), "off (GLIBC_TUNABLES glibc.malloc.hugetlb=0)");
+}
+
 TEST(ExitCodes, ProbeOfAMissingFileIsBadInput) {
   const auto r = test::run_cli("probe /nonexistent/result.h5 --line 0 0 1 1");
   EXPECT_EQ(r.exit_code, 2);

@@ -55,8 +55,6 @@ double step_number(const std::string& summary, int step, const std::string& key)
   return std::nan("");
 }
 
-namespace {
-
 CliResult run_command(const std::string& command) {
   const auto dir = fresh_directory("cli");
   const auto out = dir / "stdout", err = dir / "stderr";
@@ -69,8 +67,6 @@ CliResult run_command(const std::string& command) {
   std::filesystem::remove_all(dir);
   return r;
 }
-
-}  // namespace
 
 CliResult run_cli(const std::string& arguments) { return run_command(std::string(PERISTAT_EXE) + " " + arguments); }
 

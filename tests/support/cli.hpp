@@ -16,6 +16,9 @@ struct CliResult {
 /// Runs PERISTAT_EXE with the arguments (a shell-quoted string) and captures both streams.
 CliResult run_cli(const std::string& arguments);
 
+/// Runs a shell command line (e.g. `env ... PERISTAT_EXE ...`) and captures its streams.
+CliResult run_command(const std::string& command);
+
 /// Runs PERISTAT_EXE on `ranks` MPI ranks (mpirun from the MPI that CMake found; allowed as
 /// root, and oversubscribed when the machine has fewer cores) and captures rank 0's streams
 /// and mpirun's own.
