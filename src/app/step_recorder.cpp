@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "app/interrupt.hpp"
+#include "core/huge_pages.hpp"
 
 namespace peristat {
 
@@ -31,18 +32,19 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
     solver["tangent"] = n.tangent == TangentKind::consistent ? "consistent" : "initial";
   }
   nlohmann::ordered_json info = {{"particles", s.particles},
-                                       {"fictitious", s.fictitious},
-                                       {"bonds", s.bonds},
-                                       {"cut_bonds", s.cut_bonds},
-                                       {"unknowns", s.unknowns},
-                                       {"tangent_nonzeros", s.nonzeros},
-                                       {"threads", threads},
-                                       {"ranks", s.ranks},
-                                       {"spacing", scene.discretization.spacing},
-                                       {"horizon_factor", scene.discretization.horizon_factor},
-                                       {"load_steps", scene.loading.steps},
-                                       {"solver", solver},
-                                       {"checks", checks}};
+                                 {"fictitious", s.fictitious},
+                                 {"bonds", s.bonds},
+                                 {"cut_bonds", s.cut_bonds},
+                                 {"unknowns", s.unknowns},
+                                 {"tangent_nonzeros", s.nonzeros},
+                                 {"threads", threads},
+                                 {"malloc_huge_pages", malloc_huge_pages_state()},
+                                 {"ranks", s.ranks},
+                                 {"spacing", scene.discretization.spacing},
+                                 {"horizon_factor", scene.discretization.horizon_factor},
+                                 {"load_steps", scene.loading.steps},
+                                 {"solver", solver},
+                                 {"checks", checks}};
   // Under mpirun: how the rows were split (solver.belos.partition).
   if (s.ranks > 1 || s.part) {
     info["model"] = s.part ? "part" : "whole";  // every rank its part (docs/guide/distributed.md)

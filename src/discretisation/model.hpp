@@ -50,11 +50,8 @@ int mirror_layers(double horizon_factor);
 /// its weights are the stencil's, and the reverse of its k-th bond, when the neighbour's
 /// family is whole too, is that family's bond of the mirrored offset, start[j] + mirror[k].
 /// The other families (cut by an edge, a pre-crack, another body or a rank's part, and the
-/// whole ones next to them for the reverse) keep their own.
-/// The bonds' quadrature weights (the neighbour's area seen from the centre [m^2]) are kept by
-/// family: a family with every bond of the stencil (the interior: most of a model) lists them
-/// in stencil order, so its weights are the stencil's; a family cut by an edge, a pre-crack,
-/// another body or a rank keeps its own. 8 bytes per bond fewer over the interior.
+/// whole ones next to them for the reverse) keep their own. A weight is the quadrature area of
+/// the neighbour seen from the centre [m^2] (Stencil::weight).
 struct Bonds {
   std::vector<Index> start;
   std::vector<Index> neighbour;

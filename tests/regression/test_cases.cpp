@@ -509,6 +509,15 @@ TEST(ExitCodes, PeristatStartsMallocWithHugePagesUnlessTheUserChoseOtherwise) {
   const auto declined = test::run_command("env -u LD_PRELOAD GLIBC_TUNABLES=glibc.malloc.hugetlb=0 " + exe);
   ASSERT_EQ(declined.exit_code, 0) << declined.err;
   EXPECT_EQ(line(declined.out), "off (GLIBC_TUNABLES glibc.malloc.hugetlb=0)");
+  // A run records its state in summary.json.
+  const auto dir = test::fresh_directory("malloc_huge_pages");
+  const auto run =
+      test::run_command("env -u GLIBC_TUNABLES -u LD_PRELOAD " + std::string(PERISTAT_EXE) + " run " +
+                        kTension + " --quiet --set discretization.spacing=5e-3 --out " + dir.string());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json summary = test::read_json(dir / "summary.json");
+  EXPECT_EQ(summary["run"].value("malloc_huge_pages", std::string("(none)")), line(plain.out));
+  std::filesystem::remove_all(dir);
 }
 
 TEST(ExitCodes, ProbeOfAMissingFileIsBadInput) {
