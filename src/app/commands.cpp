@@ -38,6 +38,19 @@ namespace peristat {
 
 namespace {
 
+/// A plain process whose run is estimated at kHugePageMallocBytes or more starts again with
+/// glibc's malloc on huge pages (core/huge_pages.hpp). Not under mpirun: MPI's launcher
+/// started the process, and the user passes the tunable with `mpirun -x GLIBC_TUNABLES=...`.
+void start_large_runs_on_huge_pages(const Scene& scene, const RunPlan& plan) {
+  if (parallel::launched_by_mpirun() || parallel::started()) return;
+  const SizeEstimate e = estimate_size(scene, plan);
+  start_malloc_on_huge_pages(e.memory_bytes + e.factor_bytes);
+}
+
+}  // namespace
+
+namespace {
+
 std::vector<Override> parse_overrides(const std::vector<std::string>& assignments) {
   std::vector<Override> out;
   for (const std::string& a : assignments) out.push_back(parse_override(a));
@@ -192,6 +205,7 @@ class Run {
   void plan() {
     const int ranks = m_ranks->size();
     m_plan = resolve_run_plan(m_scene, ranks);
+    start_large_runs_on_huge_pages(m_scene, m_plan);  // before anything is printed
     if (!m_plan.linear_auto.empty() && !m_args.quiet && m_root)
       std::printf("peristat: solver.linear auto: %s\n", m_plan.linear_auto.c_str());
     if (says_closure_tolerance(m_scene) && !m_args.quiet && m_root)
@@ -395,6 +409,7 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   Scene scene = parse_scene(scene_path, parse_overrides(overrides));
   const std::unique_ptr<Ranks> ranks = parallel::process_ranks();
   const RunPlan plan = resolve_run_plan(scene, ranks->size());
+  start_large_runs_on_huge_pages(scene, plan);  // as `run` would (before anything is printed)
   const SizeEstimate estimate = estimate_size(scene, plan);
   for (const std::string& w : preflight(scene, plan, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
   const ProcessModel pm = process_model(scene, plan, *ranks);

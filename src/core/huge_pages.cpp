@@ -1,12 +1,14 @@
 #include "core/huge_pages.hpp"
 
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <string>
 #include <sys/mman.h>
 #include <unistd.h>
+#include <vector>
 #ifdef __GLIBC__
 #include <malloc.h>
 #endif
@@ -49,32 +51,49 @@ std::string malloc_huge_pages_state() {
   if (mode.empty() || mode == "never") return "off (the kernel offers no transparent huge pages)";
   if (sanitized()) return "off (a sanitizer's allocator)";
   if (const char* preload = std::getenv("LD_PRELOAD"); preload && *preload) return "off (LD_PRELOAD is set)";
-  return "off (not started by peristat's main)";
+  return "off (peristat starts it on huge pages for runs estimated at 1 GB or more, not under mpirun)";
 #else
   return "off (not glibc)";
 #endif
 }
 
-void ask_malloc_for_huge_pages(char** argv) {
+namespace {
+/// This process's arguments as the kernel holds them (/proc/self/cmdline, NUL-separated).
+std::vector<std::string> own_arguments() {
+  std::ifstream in("/proc/self/cmdline", std::ios::binary);
+  std::vector<std::string> args;
+  std::string arg;
+  while (std::getline(in, arg, '\0')) args.push_back(arg);
+  return args;
+}
+}  // namespace
+
+void start_malloc_on_huge_pages(double estimated_bytes) {
 #ifdef __GLIBC__
-  if (sanitized()) return;
+  if (estimated_bytes < kHugePageMallocBytes || sanitized()) return;
   const char* tunables = std::getenv("GLIBC_TUNABLES");
   if (tunables && std::strstr(tunables, kTunable)) return;  // set already, or the user's choice
   if (const char* preload = std::getenv("LD_PRELOAD"); preload && *preload) return;
   const std::string mode = transparent_huge_page_mode();
   if (mode.empty() || mode == "never") return;
+  std::vector<std::string> args = own_arguments();
+  if (args.empty()) return;
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
   const bool had = tunables != nullptr;
   const std::string old = had ? tunables : "";
   const std::string value = (old.empty() ? std::string() : old + ":") + kTunable + "=1";
   if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
-  execv("/proc/self/exe", argv);
+  std::fflush(nullptr);
+  execv("/proc/self/exe", argv.data());
   // Not executed (no /proc): go on as started, with the environment as it was.
   if (had)
     setenv("GLIBC_TUNABLES", old.c_str(), 1);
   else
     unsetenv("GLIBC_TUNABLES");
 #else
-  (void)argv;
+  (void)estimated_bytes;
 #endif
 }
 

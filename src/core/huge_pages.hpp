@@ -21,18 +21,25 @@ namespace peristat {
 /// once, at the program's start; a no-op outside glibc.
 void return_large_blocks() noexcept;
 
+/// Runs estimated at this many bytes or more start glibc's malloc on huge pages
+/// (start_malloc_on_huge_pages). Measured (docs/performance.md, "Page faults and huge pages"):
+/// the 1000 x 1000 plate (about 2.5 GB estimated) and the 2000 x 2000 plate gain 3-9 %; the
+/// 300 x 300 plate, case 4.4 and the running crack nothing, and case 4.3 loses 0.04 s of 0.6 s
+/// to the tunable and 0.05 s to the second start.
+inline constexpr double kHugePageMallocBytes = 1e9;
+
 /// glibc's malloc asks for transparent huge pages for the blocks it maps from the kernel only
 /// with its tunable glibc.malloc.hugetlb=1, which it reads from the environment at the
-/// program's start. Unless the environment names that tunable already (a user's choice: 0
-/// turns it off), the kernel offers no huge pages ("never"), or a tool is preloaded (valgrind,
-/// heaptrack: LD_PRELOAD), this adds it to GLIBC_TUNABLES and executes the program again with
-/// the same arguments (same process). The 1000 x 1000 plate then spends less time faulting in
-/// the preconditioner's set-up and the model (docs/performance.md, "Page faults and huge
-/// pages"). Call first in main(); returns when it does not execute again.
-void ask_malloc_for_huge_pages(char** argv);
+/// program's start. For a run whose estimated memory is at least kHugePageMallocBytes this
+/// adds the tunable to GLIBC_TUNABLES and executes the program again with the same arguments
+/// (/proc/self/cmdline; the same process), unless the environment names the tunable already
+/// (a user's choice: 0 declines it), the kernel offers no huge pages ("never"), a tool is
+/// preloaded (valgrind, heaptrack: LD_PRELOAD) or the build is sanitized. Call before anything
+/// is printed and before MPI starts; returns when it does not execute again.
+void start_malloc_on_huge_pages(double estimated_bytes);
 
-/// What the process's malloc was started with: "on" (glibc.malloc.hugetlb=1 in
-/// GLIBC_TUNABLES), or why not.
+/// What this process's malloc was started with: "on (...)" with glibc.malloc.hugetlb=1 in
+/// GLIBC_TUNABLES, else "off (why)".
 std::string malloc_huge_pages_state();
 
 /// The kernel's transparent huge page mode (the bracketed word of

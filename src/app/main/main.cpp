@@ -133,7 +133,6 @@ int main(int argc, char** argv) {
   using namespace peristat;
   // Under mpirun: MPI starts now, and the ranks other than 0 print nothing (they run the same
   // model; docs/guide/distributed.md).
-  ask_malloc_for_huge_pages(argv);  // may execute the program again, with glibc's tunable (huge_pages.hpp)
   return_large_blocks();  // before anything is allocated: freed arrays leave no holes (huge_pages.hpp)
   const parallel::Session mpi;
   register_linear_solvers();  // belos and the bond_amg V-cycle behind the linear-solver seam
