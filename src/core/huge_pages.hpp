@@ -23,9 +23,10 @@ void return_large_blocks() noexcept;
 
 /// Runs estimated at this many bytes or more start glibc's malloc on huge pages
 /// (start_malloc_on_huge_pages). Measured (docs/performance.md, "Page faults and huge pages"):
-/// the 1000 x 1000 plate (about 2.5 GB estimated) and the 2000 x 2000 plate gain 3-9 %; the
-/// 300 x 300 plate, case 4.4 and the running crack nothing, and case 4.3 loses 0.04 s of 0.6 s
-/// to the tunable and 0.05 s to the second start.
+/// the V-cycle's set-up of the 1000 x 1000 plate (4.7 GB estimated) takes 1.5-4 s less, of the
+/// 2000 x 2000 plate 6 s less; the 300 x 300 plate (0.49 GB), case 4.4 at dx = 0.01 m and the
+/// running crack gain nothing, and case 4.3 loses about 0.03 s of 0.6 s to the tunable and
+/// 0.05 s to the second start.
 inline constexpr double kHugePageMallocBytes = 1e9;
 
 /// glibc's malloc asks for transparent huge pages for the blocks it maps from the kernel only
