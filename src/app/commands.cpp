@@ -41,9 +41,8 @@ namespace {
 /// A plain process whose run is estimated at kHugePageMallocBytes or more starts again with
 /// glibc's malloc on huge pages (core/huge_pages.hpp). Not under mpirun: MPI's launcher
 /// started the process, and the user passes the tunable with `mpirun -x GLIBC_TUNABLES=...`.
-void start_large_runs_on_huge_pages(const Scene& scene, const RunPlan& plan) {
+void start_large_runs_on_huge_pages(const SizeEstimate& e) {
   if (parallel::launched_by_mpirun() || parallel::started()) return;
-  const SizeEstimate e = estimate_size(scene, plan);
   start_malloc_on_huge_pages(e.memory_bytes + e.factor_bytes);
 }
 
@@ -205,7 +204,8 @@ class Run {
   void plan() {
     const int ranks = m_ranks->size();
     m_plan = resolve_run_plan(m_scene, ranks);
-    start_large_runs_on_huge_pages(m_scene, m_plan);  // before anything is printed
+    m_estimate = estimate_size(m_scene, m_plan);
+    start_large_runs_on_huge_pages(m_estimate);  // before anything is printed
     if (!m_plan.linear_auto.empty() && !m_args.quiet && m_root)
       std::printf("peristat: solver.linear auto: %s\n", m_plan.linear_auto.c_str());
     if (says_closure_tolerance(m_scene) && !m_args.quiet && m_root)
@@ -230,7 +230,7 @@ class Run {
   /// Refuses what cannot run or fit before anything is allocated; prints the warnings.
   void preflight() {
     m_t_start = wall_seconds();
-    m_warnings = peristat::preflight(m_scene, m_plan, estimate_size(m_scene, m_plan));
+    m_warnings = peristat::preflight(m_scene, m_plan, m_estimate);
     for (const std::string& w : m_warnings) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
   }
 
@@ -384,6 +384,7 @@ class Run {
   const bool m_root;
   Scene m_scene;
   RunPlan m_plan;
+  SizeEstimate m_estimate;  // of m_plan: the huge-page decision and the preflight
   double m_t_start = 0.0;
   std::vector<std::string> m_warnings;
   ProcessModel m_model;
@@ -409,8 +410,8 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
   Scene scene = parse_scene(scene_path, parse_overrides(overrides));
   const std::unique_ptr<Ranks> ranks = parallel::process_ranks();
   const RunPlan plan = resolve_run_plan(scene, ranks->size());
-  start_large_runs_on_huge_pages(scene, plan);  // as `run` would (before anything is printed)
   const SizeEstimate estimate = estimate_size(scene, plan);
+  start_large_runs_on_huge_pages(estimate);  // as `run` would (before anything is printed)
   for (const std::string& w : preflight(scene, plan, estimate)) std::fprintf(stderr, "WARNING: %s\n", w.c_str());
   const ProcessModel pm = process_model(scene, plan, *ranks);
   const Model& model = pm.held();

@@ -3,7 +3,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <fstream>
 #include <string>
 #include <sys/mman.h>
@@ -41,6 +40,11 @@ std::string transparent_huge_page_mode() {
   return open != std::string::npos && close > open ? line.substr(open + 1, close - open - 1) : std::string{};
 }
 
+namespace {
+constexpr const char* kDefaultState =
+    "off (peristat starts it on huge pages for runs estimated at 1 GB or more, not under mpirun)";
+}  // namespace
+
 std::string malloc_huge_pages_state() {
 #ifdef __GLIBC__
   const char* tunables = std::getenv("GLIBC_TUNABLES");
@@ -51,7 +55,7 @@ std::string malloc_huge_pages_state() {
   if (mode.empty() || mode == "never") return "off (the kernel offers no transparent huge pages)";
   if (sanitized()) return "off (a sanitizer's allocator)";
   if (const char* preload = std::getenv("LD_PRELOAD"); preload && *preload) return "off (LD_PRELOAD is set)";
-  return "off (peristat starts it on huge pages for runs estimated at 1 GB or more, not under mpirun)";
+  return kDefaultState;
 #else
   return "off (not glibc)";
 #endif
@@ -70,12 +74,10 @@ std::vector<std::string> own_arguments() {
 
 void start_malloc_on_huge_pages(double estimated_bytes) {
 #ifdef __GLIBC__
-  if (estimated_bytes < kHugePageMallocBytes || sanitized()) return;
+  // Only where nothing else decided: the tunable named already (the user's choice), no huge
+  // pages, a sanitizer, a preloaded tool.
+  if (estimated_bytes < kHugePageMallocBytes || malloc_huge_pages_state() != kDefaultState) return;
   const char* tunables = std::getenv("GLIBC_TUNABLES");
-  if (tunables && std::strstr(tunables, kTunable)) return;  // set already, or the user's choice
-  if (const char* preload = std::getenv("LD_PRELOAD"); preload && *preload) return;
-  const std::string mode = transparent_huge_page_mode();
-  if (mode.empty() || mode == "never") return;
   std::vector<std::string> args = own_arguments();
   if (args.empty()) return;
   std::vector<char*> argv;
