@@ -43,16 +43,20 @@ ModelChoice model_choice(const Scene& scene, const RunPlan& plan) {
 }
 
 /// `auto` shortens the bond preconditioner's radius of a matrix-free tangent on large models;
-/// returns what it says of it ("" when the radius stays).
-std::string shorten_bond_radius(RunPlan& plan, double unknowns) {
+/// returns what it says of it ("" when the radius stays). `friction`: the scene's contact
+/// pairs may slip (GMRES, many solves per set-up).
+std::string shorten_bond_radius(RunPlan& plan, double unknowns, bool friction) {
   BondPreconditionerOptions& bond = plan.bond_preconditioner;
   if (!plan.matrix_free() || bond.radius_given) return {};
   // The bond matrix's preconditioner dominates memory on large plates; a shorter radius
   // makes it sparser for a few more iterations (docs/performance.md, "Matrix-free": with the
   // bond factor, 700 x 700 at 2.25 / 2.0 / 1.42: 112 / 91 / 93 s, 7.1 / 5.6 / 4.4 GB; with
   // its MueLu V-cycle, 300 x 300 at 1.42 / 2.0 / 2.25 / 3.0: 3.8 / 3.6 / 4.2 / 5.3 s, and
-  // 1000 x 1000 needs 1.42 to stay under 8 GB; the contact cases differ by 10% at most).
-  const double radius = unknowns > kShortBondsAbove ? 1.42 : unknowns > kMediumBondsAbove ? 2.0 : bond.bond_radius;
+  // 1000 x 1000 needs 1.42 to stay under 8 GB). With friction the default radius stays up to
+  // kShortBondsAbove: its stronger V-cycle serves every Newton iteration and re-solve of a run
+  // (run_plan.hpp, kMediumBondsAbove).
+  const bool medium = unknowns > kMediumBondsAbove && !friction;
+  const double radius = unknowns > kShortBondsAbove ? 1.42 : medium ? 2.0 : bond.bond_radius;
   if (radius == bond.bond_radius) return {};
   char buf[120];
   std::snprintf(buf, sizeof buf, "; bond preconditioner radius %.3g dx for this size", radius);
@@ -118,7 +122,8 @@ RunPlan make_run_plan(const Scene& scene, int ranks, double unknowns) {
   const LinearChoice choice = choose_linear_solver(scene, unknowns, ranks);
   RunPlan plan = plan_with_linear(scene, ranks, choice.kind);
   plan.linear_auto =
-      std::string(to_string(choice.kind)) + ": " + choice.reason + shorten_bond_radius(plan, unknowns);
+      std::string(to_string(choice.kind)) + ": " + choice.reason +
+      shorten_bond_radius(plan, unknowns, scene.contact.enabled && scene.contact.friction > 0.0);
   return plan;
 }
 
