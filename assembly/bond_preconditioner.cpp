@@ -29,7 +29,7 @@ BondPreconditioner::BondPreconditioner(const Model& model, const BondPreconditio
 }
 
 void BondPreconditioner::assemble(SparseMatrix& P, const SurfaceCorrection& weights,
-                                  std::span<const Vec2> s) const {
+                                  const BondVectors& s) const {
   const Bonds& bonds = m_model.bonds;
   const double r2 = m_radius * m_radius * (1.0 + kBondRadiusMargin);
 #pragma omp parallel
@@ -48,9 +48,10 @@ void BondPreconditioner::assemble(SparseMatrix& P, const SurfaceCorrection& weig
         // this rank's row (a row's neighbours' families are held), so the block is not its.
         if (r < 0) continue;
         const double k = m_alpha_volume[p] * w[b - b0] + m_alpha_volume[j] * weights.weight(j, r);
-        const Vec2 M = s[b].squaredNorm() > 0.0   ? s[b].normalized()
-                       : s[r].squaredNorm() > 0.0 ? Vec2(-s[r].normalized())
-                                                  : xi.normalized();
+        const Vec2 sb = s[b], sr = s[r];
+        const Vec2 M = sb.squaredNorm() > 0.0   ? sb.normalized()
+                       : sr.squaredNorm() > 0.0 ? Vec2(-sr.normalized())
+                                                : xi.normalized();
         col.add_outer(p, k, M, M);
         col.add_outer(j, -k, M, M);
       }

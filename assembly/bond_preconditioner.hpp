@@ -12,6 +12,7 @@
 #include "contact/contact.hpp"
 #include "core/options.hpp"
 #include "discretisation/model.hpp"
+#include "materials/family_kernel.hpp"
 #include "materials/surface_correction.hpp"
 
 namespace peristat {
@@ -38,7 +39,7 @@ class BondPreconditioner {
   /// `weights`: the kernel's bond weights; `s`: s_b = b_b M_b of the last evaluation with a
   /// tangent (FamilyOutputs), whose direction M_b is: s_b / |s_b|, else -s_r / |s_r| from the
   /// reverse bond r (M_r = -M_b), else (no weight either way, or no tangent yet) xi_b / |xi_b|.
-  void assemble(SparseMatrix& P, const SurfaceCorrection& weights, std::span<const Vec2> s) const;
+  void assemble(SparseMatrix& P, const SurfaceCorrection& weights, const BondVectors& s) const;
 
   std::size_t memory_bytes() const;
 

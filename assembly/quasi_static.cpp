@@ -111,8 +111,13 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
   m_force_scratch.assign(m_eta_scratch.size(), Vec2::Zero());
   m_law.assign(n, BondForceLaw{});
   for (const auto& kernel : m_kernels) m_finite.push_back(kernel->finite_kinematics() ? 1 : 0);
-  assign_huge(m_s, nbonds, Vec2(Vec2::Zero()));
-  assign_huge(m_kbond, nbonds, BondStiffness{});
+  if (options.float_factors && !options.matrix_free)
+    throw std::logic_error("QuasiStaticProblem: float factors are the matrix-free action's");
+  if (options.float_factors) {
+    m_s_scratch.assign(m_eta_scratch.size(), Vec2::Zero());
+    m_kbond_scratch.assign(m_eta_scratch.size(), BondStiffness{});
+  }
+  restore_action_storage();
   m_s_self.assign(n, Vec2::Zero());
   m_beta_volume.assign(n, 0.0);
   m_u = VectorXd::Zero(2 * n);
@@ -408,6 +413,10 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
     m_eta_scratch.resize(scratch);
     m_extension_scratch.resize(scratch);
     m_force_scratch.resize(scratch);
+    if (m_options.float_factors) {
+      m_s_scratch.resize(scratch);
+      m_kbond_scratch.resize(scratch);
+    }
   }
 #pragma omp parallel reduction(+ : own_energy, unowned_energy)
   {
@@ -421,12 +430,17 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
       family_displacements(i, eta);
       // The bond forces are gathered from the laws: the kernel writes them only as the scratch
       // of its tangent's directions.
-      const FamilyOutputs out{want_tangent
-                                  ? std::span(m_force_scratch.data() + mine, static_cast<std::size_t>(nb))
-                                  : std::span<Vec2>(),
-                              std::span(extension, static_cast<std::size_t>(nb)),
-                              want_tangent ? std::span(m_s).subspan(b0, nb) : std::span<Vec2>(),
-                              want_tangent ? std::span(m_kbond).subspan(b0, nb) : std::span<BondStiffness>()};
+      const auto size = static_cast<std::size_t>(nb);
+      const bool single = m_options.float_factors;
+      const FamilyOutputs out{
+          want_tangent ? std::span(m_force_scratch.data() + mine, size) : std::span<Vec2>(),
+          std::span(extension, size),
+          !want_tangent ? std::span<Vec2>()
+          : single      ? std::span(m_s_scratch.data() + mine, size)
+                        : std::span(m_s).subspan(b0, nb),
+          !want_tangent ? std::span<BondStiffness>()
+          : single      ? std::span(m_kbond_scratch.data() + mine, size)
+                        : std::span(m_kbond).subspan(b0, nb)};
       const FamilyResult res = m_kernels[p.body[i]]->evaluate(
           m_correction.weighted_volume()[i], m_model.family_xi(i), m_correction.family_weights(i),
           std::span<const Vec2>(eta, static_cast<std::size_t>(nb)), out, want_tangent);
@@ -436,12 +450,7 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
         own_energy += e;
       else if (rows.computes(i))  // no owner
         unowned_energy += e;
-      if (want_tangent) {
-        Vec2 s = Vec2::Zero();
-        for (Index b = b0; b < b0 + nb; ++b) s -= m_s[b];
-        m_s_self[i] = s;
-        m_beta_volume[i] = res.beta * p.volume[i];
-      }
+      if (want_tangent) keep_factors(i, b0, nb, mine, res.beta);
     }
   }
   // Own rows only (a distributed ADR step): a part of the families, not the energy of the
@@ -449,6 +458,41 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
   // whatever its thread count, so that the energy check decides alike on every rank.)
   m_energy = m_own_rows_only ? std::numeric_limits<double>::quiet_NaN()
                              : m_ranks.sum(rows.rank == 0 ? own_energy + unowned_energy : own_energy);
+}
+
+void QuasiStaticProblem::keep_factors(Index i, Index b0, Index nb, std::size_t mine, double beta) {
+  Vec2 s = Vec2::Zero();
+  double scale2 = 1.0;  // the family's scale squared (float factors), exact: a power of four
+  if (m_options.float_factors) {
+    // s_b / sigma_i with sigma_i the power of two nearest the family's largest component:
+    // exact scaling, then one rounding, and O(1) values whatever the spacing (s_b ~ dx^3, its
+    // pair coefficient (a - g) / |s_b|^2 ~ mu / dx^6 would leave single precision's range
+    // near dx = 1e-5 m). The action reads s and s_self scaled and beta_i V_i sigma_i^2
+    // (FamilyHessians): its products, the pair term (a - g)(s.d)s / |s|^2 included, are
+    // unchanged.
+    const Vec2* s_kernel = m_s_scratch.data() + mine;
+    const BondStiffness* k_kernel = m_kbond_scratch.data() + mine;
+    double largest = 0.0;
+    for (Index k = 0; k < nb; ++k) largest = std::max(largest, s_kernel[k].cwiseAbs().maxCoeff());
+    const int e = largest > 0.0 ? std::ilogb(largest) : 0;
+    const double inverse = std::ldexp(1.0, -e);
+    scale2 = std::ldexp(1.0, 2 * e);
+    Float2* kept = m_s32.data() + b0;
+    for (Index k = 0; k < nb; ++k) {
+      kept[k] = Float2{static_cast<float>(inverse * s_kernel[k].x()),
+                       static_cast<float>(inverse * s_kernel[k].y())};
+      m_kbond32[b0 + k] = Float2{static_cast<float>(k_kernel[k][0]), static_cast<float>(k_kernel[k][1])};
+    }
+    // s_self sums the rounded s_b, so that a rigid translation keeps no action. In a loop of its
+    // own, reading the floats back: Debian's GCC 12.2 at -O3 vectorised the rounding, the store
+    // and the sum of one loop so that the sum took the unrounded doubles (the rigid-translation
+    // test MatrixFree.FloatFactorsGiveTheTangentToSinglePrecision caught it).
+    for (Index k = 0; k < nb; ++k) s -= Vec2(double(kept[k][0]), double(kept[k][1]));
+  } else {
+    for (Index b = b0; b < b0 + nb; ++b) s -= m_s[b];
+  }
+  m_s_self[i] = s;
+  m_beta_volume[i] = beta * m_model.particles.volume[i] * scale2;
 }
 
 void QuasiStaticProblem::bond_forces(bool want_tangent) {
@@ -612,7 +656,8 @@ std::size_t QuasiStaticProblem::memory_bytes() const {
   std::size_t total =
       m_correction.memory_bytes() + bytes(m_changed_families) + bytes(m_eta) + bytes(m_eta_scratch) +
       bytes(m_extension_scratch) + bytes(m_force_scratch) + bytes(m_law) + bytes(m_s) + bytes(m_kbond) +
-      bytes(m_s_self) + bytes(m_beta_volume) +
+      bytes(m_s32) + bytes(m_kbond32) + bytes(m_s_scratch) + bytes(m_kbond_scratch) + bytes(m_s_self) +
+      bytes(m_beta_volume) +
       static_cast<std::size_t>(m_u.size() + m_u_tangent.size() + m_force.size() + m_velocity.size()) *
           sizeof(double) +
       m_pattern.memory_bytes() + m_ids.memory_bytes() + m_share.memory_bytes() + m_balance.memory_bytes() +

@@ -45,6 +45,9 @@ struct ProblemOptions {
   /// make_tangent() gives an empty matrix, evaluate() with K prepares apply_tangent() instead
   /// of writing K (ADR needs the assembled tangent and never sets this).
   bool matrix_free = false;
+  /// solver.krylov.factors float (matrix_free only): the action's per-bond factors kept in
+  /// single precision, 16 bytes per bond instead of 32 (RunPlan::float_factors).
+  bool float_factors = false;
   /// The rows this process assembles: a rank of a distributed run holds its part of the model
   /// (global_id below) and writes only its rows of the tangent and of the bond preconditioner
   /// (docs/guide/distributed.md). Every row by default. With the rows split, the problem's
@@ -96,7 +99,7 @@ class QuasiStaticProblem final : public Problem,
   /// True when the tangent is never assembled (ProblemOptions::matrix_free).
   bool matrix_free() const { return m_options.matrix_free; }
   /// Matrix-free, while a solver sets up its preconditioner (LinearSystem::suspend_action):
-  /// drops the families' per-bond factors (s_b and k_b, 32 bytes per bond) when the model has
+  /// drops the families' per-bond factors (s_b and k_b, 32 bytes per bond, 16 in float) when the model has
   /// at least kSuspendActionBonds bonds (set_suspend_bonds()) and no bond broke since the
   /// evaluate() with a tangent that made them. False when nothing was dropped.
   bool suspend_action();
@@ -256,12 +259,19 @@ class QuasiStaticProblem final : public Problem,
   /// was the last (may evaluate the bonds at the midpoint, then x again). Returns why the
   /// energy balance fails, or "" (failures are reported only when `check`).
   std::string measure_increment(const VectorXd& x, bool check);
-  /// m_s and m_kbond allocated again (zero) after suspend_action().
+  /// The per-bond factors (m_s and m_kbond, or m_s32 and m_kbond32) allocated again (zero)
+  /// after suspend_action(), or first.
   void restore_action_storage();
   /// m_u, the state of the last evaluate() with a tangent, into m_u_tangent.
   void keep_tangent_state();
   /// The families' factored Hessians of the last evaluate() with a tangent.
-  FamilyHessians hessians() { return {m_s, m_kbond, m_s_self, m_beta_volume}; }
+  FamilyHessians hessians() {
+    return {m_s, m_kbond, m_s32, m_kbond32, m_options.float_factors, m_s_self, m_beta_volume};
+  }
+  /// The kernel's s_b and k_b of the family of particle i (its bonds from b0): rounded into
+  /// m_s32 and m_kbond32 with float factors (from the thread's scratch, `mine`), and s_self
+  /// and beta_i V_i from what is kept.
+  void keep_factors(Index i, Index b0, Index nb, std::size_t mine, double beta);
 
   const Model& m_model;
   ProblemOptions m_options;
@@ -311,7 +321,12 @@ class QuasiStaticProblem final : public Problem,
   /// evaluate() with a tangent, the pair's V_i k_b + V_j k_r in the action's form instead
   /// (TangentAction::prepare())
   std::vector<BondStiffness> m_kbond;
-  std::vector<Vec2> m_s_self;                 ///< per particle: -sum_b s_b
+  /// With float factors (ProblemOptions::float_factors) m_s and m_kbond stay empty and these
+  /// hold the same in single precision; the kernel writes its double ones into the scratch.
+  std::vector<Float2> m_s32, m_kbond32;
+  std::vector<Vec2> m_s_scratch;               ///< per thread, float factors: one family's s_b
+  std::vector<BondStiffness> m_kbond_scratch;  ///< per thread, float factors: one family's k_b
+  std::vector<Vec2> m_s_self;                  ///< per particle: -sum_b s_b (as kept)
   /// evaluate() calls, and the call of the last one with a tangent (suspend_action() needs
   /// m_u to be that state)
   std::uint64_t m_evaluations = 0, m_tangent_evaluation = 0;

@@ -21,6 +21,8 @@ bool QuasiStaticProblem::suspend_action() {
   if (at_tangent) keep_tangent_state();
   std::vector<Vec2>().swap(m_s);
   std::vector<BondStiffness>().swap(m_kbond);
+  std::vector<Float2>().swap(m_s32);
+  std::vector<Float2>().swap(m_kbond32);
   m_action_suspended = true;
   return true;
 }
@@ -32,8 +34,13 @@ void QuasiStaticProblem::keep_tangent_state() {
 
 void QuasiStaticProblem::restore_action_storage() {
   const std::size_t nbonds = m_model.bonds.neighbour.size();
-  assign_huge(m_s, nbonds, Vec2(Vec2::Zero()));
-  assign_huge(m_kbond, nbonds, BondStiffness{});
+  if (m_options.float_factors) {
+    assign_huge(m_s32, nbonds, Float2{});
+    assign_huge(m_kbond32, nbonds, Float2{});
+  } else {
+    assign_huge(m_s, nbonds, Vec2(Vec2::Zero()));
+    assign_huge(m_kbond, nbonds, BondStiffness{});
+  }
   m_action_suspended = false;
 }
 
@@ -65,6 +72,8 @@ void QuasiStaticProblem::gather_tangent(SparseMatrix& K) const {
   //                        (j,p) += -V_p k_b + bV_p s_b s_p^T
   //   family of i ~ p (r = i -> p): (i,p) += -V_i k_r + bV_i s_i s_r^T,  (p,p) += V_i k_r,
   //                        (j,p) += bV_i s_c s_r^T for every bond c = i -> j.
+  if (m_options.float_factors)
+    throw std::logic_error("QuasiStaticProblem::gather_tangent: float factors are the matrix-free action's");
   const Bonds& bonds = m_model.bonds;
   const Particles& part = m_model.particles;
   const Constraints& cons = m_model.constraints;
@@ -130,7 +139,7 @@ SparseMatrix QuasiStaticProblem::make_preconditioner() {
 
 void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
   if (!m_preconditioner) make_preconditioner();
-  m_preconditioner->assemble(P, m_correction, m_s);
+  m_preconditioner->assemble(P, m_correction, BondVectors{m_s, m_s32});
   m_fragments.decouple(P);
 }
 

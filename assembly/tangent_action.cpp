@@ -128,19 +128,30 @@ void TangentAction::apply(const FamilyHessians& h, const ContactSystem* contact,
 
 void TangentAction::multiply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows,
                              const RankShare* share) {
+  // Vec2 and BondStiffness: two packed doubles; Float2: two packed floats.
+  static_assert(sizeof(Vec2) == 2 * sizeof(double) && sizeof(BondStiffness) == 2 * sizeof(double) &&
+                sizeof(Float2) == 2 * sizeof(float));
+  if (h.single)
+    multiply_on(reinterpret_cast<const float*>(h.s32.data()),
+                reinterpret_cast<const float*>(h.kbond32.data()), h, contact, rows, share);
+  else
+    multiply_on(reinterpret_cast<const double*>(h.s.data()), reinterpret_cast<const double*>(h.kbond.data()),
+                h, contact, rows, share);
+}
+
+template <class T>
+void TangentAction::multiply_on(const T* __restrict s, const T* __restrict k, const FamilyHessians& h,
+                                const ContactSystem* contact, const OwnedRows& rows, const RankShare* share) {
   const Index n = m_model.particles.size();
   const bool own = share != nullptr;
   // Raw pointers: the writes into y would otherwise make the compiler reload every vector's
-  // data pointer after each bond.
+  // data pointer after each bond. The factors s and k are read as T and widened to double.
   const Index* __restrict start = m_model.bonds.start.data();
   const Index* __restrict nbr = m_model.bonds.neighbour.data();
-  const auto* __restrict s = reinterpret_cast<const double*>(h.s.data());  // Vec2: two packed doubles
-  const auto* __restrict k = reinterpret_cast<const double*>(h.kbond.data());
   const auto* __restrict s_self = reinterpret_cast<const double*>(h.s_self.data());
   const double* __restrict beta_volume = h.beta_volume.data();
   const double* __restrict w = m_v_full.data();
   double* __restrict yf = m_y_full.data();
-  static_assert(sizeof(Vec2) == 2 * sizeof(double) && sizeof(BondStiffness) == 2 * sizeof(double));
   // One pass over the families, each family's bond data read once from memory and used while
   // it is in cache: the dilatation rate G_i = beta_i V_i g_i . w, then G_i s_self_i into row i
   // and G_i s_b into row j for each bond b = i -> j (the column form of beta_i V_i g_i g_i^T),
@@ -154,7 +165,8 @@ void TangentAction::multiply(const FamilyHessians& h, const ContactSystem* conta
     double G = 0.0;
     if (needed) {
       double g = s_self[2 * i] * wx + s_self[2 * i + 1] * wy;
-      for (Index b = b0; b < b1; ++b) g += s[2 * b] * w[2 * nbr[b]] + s[2 * b + 1] * w[2 * nbr[b] + 1];
+      for (Index b = b0; b < b1; ++b)
+        g += double(s[2 * b]) * w[2 * nbr[b]] + double(s[2 * b + 1]) * w[2 * nbr[b] + 1];
       G = beta_volume[i] * g;
     }
     double yx = G * s_self[2 * i], yy = G * s_self[2 * i + 1];
@@ -165,7 +177,7 @@ void TangentAction::multiply(const FamilyHessians& h, const ContactSystem* conta
         yf[2 * j] += G * sx;
         yf[2 * j + 1] += G * sy;
         const double dx = wx - w[2 * j], dy = wy - w[2 * j + 1];
-        const double g = k[2 * b + 1], c = k[2 * b] * (sx * dx + sy * dy);
+        const double g = k[2 * b + 1], c = double(k[2 * b]) * (sx * dx + sy * dy);
         yx += g * dx + c * sx;
         yy += g * dy + c * sy;
       }
@@ -178,8 +190,8 @@ void TangentAction::multiply(const FamilyHessians& h, const ContactSystem* conta
           }
     } else if (needed) {
       for (Index b = b0; b < b1; ++b) {
-        yf[2 * nbr[b]] += G * s[2 * b];
-        yf[2 * nbr[b] + 1] += G * s[2 * b + 1];
+        yf[2 * nbr[b]] += G * double(s[2 * b]);
+        yf[2 * nbr[b] + 1] += G * double(s[2 * b + 1]);
       }
     }
     yf[2 * i] += yx;
@@ -198,28 +210,58 @@ void TangentAction::multiply(const FamilyHessians& h, const ContactSystem* conta
   }
 }
 
+namespace {
+/// A bond's s_b or factor pair as doubles, kept in double (Vec2, BondStiffness) or float (Float2).
+inline Vec2 widened(const Vec2& v) {
+  return v;
+}
+inline Vec2 widened(const Float2& v) {
+  return Vec2(double(v[0]), double(v[1]));
+}
+inline Vec2 widened(const BondStiffness& k) {
+  return Vec2(k[0], k[1]);
+}
+}  // namespace
+
 void TangentAction::pair_stiffness(const FamilyHessians& h) const {
+  if (h.single)
+    pair_stiffness_on(h.s32, h.kbond32);
+  else
+    pair_stiffness_on(h.s, h.kbond);
+}
+
+template <class S, class K>
+void TangentAction::pair_stiffness_on(std::span<const S> s, std::span<K> kbond) const {
+  using Kept = typename K::value_type;
   const Bonds& bonds = m_model.bonds;
   const Particles& part = m_model.particles;
   const Index n = part.size();
   // Each pair {b, r} once, by the family of its lower bond index: no two iterations write
-  // the same bond.
+  // the same bond. In double from the kept factors (rounded ones with float), |s_b|^2 of the
+  // s_b that apply() reads.
 #pragma omp parallel for schedule(static)
   for (Index q = 0; q < n; ++q)
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
       const Index r = bonds.reverse(q, b);
       if (r < b) continue;
       const double Vq = part.volume[q], Vj = part.volume[bonds.neighbour[b]];
-      const BondStiffness &kb = h.kbond[b], &kr = h.kbond[r];
+      const Vec2 kb = widened(kbond[b]), kr = widened(kbond[r]);
       // V_q k_b + V_j k_r = g I + (a - g) M M^T, M M^T = s_b s_b^T / |s_b|^2 = s_r s_r^T / |s_r|^2.
       const double a = Vq * kb[0] + Vj * kr[0], g = Vq * kb[1] + Vj * kr[1];
-      const double sb = h.s[b].squaredNorm(), sr = h.s[r].squaredNorm();
-      h.kbond[b] = BondStiffness{sb > 0.0 ? (a - g) / sb : 0.0, g};
-      h.kbond[r] = BondStiffness{sr > 0.0 ? (a - g) / sr : 0.0, g};
+      const double sb = widened(s[b]).squaredNorm(), sr = widened(s[r]).squaredNorm();
+      kbond[b] = K{static_cast<Kept>(sb > 0.0 ? (a - g) / sb : 0.0), static_cast<Kept>(g)};
+      kbond[r] = K{static_cast<Kept>(sr > 0.0 ? (a - g) / sr : 0.0), static_cast<Kept>(g)};
     }
 }
 
 double TangentAction::tangent_diagonal_max(const FamilyHessians& h, const ContactSystem* contact) const {
+  return h.single ? tangent_diagonal_max_on(h.s32, std::span<const Float2>(h.kbond32), h, contact)
+                  : tangent_diagonal_max_on(h.s, std::span<const BondStiffness>(h.kbond), h, contact);
+}
+
+template <class S, class K>
+double TangentAction::tangent_diagonal_max_on(std::span<const S> s, std::span<const K> kbond,
+                                              const FamilyHessians& h, const ContactSystem* contact) const {
   const Bonds& bonds = m_model.bonds;
   const Particles& part = m_model.particles;
   const std::vector<Index>& free = m_model.constraints.free_index;
@@ -228,11 +270,11 @@ double TangentAction::tangent_diagonal_max(const FamilyHessians& h, const Contac
     Vec2 d(h.beta_volume[q] * h.s_self[q].x() * h.s_self[q].x(), h.beta_volume[q] * h.s_self[q].y() * h.s_self[q].y());
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {  // pair_stiffness()'s data
       const Index r = bonds.reverse(q, b);  // -1: the neighbour's family is another rank's
-      const Vec2 sr = r >= 0 ? h.s[r] : Vec2::Zero();
+      const Vec2 sr = r >= 0 ? widened(s[r]) : Vec2::Zero();
       const double bVj = h.beta_volume[bonds.neighbour[b]];
-      const Vec2& sb = h.s[b];
-      d.x() += h.kbond[b][1] + h.kbond[b][0] * sb.x() * sb.x() + bVj * sr.x() * sr.x();
-      d.y() += h.kbond[b][1] + h.kbond[b][0] * sb.y() * sb.y() + bVj * sr.y() * sr.y();
+      const Vec2 sb = widened(s[b]), k = widened(kbond[b]);
+      d.x() += k[1] + k[0] * sb.x() * sb.x() + bVj * sr.x() * sr.x();
+      d.y() += k[1] + k[0] * sb.y() * sb.y() + bVj * sr.y() * sr.y();
     }
     if (contact)
       for (auto e = contact->incident_begin(q); e != contact->incident_end(q); ++e) {

@@ -31,10 +31,19 @@ std::vector<Index> action_reads(const Model& model, const OwnedRows& rows, const
 /// caches them (FamilyOutputs): per bond s_b and k_b (axial, transverse), per particle
 /// s_self = -sum_b s_b and beta_i V_i. prepare() turns kbond into the pairs' stiffnesses in
 /// the action's form: entry b holds (c_b, g) with V_i k_b + V_j k_r = g I + c_b s_b s_b^T
-/// (= g I + c_r s_r s_r^T: s_r is -s_b's direction).
+/// (= g I + c_r s_r s_r^T: s_r is -s_b's direction). The per-bond factors in double (s,
+/// kbond) or, with solver.krylov.factors float, in single precision (s32, kbond32): exactly
+/// one pair holds the bonds, `single` says which; s_self sums the kept (rounded) s_b, so that
+/// a rigid translation has no action either way. In single precision each family's s_b are
+/// kept divided by a power of two sigma_i (O(1) values at any spacing), s_self alike, and
+/// beta_volume holds beta_i V_i sigma_i^2: the products are the same (QuasiStaticProblem::
+/// keep_factors()).
 struct FamilyHessians {
   std::span<const Vec2> s;
   std::span<BondStiffness> kbond;
+  std::span<const Float2> s32;
+  std::span<Float2> kbond32;
+  bool single = false;
   std::span<const Vec2> s_self;
   std::span<const double> beta_volume;
 };
@@ -69,12 +78,21 @@ class TangentAction {
   /// m_y_full += H m_v_full over the families and contact pairs (with `share`, those of this
   /// rank's rows), colour by colour.
   void multiply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows, const RankShare* share);
+  /// multiply() on the factors' scalar type T (double or float), s and k as T pairs per bond.
+  template <class T>
+  void multiply_on(const T* s, const T* k, const FamilyHessians& h, const ContactSystem* contact,
+                   const OwnedRows& rows, const RankShare* share);
   /// Turns h.kbond into the pairs' stiffnesses (V_i k_b + V_j k_r, FamilyHessians), so that
   /// apply() reads row i's bond terms from family i alone, with the s_b it reads already.
   void pair_stiffness(const FamilyHessians& h) const;
+  template <class S, class K>
+  void pair_stiffness_on(std::span<const S> s, std::span<K> kbond) const;
   /// The largest diagonal entry of K over the unknowns (the fragments' diagonal), from the
   /// factored Hessians (mirror ghosts' folds not included: it only sets a scale).
   double tangent_diagonal_max(const FamilyHessians& h, const ContactSystem* contact) const;
+  template <class S, class K>
+  double tangent_diagonal_max_on(std::span<const S> s, std::span<const K> kbond, const FamilyHessians& h,
+                                 const ContactSystem* contact) const;
 
   const Model& m_model;
   /// apply()'s schedule, chunks of m_chunk consecutive families by colour (chunks of one

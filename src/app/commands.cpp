@@ -208,6 +208,8 @@ class Run {
     start_large_runs_on_huge_pages(m_estimate);  // before anything is printed
     if (!m_plan.linear_auto.empty() && !m_args.quiet && m_root)
       std::printf("peristat: solver.linear auto: %s\n", m_plan.linear_auto.c_str());
+    if (!m_plan.factors_auto.empty() && !m_args.quiet && m_root)
+      std::printf("peristat: solver.krylov.factors auto: %s\n", m_plan.factors_auto.c_str());
     if (says_closure_tolerance(m_scene) && !m_args.quiet && m_root)
       std::printf("peristat: contact.closure_tolerance %s\n", m_scene.contact.closure_tolerance_auto.c_str());
     // Under mpirun Newton distributes its linear solves, ADR its pseudo-time steps
@@ -425,6 +427,7 @@ int check_command(const std::string& scene_path, const std::vector<std::string>&
               model.horizon, scene.discretization.horizon_factor, model.stencil.offset.size());
   print_size(size);
   if (!plan.linear_auto.empty()) std::printf("  solver.linear  auto: %s\n", plan.linear_auto.c_str());
+  if (!plan.factors_auto.empty()) std::printf("  factors        auto: %s\n", plan.factors_auto.c_str());
   if (scene.contact.enabled && scene.contact.enforcement == ContactEnforcement::exact) {
     const ClosureReference r = scene.contact.closure_reference;
     const char* reference =

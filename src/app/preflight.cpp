@@ -298,6 +298,15 @@ std::vector<std::string> preflight(const Scene& scene, const RunPlan& plan, cons
       throw InputError(d.spacing * 2.0 > longest ? d.spacing_where : d.horizon_where, buf);
     }
   }
+  if (scene.solver.action_factors == ActionFactors::single_precision && !plan.matrix_free()) {
+    const std::string why = plan.newton() ? "solver.linear " + std::string(to_string(plan.linear)) : "ADR";
+    std::snprintf(
+        buf, sizeof buf,
+        "float keeps the matrix-free action's factors in single precision, but this run assembles its "
+        "tangent (%s); set solver.linear=matrix_free, or remove the key",
+        why.c_str());
+    throw InputError(scene.solver.factors_where, buf);
+  }
   check_memory(scene, plan, e);
   std::vector<std::string> warnings;
   if (d.horizon_factor < 2.0) {

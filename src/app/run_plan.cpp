@@ -68,6 +68,27 @@ bool picks_linear_solver(const Scene& scene) {
   return scene.solver.type == SolverKind::newton && scene.solver.linear.type == LinearSolverKind::automatic;
 }
 
+/// solver.krylov.factors `auto` on `plan`: float on a matrix-free tangent above
+/// kFloatFactorsAbove unknowns without a failure criterion (then plan.factors_auto says why).
+void resolve_action_factors(const Scene& scene, RunPlan& plan, double unknowns) {
+  if (scene.solver.action_factors != ActionFactors::automatic) return;  // plan_with_linear() took it
+  plan.float_factors = plan.matrix_free() && unknowns > kFloatFactorsAbove && !scene.failure.enabled;
+  if (!plan.float_factors) return;
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "float: about %.0f unknowns > %.0f and no failure criterion: the action's factors take 16 "
+                "bytes per bond instead of 32",
+                unknowns, kFloatFactorsAbove);
+  plan.factors_auto = buf;
+}
+
+/// The scene's `auto` choices read the size: the unknowns estimated before discretising, or 0
+/// when nothing is left to pick.
+bool needs_size(const Scene& scene) {
+  return picks_linear_solver(scene) ||
+         (scene.solver.type == SolverKind::newton && scene.solver.action_factors == ActionFactors::automatic);
+}
+
 }  // namespace
 
 LinearChoice choose_linear_solver(const Scene& scene, double unknowns, int ranks) {
@@ -107,6 +128,9 @@ RunPlan plan_with_linear(const Scene& scene, int ranks, LinearSolverKind linear)
   plan.tangent = tangent_form(scene, linear);
   plan.preconditioner = resolved_preconditioner(scene.solver.linear.preconditioner, linear);
   plan.bond_preconditioner = scene.solver.bond_preconditioner;
+  // An explicit `float` without the action has nothing to store (the run refuses it:
+  // refuse_float_factors_without_action()); `auto` is make_run_plan()'s.
+  plan.float_factors = scene.solver.action_factors == ActionFactors::single_precision && plan.matrix_free();
   plan.model = model_choice(scene, plan);
   return plan;
 }
@@ -118,17 +142,22 @@ RunPlan scene_plan(const Scene& scene, int ranks) {
 }
 
 RunPlan make_run_plan(const Scene& scene, int ranks, double unknowns) {
-  if (!picks_linear_solver(scene)) return scene_plan(scene, ranks);
-  const LinearChoice choice = choose_linear_solver(scene, unknowns, ranks);
-  RunPlan plan = plan_with_linear(scene, ranks, choice.kind);
-  plan.linear_auto =
-      std::string(to_string(choice.kind)) + ": " + choice.reason +
-      shorten_bond_radius(plan, unknowns, scene.contact.enabled && scene.contact.friction > 0.0);
+  RunPlan plan;
+  if (picks_linear_solver(scene)) {
+    const LinearChoice choice = choose_linear_solver(scene, unknowns, ranks);
+    plan = plan_with_linear(scene, ranks, choice.kind);
+    plan.linear_auto =
+        std::string(to_string(choice.kind)) + ": " + choice.reason +
+        shorten_bond_radius(plan, unknowns, scene.contact.enabled && scene.contact.friction > 0.0);
+  } else {
+    plan = scene_plan(scene, ranks);
+  }
+  resolve_action_factors(scene, plan, unknowns);
   return plan;
 }
 
 RunPlan make_run_plan(const Scene& scene, int ranks) {
-  return make_run_plan(scene, ranks, picks_linear_solver(scene) ? estimated_unknowns(estimate_model(scene)) : 0.0);
+  return make_run_plan(scene, ranks, needs_size(scene) ? estimated_unknowns(estimate_model(scene)) : 0.0);
 }
 
 double smallest_critical_stretch(const Scene& scene) {
@@ -175,6 +204,9 @@ RunPlan resolve_run_plan(Scene& scene, int ranks) {
     scene.solver.linear.auto_choice = plan.linear_auto;
     scene.solver.bond_preconditioner = plan.bond_preconditioner;
   }
+  if (scene.solver.action_factors == ActionFactors::automatic && plan.newton())
+    scene.solver.action_factors =
+        plan.float_factors ? ActionFactors::single_precision : ActionFactors::double_precision;
   return plan;
 }
 

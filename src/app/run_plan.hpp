@@ -35,6 +35,14 @@ inline constexpr double kDirectMaxUnknowns = 2500.0;
 /// mixed_mode_crack 414 against 411 s).
 inline constexpr double kMediumBondsAbove = 100000.0;
 inline constexpr double kShortBondsAbove = 500000.0;
+/// solver.krylov.factors `auto` keeps the matrix-free action's per-bond factors in single
+/// precision (16 bytes per directed bond instead of 32) above this many unknowns, where `auto`
+/// also shortens the bond radius for memory, when the scene has no failure criterion. Measured
+/// in docs/performance.md ("Single-precision factors"): on the 1000 x 1000 plate the same
+/// Newton and Krylov iterations and answers within the Newton tolerance, 0.7 GB less; on
+/// cracked scenes whose ligaments thin as bonds break (the running crack) the iterations grew,
+/// so scenes with a failure criterion keep double.
+inline constexpr double kFloatFactorsAbove = kShortBondsAbove;
 
 /// The linear solver `solver.linear: auto` stands for, from the number of unknowns (an
 /// estimate before discretising, or the model's), the scene's physics and the MPI ranks:
@@ -70,6 +78,10 @@ struct RunPlan {
   PreconditionerKind preconditioner = PreconditionerKind::automatic;
   /// The bond preconditioner's radius, shortened by `auto` on large matrix-free models.
   BondPreconditionerOptions bond_preconditioner;
+  /// The matrix-free action keeps its per-bond factors in single precision
+  /// (solver.krylov.factors; `auto` resolved by make_run_plan(): kFloatFactorsAbove).
+  bool float_factors = false;
+  std::string factors_auto;  ///< what `auto` picked for the factors and why, when it picked float
   ModelChoice model;  ///< the rank's part of the model and its rings, or the whole model
 
   bool newton() const { return solver == SolverKind::newton; }

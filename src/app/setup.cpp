@@ -20,6 +20,7 @@ ProblemOptions problem_options(const Scene& scene, const RunPlan& plan) {
   options.bond_preconditioner = plan.bond_preconditioner;
   options.surface_correction = scene.discretization.surface_correction;
   options.matrix_free = plan.matrix_free();
+  options.float_factors = plan.float_factors;
   return options;
 }
 

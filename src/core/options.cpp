@@ -27,6 +27,10 @@ std::string_view to_string(PreconditionerKind kind) {
   return name_of(kind, std::array<std::string_view, 7>{"auto", "bond", "cholmod", "ic", "diagonal", "ilut", "bond_amg"});
 }
 
+std::string_view to_string(ActionFactors kind) {
+  return name_of(kind, std::array<std::string_view, 3>{"auto", "double", "float"});
+}
+
 std::string_view to_string(BelosMethod kind) {
   return name_of(kind, std::array<std::string_view, 3>{"auto", "cg", "gmres"});
 }

@@ -68,6 +68,12 @@ enum class LinearSolverKind { cholmod, umfpack, klu, ldlt, cg, bicgstab, belos, 
 /// bond_amg: a MueLu V-cycle of the bond matrix instead of its factor (cg, matrix_free).
 enum class PreconditionerKind { automatic, bond, cholmod, ic, diagonal, ilut, bond_amg };
 
+/// solver.krylov.factors: how the matrix-free action keeps the families' per-bond factors
+/// (s_b and the pair stiffness, assembly/tangent_action.hpp). `automatic` (the key's value
+/// `auto`): single precision on the largest models without a failure criterion
+/// (RunPlan::float_factors), double otherwise.
+enum class ActionFactors { automatic, double_precision, single_precision };
+
 /// solver.belos.method: Belos's Krylov method. `automatic` (the key's value `auto`): CG while
 /// the tangent is symmetric, GMRES while contact pairs slip.
 enum class BelosMethod { automatic, cg, gmres };
@@ -148,6 +154,7 @@ struct Loading {
 std::string_view to_string(SolverKind kind);
 std::string_view to_string(LinearSolverKind kind);
 std::string_view to_string(PreconditionerKind kind);
+std::string_view to_string(ActionFactors kind);
 std::string_view to_string(BelosMethod kind);
 std::string_view to_string(BelosPreconditioner kind);
 std::string_view to_string(BelosPartition kind);

@@ -22,6 +22,21 @@ using Sym2 = std::array<double, 3>;
 /// already (8 bytes per bond less than a Sym2).
 using BondStiffness = std::array<double, 2>;
 
+/// A bond's s_b or stiffness pair in single precision: the matrix-free action's factors with
+/// solver.krylov.factors float (16 bytes per bond instead of 32; the kernels compute in
+/// double, and the assembler rounds what it keeps).
+using Float2 = std::array<float, 2>;
+
+/// Each bond's s_b = b_b M_b of the last evaluation with a tangent, kept in double or in
+/// single precision (exactly one of the two spans holds the bonds).
+struct BondVectors {
+  std::span<const Vec2> full;
+  std::span<const Float2> single;
+  Vec2 operator[](std::size_t b) const {
+    return single.empty() ? full[b] : Vec2(double(single[b][0]), double(single[b][1]));
+  }
+};
+
 /// k_b as a block, its direction M_b = s_b / |s_b| (FamilyOutputs::s); a bond without weight
 /// (s_b = 0, broken) has no stiffness.
 inline Sym2 bond_block(const BondStiffness& k, const Vec2& s) {

@@ -20,6 +20,8 @@ struct SolverOptions {
   NewtonOptions newton;
   AdrOptions adr;
   BondPreconditionerOptions bond_preconditioner;  ///< solver.krylov.bond_radius
+  ActionFactors action_factors = ActionFactors::automatic;  ///< solver.krylov.factors
+  SourceLocation factors_where;                             ///< of solver.krylov.factors, when given
 };
 
 struct OutputOptions {

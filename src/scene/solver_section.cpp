@@ -26,13 +26,18 @@ Kind read_kind(const Field& field, std::initializer_list<Kind> kinds) {
 }
 
 void read_krylov(const Field& field, SolverOptions& o) {
-  const Map m = checked_map(field, {"rtol", "max_iterations", "preconditioner", "bond_radius"});
+  const Map m = checked_map(field, {"rtol", "max_iterations", "preconditioner", "bond_radius", "factors"});
   if (auto f = m.find("rtol")) o.linear.rtol = schema::positive(*f);
   if (auto f = m.find("bond_radius")) {
     o.bond_preconditioner.bond_radius = schema::at_least(*f, 1.0);
     o.bond_preconditioner.radius_given = true;
   }
   if (auto f = m.find("max_iterations")) o.linear.max_iterations = schema::int_at_least(*f, 1);
+  if (auto f = m.find("factors")) {
+    o.action_factors = read_kind(
+        *f, {ActionFactors::automatic, ActionFactors::double_precision, ActionFactors::single_precision});
+    o.factors_where = f->where();
+  }
   if (auto f = m.find("preconditioner"))
     o.linear.preconditioner =
         read_kind(*f, {PreconditionerKind::automatic, PreconditionerKind::bond, PreconditionerKind::cholmod,

@@ -216,6 +216,7 @@ std::unique_ptr<Evaluated> evaluated(const std::string& path, const std::vector<
   e->model = discretise(e->scene);
   ProblemOptions options = problem_options(e->scene);
   options.matrix_free = true;
+  options.float_factors = e->scene.solver.action_factors == ActionFactors::single_precision;
   e->problem = std::make_unique<QuasiStaticProblem>(e->model, options);
   e->problem->set_load_factor(1.0);
   VectorXd x = VectorXd::Zero(e->problem->n_unknowns()), r;
@@ -243,9 +244,13 @@ int action(const std::string& path, int reps, const std::vector<Override>& overr
   }
   std::sort(t.begin(), t.end());
   const double bonds = model.bonds.n_bonds();
-  // Per bond, the data the single pass streams: the neighbour index, s_b and the pair stiffness
-  // (v, the dilatation rates and y are per particle and stay in cache).
-  const double bytes = bonds * (sizeof(Index) + sizeof(Vec2) + sizeof(BondStiffness));
+  // Per bond, the data the single pass streams: the neighbour index, s_b and the pair stiffness,
+  // in double or float (--set solver.krylov.factors=float); v, the dilatation rates and y are
+  // per particle and stay in cache.
+  const bool single = scene.solver.action_factors == ActionFactors::single_precision;
+  const double bytes =
+      bonds * static_cast<double>(sizeof(Index) +
+                                  (single ? 2 * sizeof(Float2) : sizeof(Vec2) + sizeof(BondStiffness)));
   std::printf("scene=%s particles=%d bonds=%.0f unknowns=%d threads=%d best=%.3fms median=%.3fms "
               "bond data read at %.1f GB/s checksum=%.6e\n",
               scene.name.c_str(), model.particles.size(), bonds, problem.n_unknowns(), omp_get_max_threads(),

@@ -24,8 +24,9 @@ struct Pair {
   std::unique_ptr<QuasiStaticProblem> assembled, matrix_free;
 };
 
-/// The same scene as an assembled and as a matrix-free problem.
-std::unique_ptr<Pair> both(const std::string& yaml) {
+/// The same scene as an assembled and as a matrix-free problem (with `float_factors`, its
+/// factors in single precision).
+std::unique_ptr<Pair> both(const std::string& yaml, bool float_factors = false) {
   auto p = std::make_unique<Pair>();
   p->scene = test::scene_from_yaml(yaml);
   p->model = discretise(p->scene);
@@ -33,6 +34,7 @@ std::unique_ptr<Pair> both(const std::string& yaml) {
   options.matrix_free = false;
   p->assembled = std::make_unique<QuasiStaticProblem>(p->model, options);
   options.matrix_free = true;
+  options.float_factors = float_factors;
   p->matrix_free = std::make_unique<QuasiStaticProblem>(p->model, options);
   p->assembled->set_load_factor(1.0);
   p->matrix_free->set_load_factor(1.0);
@@ -40,9 +42,9 @@ std::unique_ptr<Pair> both(const std::string& yaml) {
 }
 
 /// Evaluates both problems at x with a tangent, then compares K v with apply_tangent(v) for
-/// random v. 1e-12 relative: the two sum the same terms in another order (round-off only).
-/// Returns K for further checks.
-SparseMatrix expect_action_is_the_tangent(Pair& p, const VectorXd& x) {
+/// random v. 1e-12 relative: the two sum the same terms in another order (round-off only);
+/// `tolerance` for the float factors. Returns K for further checks.
+SparseMatrix expect_action_is_the_tangent(Pair& p, const VectorXd& x, double tolerance = 1e-12) {
   SparseMatrix K = p.assembled->make_tangent();
   EXPECT_GT(K.nonZeros(), 0);
   SparseMatrix placeholder = p.matrix_free->make_tangent();
@@ -57,7 +59,7 @@ SparseMatrix expect_action_is_the_tangent(Pair& p, const VectorXd& x) {
     VectorXd y;
     p.matrix_free->apply_tangent(v, y);
     const VectorXd Kv = K * v;
-    EXPECT_LT((y - Kv).norm(), 1e-12 * Kv.norm()) << "seed " << seed;
+    EXPECT_LT((y - Kv).norm(), tolerance * Kv.norm()) << "seed " << seed;
   }
   return K;
 }
@@ -81,15 +83,20 @@ TEST(MatrixFree, ActionEqualsTheAssembledTangentOnACrackedPlate) {
   }
 }
 
-// Mirror grips: the ghosts' columns fold into their sources' (scatter with the signs).
-TEST(MatrixFree, ActionEqualsTheAssembledTangentWithMirrorGrips) {
+/// A plate held by mirror grips on both ends, one of them pulled.
+std::string mirror_gripped_plate() {
   test::PlateSpec spec;
   spec.nx = 18;
   spec.ny = 10;
   spec.boundary = "  - {body: plate, edge: left, mirror: true, ux: 0}\n"
                   "  - {body: plate, edge: right, mirror: true, ux: 2.0e-5}\n"
                   "  - {body: plate, region: {min: [0, 0.004], max: [0.001, 0.006]}, uy: 0}\n";
-  auto p = both(test::plate_yaml(spec));
+  return test::plate_yaml(spec);
+}
+
+// Mirror grips: the ghosts' columns fold into their sources' (scatter with the signs).
+TEST(MatrixFree, ActionEqualsTheAssembledTangentWithMirrorGrips) {
+  auto p = both(mirror_gripped_plate());
   ASSERT_TRUE(p->model.constraints.has_images());
   const double dx = p->scene.discretization.spacing;
   expect_action_is_the_tangent(*p, random_vector(p->assembled->n_unknowns(), 0.05 * dx, 31u));
@@ -177,7 +184,7 @@ struct FrictionalScene {
   double dx = 1e-3;
 };
 
-FrictionalScene frictional_scene() {
+FrictionalScene frictional_scene(bool float_factors = false) {
   FrictionalScene f;
   test::PlateSpec spec;
   spec.nx = 12;
@@ -185,7 +192,7 @@ FrictionalScene frictional_scene() {
   spec.dx = f.dx;
   spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
   spec.cracks = "  - {from: [0.0061, -0.001], to: [0.0061, 0.009]}\n";
-  f.p = both(test::plate_yaml(spec) + "contact:\n  friction: 0.2\n  radius_factor: 1.2\n");
+  f.p = both(test::plate_yaml(spec) + "contact:\n  friction: 0.2\n  radius_factor: 1.2\n", float_factors);
   std::mt19937 gen(11);
   std::uniform_real_distribution<double> d(-1.0, 1.0);
   const Model& model = f.p->model;
@@ -288,6 +295,101 @@ TEST(MatrixFree, ActionIsTheDirectionalDerivativeOfTheResidual) {
     const VectorXd difference = (plus - minus) / (2.0 * h);
     EXPECT_LT((y - difference).norm(), 1e-6 * difference.norm()) << "seed " << seed;
   }
+}
+
+// solver.krylov.factors float: the action's factors rounded to single precision (relative
+// error 6e-8 each), at any spacing, give K v to about that: 2e-6 relative allows the cancellation of a row's
+// terms of both signs (the rank-one dilatation term against the bond terms) by a factor 30.
+// The product must not be the double one (the float path taken), and a rigid translation must
+// keep no action in the rows whose stencils hold no prescribed component: s_self sums the
+// rounded s_b, so G_i cancels to round-off in double (1e-12 relative; with s_self from the
+// unrounded s_b it would be about 1e-8).
+TEST(MatrixFree, FloatFactorsGiveTheTangentToSinglePrecision) {
+  struct Case {
+    std::string name, yaml;
+  };
+  // A steel plate of 1e-7 m spacing: unscaled, its pair coefficients (a - g) / |s_b|^2 ~ mu /
+  // dx^6 would overflow single precision (1e51); the families' power-of-two scales keep them
+  // O(mu).
+  test::PlateSpec micro;
+  micro.nx = 16;
+  micro.ny = 10;
+  micro.dx = 1e-7;
+  micro.E = 2e11;
+  micro.thickness = 1e-7;
+  micro.boundary =
+      "  - {body: plate, edge: left, ux: 0, uy: 0}\n  - {body: plate, edge: right, ux: 2.0e-9}\n";
+  for (const Case& c :
+       {Case{"cracked finite", cracked_plate("finite")}, Case{"cracked small", cracked_plate("small")},
+        Case{"mirror grips", mirror_gripped_plate()},
+        Case{"steel at dx = 1e-7 m", test::plate_yaml(micro)}}) {
+    SCOPED_TRACE(c.name);
+    auto p = both(c.yaml, true);
+    auto exact = both(c.yaml, false);
+    const double dx = p->scene.discretization.spacing;
+    const VectorXd x = random_vector(p->assembled->n_unknowns(), 0.05 * dx, 7u);
+    expect_action_is_the_tangent(*p, x, 2e-6);
+    expect_action_is_the_tangent(*exact, x);
+    const VectorXd v = random_vector(x.size(), 1.0, 4u);
+    VectorXd y_float, y_double;
+    p->matrix_free->apply_tangent(v, y_float);
+    exact->matrix_free->apply_tangent(v, y_double);
+    EXPECT_GT((y_float - y_double).norm(), 1e-10 * y_double.norm()) << "the factors were not rounded";
+
+    // A rigid translation along x on the unknowns: rows two horizons from any prescribed
+    // component (or mirror ghost) see the whole translation.
+    const Model& model = p->model;
+    const Constraints& cons = model.constraints;
+    VectorXd t = VectorXd::Zero(x.size());
+    for (Index q = 0; q < model.particles.size(); ++q)
+      if (cons.free_index[2 * q] >= 0) t[cons.free_index[2 * q]] = 1.0;
+    VectorXd y;
+    p->matrix_free->apply_tangent(t, y);
+    const double reach = 2.0 * model.horizon + 1e-9 * dx;
+    double largest = 0.0, scale = 0.0;
+    int interior = 0;
+    for (Index q = 0; q < model.particles.size(); ++q) {
+      const Index k = cons.free_index[2 * q];
+      if (k < 0) continue;
+      scale = std::max(scale, std::abs(y_double[k]));
+      bool whole = true;
+      for (Index o = 0; o < model.particles.size() && whole; ++o)
+        if ((model.particles.position[o] - model.particles.position[q]).norm() <= reach)
+          whole = cons.free_index[2 * o] >= 0 && cons.free_index[2 * o + 1] >= 0;
+      if (!whole) continue;
+      ++interior;
+      largest = std::max({largest, std::abs(y[k]), std::abs(y[cons.free_index[2 * q + 1]])});
+    }
+    ASSERT_GT(interior, 0) << "no row away from the boundary conditions";
+    EXPECT_LT(largest, 1e-12 * scale) << interior << " interior rows";
+  }
+}
+
+// The float factors with frictional contact (slipping pairs: an unsymmetric tangent; the
+// pairs' Jacobians stay double): the action is the tangent to single precision (as above), and
+// suspending the factors frees 16 bytes per bond and brings them back bit for bit.
+TEST(MatrixFree, FloatFactorsWithFrictionalContactComeBackAfterASuspension) {
+  FrictionalScene f = frictional_scene(true);
+  QuasiStaticProblem& problem = *f.p->matrix_free;
+  expect_action_is_the_tangent(*f.p, f.x, 2e-6);
+  EXPECT_GT(problem.contact()->counts().slip, 0);
+  const Index n = problem.n_unknowns();
+  SparseMatrix placeholder = problem.make_tangent();
+  VectorXd r, y_before, y_after;
+  problem.set_suspend_bonds(0);
+  problem.evaluate(f.x, r, &placeholder);
+  const VectorXd v = random_vector(n, 1.0, 9u);
+  problem.apply_tangent(v, y_before);
+  problem.evaluate(f.x + random_vector(n, 0.01 * f.dx, 5u), r, nullptr);  // the state moves on
+  const std::size_t held = problem.memory_bytes();
+  ASSERT_TRUE(problem.suspend_action());
+  const std::size_t bonds = f.p->model.bonds.neighbour.size();
+  EXPECT_GE(held - problem.memory_bytes(), 16 * bonds) << "s_b and k_b in float are freed";
+  EXPECT_LT(held - problem.memory_bytes(), 32 * bonds) << "and they took 16 bytes per bond, not 32";
+  problem.resume_action();
+  problem.apply_tangent(v, y_after);
+  ASSERT_EQ(y_after.size(), y_before.size());
+  for (Index k = 0; k < n; ++k) ASSERT_EQ(y_after[k], y_before[k]) << "row " << k;
 }
 
 }  // namespace

@@ -225,6 +225,51 @@ TEST(LinearAuto, FrictionKeepsTheDefaultBondRadiusBelowTheLargestModels) {
   EXPECT_EQ(radius_for(growth, {"discretization.spacing=0.004"}), 1.42) << "about 1,000,000 unknowns";
 }
 
+// solver.krylov.factors auto: single precision where `auto` trades for memory (above
+// kFloatFactorsAbove unknowns) and the scene has no failure criterion (its ligaments thin as
+// bonds break: the running crack's iterations grew with float factors); double otherwise, and
+// an explicit value wins. The plan and the scene, resolved, agree.
+TEST(LinearAuto, FloatFactorsOnTheLargestModelsWithoutFailure) {
+  const auto plan_for = [](const char* file, const std::vector<std::string>& sets) {
+    Scene scene = case_scene(file, sets);
+    const bool automatic = scene.solver.action_factors == ActionFactors::automatic;
+    const RunPlan plan = resolve_run_plan(scene, 1);
+    EXPECT_EQ(scene.solver.action_factors,
+              plan.float_factors ? ActionFactors::single_precision : ActionFactors::double_precision)
+        << file;
+    EXPECT_EQ(!plan.factors_auto.empty(), automatic && plan.float_factors) << "auto says why it picked float";
+    return plan;
+  };
+  const char* plate = "tension_plate/scene.yaml";
+  const RunPlan million = plan_for(plate, {"discretization.spacing=1e-4"});
+  EXPECT_TRUE(million.float_factors) << "about 2,000,000 unknowns, no failure";
+  EXPECT_NE(million.factors_auto.find("16 bytes per bond"), std::string::npos) << million.factors_auto;
+  EXPECT_FALSE(plan_for(plate, {"discretization.spacing=3e-4"}).float_factors) << "about 220,000 unknowns";
+  EXPECT_FALSE(
+      plan_for(plate, {"discretization.spacing=1e-4", "solver.krylov.factors=double"}).float_factors);
+  EXPECT_TRUE(plan_for(plate, {"solver.linear=matrix_free", "solver.krylov.factors=float"}).float_factors)
+      << "asked for on a small model";
+  EXPECT_FALSE(plan_for("paper_4_4_crack_growth/scene.yaml", {"discretization.spacing=0.004"}).float_factors)
+      << "about 1,000,000 unknowns with a failure criterion";
+  EXPECT_FALSE(plan_for(plate, {"discretization.spacing=1e-4", "solver.linear=cg"}).float_factors)
+      << "an assembled tangent has no action";
+}
+
+// `float` on a run that assembles its tangent cannot be honoured: refused, naming the key.
+TEST(Preflight, FloatFactorsWithAnAssembledTangentAreRefused) {
+  for (const char* linear : {"solver.linear=cholmod", "solver.type=adr"}) {
+    Scene scene = case_scene("tension_plate/scene.yaml", {linear, "solver.krylov.factors=float"});
+    const RunPlan plan = resolve_run_plan(scene, 1);
+    try {
+      preflight(scene, plan, estimate_size(scene, plan));
+      ADD_FAILURE() << linear << ": not refused";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("solver.krylov.factors"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("matrix_free"), std::string::npos) << e.what();
+    }
+  }
+}
+
 // An explicit solver.linear always wins, and ADR needs no linear solver.
 TEST(LinearAuto, ExplicitChoiceAndAdrAreLeftAlone) {
   Scene umfpack = case_scene("tension_plate/scene.yaml", {"solver.linear=umfpack"});
