@@ -25,6 +25,8 @@ std::string run_info_json(const Scene& scene, const ModelSize& s, const std::str
   } else {
     solver["linear"] = linear;
     if (!scene.solver.linear.auto_choice.empty()) solver["linear_auto"] = scene.solver.linear.auto_choice;
+    solver["action_factors"] =
+        to_string(scene.solver.action_factors);  // "float": the action's in single precision
     solver["newton_rtol"] = n.rtol;
     solver["newton_atol"] = n.atol;
     solver["newton_max_iterations"] = n.max_iterations;

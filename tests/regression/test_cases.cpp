@@ -378,6 +378,8 @@ TEST(PaperCases, FloatFactorsGiveTheDoubleAnswerToTheNewtonTolerance) {
     summaries[single] = test::read_file(dirs[single] / "summary.json");
   }
   EXPECT_GT(test::step_number(summaries[1], 4, "contact_slip"), 0) << "no pair slips: GMRES never ran";
+  EXPECT_NE(summaries[1].find("\"action_factors\": \"float\""), std::string::npos)
+      << "the run records its factors";
   ResultsReader exact((dirs[0] / (name + ".h5")).string()), single((dirs[1] / (name + ".h5")).string());
   ASSERT_EQ(exact.steps(), single.steps());
   for (int k : exact.steps()) {

@@ -307,6 +307,19 @@ TEST(Distributed, PrecrackedPlateOnTwoRanksEqualsSerial) {
   expect_same_answer(p);
 }
 
+// solver.krylov.factors float on the ranks' parts: each rank keeps its families' factors in
+// single precision, scaled family by family as one process does, and the answer is the
+// serial float run's (and the double one's) to the Newton tolerance. Case 4.3: friction,
+// pairs that slip (GMRES).
+TEST(Distributed, FloatFactorsOnTwoRanksEqualSerial) {
+  const Pair p = run_both("paper_4_3_precracked_plate", "paper_4_3_precracked_plate",
+                          " --set discretization.spacing=0.02 --set solver.krylov.factors=float");
+  expect_same_answer(p);
+  for (const char* which : {"serial", "mpi"})
+    EXPECT_EQ(test::read_json(p.dir / which / "summary.json")["run"]["solver"]["action_factors"], "float")
+        << which;
+}
+
 // Case 4.4 at dx = 0.05 m: bonds break in the later steps; the two runs must break the
 // same ones (equal damage at every particle, to the last bit: damage is a count of broken
 // bonds over the family's), step by step.
