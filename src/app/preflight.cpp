@@ -185,7 +185,8 @@ SizeEstimate estimate_size(const Scene& scene, const RunPlan& plan) {
   if (plan.newton()) {
     const double n = e.particles + e.fictitious;
     // No tangent and no pattern: the model and the families' tangent data only.
-    if (plan.matrix_free()) e.memory_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled) * e.nonzeros;
+    if (plan.matrix_free())
+      e.memory_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled, plan.float_factors) * e.nonzeros;
     price_factorisation(scene, plan, n, e);
     share_over_ranks(scene, plan, n, e);
   }

@@ -39,9 +39,14 @@ inline constexpr double kMatrixFreeBytesPerNonzero = 3.7;
 /// ... and with a failure criterion 2.6 B more (the bonds' displacements and the failure
 /// state: case 4.4, 6.19 B, 6.20 B at dx = 0.01 m; the LEFM inclined crack, 6.16 B).
 inline constexpr double kMatrixFreeFailureBytesPerNonzero = 2.6;
+/// ... and with the action's factors in single precision (solver.krylov.factors float) 1.3 B
+/// less: 16 of their 32 bytes per directed bond (the 1000 x 1000 plate, `check`, 2026-12-04:
+/// 1,125 against 1,838 MB, 2.08 against 3.40 B per estimated nonzero).
+inline constexpr double kMatrixFreeFloatFactorsSaving = 1.3;
 /// Matrix-free bytes per tangent nonzero of a scene.
-inline double matrix_free_bytes_per_nonzero(bool failure) {
-  return kMatrixFreeBytesPerNonzero + (failure ? kMatrixFreeFailureBytesPerNonzero : 0.0);
+inline double matrix_free_bytes_per_nonzero(bool failure, bool float_factors = false) {
+  return kMatrixFreeBytesPerNonzero + (failure ? kMatrixFreeFailureBytesPerNonzero : 0.0) -
+         (float_factors ? kMatrixFreeFloatFactorsSaving : 0.0);
 }
 /// The Cholesky factor's nonzeros per nonzero of the matrix factorised, by CHOLMOD's default
 /// ordering on square plates of N particles (m = 3; peristat_bench factor, 2026-11-25): the

@@ -19,10 +19,12 @@
 namespace peristat {
 namespace {
 
-void expect_close(const std::string& scene_file, const std::string& linear) {
-  SCOPED_TRACE(linear);
-  Scene scene = parse_scene(std::string(PERISTAT_SOURCE_DIR) + "/cases/" + scene_file,
-                            {parse_override("solver.linear=" + linear)});
+void expect_close(const std::string& scene_file, const std::string& linear,
+                  const std::string& factors = "auto") {
+  SCOPED_TRACE(linear + ", factors " + factors);
+  Scene scene = parse_scene(
+      std::string(PERISTAT_SOURCE_DIR) + "/cases/" + scene_file,
+      {parse_override("solver.linear=" + linear), parse_override("solver.krylov.factors=" + factors)});
   resolve_linear_solver(scene, 1);  // as `peristat run` does
   const SizeEstimate e = estimate_size(scene);
   const Model model = discretise(scene);
@@ -39,12 +41,15 @@ void expect_close(const std::string& scene_file, const std::string& linear) {
   EXPECT_EQ(e.family, static_cast<double>(model.stencil.offset.size())) << scene_file;
 }
 
-// The assembled path (cg) and the default (auto: matrix_free on both, no tangent stored).
+// The assembled path (cg), the default (auto: matrix_free on both, no tangent stored), and
+// matrix_free with the action's factors in single precision.
 TEST(Preflight, EstimateMatchesTheBuiltModel) {
   for (const char* linear : {"cg", "auto"}) {
     expect_close("tension_plate/scene.yaml", linear);
     expect_close("paper_4_4_crack_growth/scene.yaml", linear);
   }
+  expect_close("tension_plate/scene.yaml", "matrix_free", "float");
+  expect_close("paper_4_4_crack_growth/scene.yaml", "matrix_free", "float");
 }
 
 // A scene that cannot fit is estimated (and refused) at once: no lattice is built.
