@@ -464,7 +464,7 @@ void QuasiStaticProblem::keep_factors(Index i, Index b0, Index nb, std::size_t m
   Vec2 s = Vec2::Zero();
   double scale2 = 1.0;  // the family's scale squared (float factors), exact: a power of four
   if (m_options.float_factors) {
-    // s_b / sigma_i with sigma_i the power of two nearest the family's largest component:
+    // s_b / sigma_i with sigma_i the power of two at or below the family's largest component:
     // exact scaling, then one rounding, and O(1) values whatever the spacing (s_b ~ dx^3, its
     // pair coefficient (a - g) / |s_b|^2 ~ mu / dx^6 would leave single precision's range
     // near dx = 1e-5 m). The action reads s and s_self scaled and beta_i V_i sigma_i^2
