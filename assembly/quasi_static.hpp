@@ -25,6 +25,7 @@
 #include "assembly/tangent_action.hpp"
 #include "contact/contact.hpp"
 #include "core/global_ids.hpp"
+#include "core/huge_pages.hpp"
 #include "core/options.hpp"
 #include "discretisation/model.hpp"
 #include "materials/bond_failure.hpp"
@@ -316,14 +317,14 @@ class QuasiStaticProblem final : public Problem,
   std::vector<BondForceLaw> m_law;
   std::vector<char> m_finite;  ///< per body: finite kinematics
   /// per bond: s_b = b_b M_b of the last evaluation with a tangent (FamilyOutputs)
-  std::vector<Vec2> m_s;
+  UnwrittenVector<Vec2> m_s;
   /// per bond: the family's bond stiffness k_b (axial, transverse); with matrix_free, after an
   /// evaluate() with a tangent, the pair's V_i k_b + V_j k_r in the action's form instead
   /// (TangentAction::prepare())
-  std::vector<BondStiffness> m_kbond;
+  UnwrittenVector<BondStiffness> m_kbond;
   /// With float factors (ProblemOptions::float_factors) m_s and m_kbond stay empty and these
   /// hold the same in single precision; the kernel writes its double ones into the scratch.
-  std::vector<Float2> m_s32, m_kbond32;
+  UnwrittenVector<Float2> m_s32, m_kbond32;
   std::vector<Vec2> m_s_scratch;               ///< per thread, float factors: one family's s_b
   std::vector<BondStiffness> m_kbond_scratch;  ///< per thread, float factors: one family's k_b
   std::vector<Vec2> m_s_self;                  ///< per particle: -sum_b s_b (as kept)

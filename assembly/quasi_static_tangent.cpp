@@ -19,10 +19,10 @@ bool QuasiStaticProblem::suspend_action() {
   // The state the factors were made at: m_u now, or the one kept when the first evaluation
   // without a tangent followed (the predictor's, a line search's).
   if (at_tangent) keep_tangent_state();
-  std::vector<Vec2>().swap(m_s);
-  std::vector<BondStiffness>().swap(m_kbond);
-  std::vector<Float2>().swap(m_s32);
-  std::vector<Float2>().swap(m_kbond32);
+  decltype(m_s)().swap(m_s);
+  decltype(m_kbond)().swap(m_kbond);
+  decltype(m_s32)().swap(m_s32);
+  decltype(m_kbond32)().swap(m_kbond32);
   m_action_suspended = true;
   return true;
 }
@@ -35,11 +35,11 @@ void QuasiStaticProblem::keep_tangent_state() {
 void QuasiStaticProblem::restore_action_storage() {
   const std::size_t nbonds = m_model.bonds.neighbour.size();
   if (m_options.float_factors) {
-    assign_huge(m_s32, nbonds, Float2{});
-    assign_huge(m_kbond32, nbonds, Float2{});
+    zero_huge_on_threads(m_s32, nbonds);
+    zero_huge_on_threads(m_kbond32, nbonds);
   } else {
-    assign_huge(m_s, nbonds, Vec2(Vec2::Zero()));
-    assign_huge(m_kbond, nbonds, BondStiffness{});
+    zero_huge_on_threads(m_s, nbonds);
+    zero_huge_on_threads(m_kbond, nbonds);
   }
   m_action_suspended = false;
 }

@@ -7,8 +7,13 @@
 // docs/performance.md, "Page faults and huge pages").
 // Where the kernel grants huge pages only on request (/sys/kernel/mm/transparent_hugepage/
 // enabled = madvise, Debian's default), an array asks for them before it is first written.
+#include <algorithm>
 #include <cstddef>
+#include <cstring>
+#include <memory>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace peristat {
@@ -51,9 +56,33 @@ std::string transparent_huge_page_mode();
 /// of it, for ranges of at least 4 MB; a no-op where the kernel does not support the advice.
 void advise_huge_pages(void* data, std::size_t bytes) noexcept;
 
-/// v.reserve(n), then the advice on its storage: call before v is first filled.
+/// An allocator whose construct() default-initialises: a vector resized with it leaves
+/// trivially constructible elements unwritten, so that whoever writes them first faults
+/// their pages in (zero_huge_on_threads()).
 template <class T>
-void reserve_huge(std::vector<T>& v, std::size_t n) {
+struct UnwrittenAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = UnwrittenAllocator<U>;
+  };
+  UnwrittenAllocator() noexcept = default;
+  template <class U>
+  UnwrittenAllocator(const UnwrittenAllocator<U>&) noexcept {}
+  template <class U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+template <class T>
+using UnwrittenVector = std::vector<T, UnwrittenAllocator<T>>;
+
+/// v.reserve(n), then the advice on its storage: call before v is first filled.
+template <class T, class A>
+void reserve_huge(std::vector<T, A>& v, std::size_t n) {
   v.reserve(n);
   advise_huge_pages(v.data(), v.capacity() * sizeof(T));
 }
@@ -63,6 +92,28 @@ template <class T>
 void assign_huge(std::vector<T>& v, std::size_t n, const T& value) {
   reserve_huge(v, n);
   v.assign(n, value);
+}
+
+/// v resized to n zero elements (all bytes zero) on storage reserved by reserve_huge(), the
+/// zeros written by this program's threads, each its share: the kernel clears a fresh page in
+/// the thread that first touches it, at about 1 GB/s a thread on the project's machine kind
+/// (docs/performance.md, "Page faults and huge pages"). For the per-bond factors, allocated
+/// again after each preconditioner set-up.
+template <class T>
+void zero_huge_on_threads(UnwrittenVector<T>& v, std::size_t n) {
+  // Plain numbers (Eigen's fixed-size vectors, std::array): all-zero bytes are a zero element.
+  static_assert(std::is_standard_layout_v<T> && std::is_trivially_destructible_v<T>,
+                "a plain numeric element");
+  reserve_huge(v, n);
+  v.resize(n);  // unwritten
+  auto* bytes = reinterpret_cast<unsigned char*>(v.data());
+  const std::size_t total = n * sizeof(T), chunk = std::size_t{1} << 21;  // a huge page
+  const auto chunks = static_cast<long long>((total + chunk - 1) / chunk);
+#pragma omp parallel for schedule(static)
+  for (long long c = 0; c < chunks; ++c) {
+    const std::size_t begin = static_cast<std::size_t>(c) * chunk;
+    std::memset(bytes + begin, 0, std::min(chunk, total - begin));
+  }
 }
 
 /// Releases a vector's unused capacity when it is more than a sixteenth of its size, into

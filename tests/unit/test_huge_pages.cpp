@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "core/huge_pages.hpp"
+#include "core/types.hpp"
 
 namespace peristat {
 namespace {
@@ -56,6 +57,23 @@ TEST(HugePages, ReservedVectorKeepsItsContents) {
   double sum = 0.0;
   for (const double x : v) sum += x;
   EXPECT_EQ(sum, 1.5 * double(std::size_t{8} << 20));
+}
+
+// zero_huge_on_threads() writes every byte itself (the vector's resize leaves them unwritten):
+// on the heap block a freed array of ones leaves (64 KB, below glibc's default mmap threshold
+// of 128 KB; without the zeroing all 4000 elements stay ones) and on a fresh mapping whose last
+// 2 MB chunk is partial, every element is zero.
+TEST(HugePages, ZeroOnThreadsZeroesEveryElement) {
+  for (const std::size_t n : {std::size_t{4000}, (std::size_t{3} << 21) / sizeof(Vec2) + 5}) {
+    SCOPED_TRACE(n);
+    { UnwrittenVector<Vec2> ones(n, Vec2(1.0, 1.0)); }
+    UnwrittenVector<Vec2> v;
+    zero_huge_on_threads(v, n);
+    ASSERT_EQ(v.size(), n);
+    std::size_t nonzero = 0;
+    for (const Vec2& x : v) nonzero += x.x() != 0.0 || x.y() != 0.0;
+    EXPECT_EQ(nonzero, 0u);
+  }
 }
 
 TEST(HugePages, SmallNullAndUnalignedRangesAreLeftAlone) {
