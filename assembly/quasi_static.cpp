@@ -487,7 +487,7 @@ void QuasiStaticProblem::keep_factors(Index i, Index b0, Index nb, std::size_t m
     // own, reading the floats back: Debian's GCC 12.2 at -O3 vectorised the rounding, the store
     // and the sum of one loop so that the sum took the unrounded doubles (the rigid-translation
     // test MatrixFree.FloatFactorsGiveTheTangentToSinglePrecision caught it).
-    for (Index k = 0; k < nb; ++k) s -= Vec2(double(kept[k][0]), double(kept[k][1]));
+    for (Index k = 0; k < nb; ++k) s -= widened(kept[k]);
   } else {
     for (Index b = b0; b < b0 + nb; ++b) s -= m_s[b];
   }

@@ -211,12 +211,10 @@ void TangentAction::multiply_on(const T* __restrict s, const T* __restrict k, co
 }
 
 namespace {
-/// A bond's s_b or factor pair as doubles, kept in double (Vec2, BondStiffness) or float (Float2).
+/// A bond's s_b or factor pair as doubles, kept in double (Vec2, BondStiffness); a Float2 is
+/// family_kernel.hpp's widened().
 inline Vec2 widened(const Vec2& v) {
   return v;
-}
-inline Vec2 widened(const Float2& v) {
-  return Vec2(double(v[0]), double(v[1]));
 }
 inline Vec2 widened(const BondStiffness& k) {
   return Vec2(k[0], k[1]);

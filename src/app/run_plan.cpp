@@ -128,8 +128,8 @@ RunPlan plan_with_linear(const Scene& scene, int ranks, LinearSolverKind linear)
   plan.tangent = tangent_form(scene, linear);
   plan.preconditioner = resolved_preconditioner(scene.solver.linear.preconditioner, linear);
   plan.bond_preconditioner = scene.solver.bond_preconditioner;
-  // An explicit `float` without the action has nothing to store (the run refuses it:
-  // refuse_float_factors_without_action()); `auto` is make_run_plan()'s.
+  // An explicit `float` without the action has nothing to store (preflight() refuses it);
+  // `auto` is make_run_plan()'s.
   plan.float_factors = scene.solver.action_factors == ActionFactors::single_precision && plan.matrix_free();
   plan.model = model_choice(scene, plan);
   return plan;

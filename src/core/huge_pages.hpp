@@ -96,9 +96,8 @@ void assign_huge(std::vector<T>& v, std::size_t n, const T& value) {
 
 /// v resized to n zero elements (all bytes zero) on storage reserved by reserve_huge(), the
 /// zeros written by this program's threads, each its share: the kernel clears a fresh page in
-/// the thread that first touches it, at about 1 GB/s a thread on the project's machine kind
-/// (docs/performance.md, "Page faults and huge pages"). For the per-bond factors, allocated
-/// again after each preconditioner set-up.
+/// the thread that first touches it (docs/performance.md, "Page faults and huge pages"). For
+/// the per-bond factors, allocated again after each preconditioner set-up.
 template <class T>
 void zero_huge_on_threads(UnwrittenVector<T>& v, std::size_t n) {
   // Plain numbers (Eigen's fixed-size vectors, std::array): all-zero bytes are a zero element.

@@ -27,14 +27,17 @@ using BondStiffness = std::array<double, 2>;
 /// double, and the assembler rounds what it keeps).
 using Float2 = std::array<float, 2>;
 
+/// A kept pair of floats as doubles (exact).
+inline Vec2 widened(const Float2& v) {
+  return Vec2(double(v[0]), double(v[1]));
+}
+
 /// Each bond's s_b = b_b M_b of the last evaluation with a tangent, kept in double or in
 /// single precision (exactly one of the two spans holds the bonds).
 struct BondVectors {
   std::span<const Vec2> full;
   std::span<const Float2> single;
-  Vec2 operator[](std::size_t b) const {
-    return single.empty() ? full[b] : Vec2(double(single[b][0]), double(single[b][1]));
-  }
+  Vec2 operator[](std::size_t b) const { return single.empty() ? full[b] : widened(single[b]); }
 };
 
 /// k_b as a block, its direction M_b = s_b / |s_b| (FamilyOutputs::s); a bond without weight
