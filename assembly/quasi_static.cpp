@@ -268,11 +268,21 @@ std::string QuasiStaticProblem::check_converged_state(const VectorXd& x) {
 std::string QuasiStaticProblem::measure_increment(const VectorXd& x, bool check) {
   // The last evaluate was at x: m_u, m_force (bonds + contact) and m_energy are x's.
   if (m_balance.begin_increment(m_u, m_force, m_contact.get(), m_energy)) {
-    // Simpson's rule: the bond forces at the midpoint, then x's state again.
+    // Simpson's rule: the bond forces at the midpoint. The midpoint's families write m_law,
+    // m_energy and (swapped in) a force vector of their own; x's are kept aside and put back,
+    // the same bits an evaluation at x would make again (the contact pairs stay x's: the
+    // families do not touch them), for a fraction of its time (one family pass less).
+    const std::vector<BondForceLaw> law = m_law;
+    const double energy = m_energy;
+    VectorXd midpoint_force(m_force.size());
+    m_force.swap(midpoint_force);
     m_balance.midpoint(m_u);
     bond_forces(false);
     m_balance.midpoint_forces(m_force);
-    evaluate(x, m_scratch, nullptr);
+    m_force.swap(midpoint_force);
+    m_law = law;
+    m_energy = energy;
+    expand_state(x);
   }
   return m_balance.finish_increment(check);
 }

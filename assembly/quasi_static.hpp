@@ -257,7 +257,7 @@ class QuasiStaticProblem final : public Problem,
   /// mirror condition's ghosts or their images: the reflection cannot follow broken bonds.
   void check_mirror_zone(const std::vector<std::pair<Index, Index>>& broken);
   /// The increment of the energy ledger from the last accepted state to x, whose evaluate()
-  /// was the last (may evaluate the bonds at the midpoint, then x again). Returns why the
+  /// was the last (may evaluate the bonds at the midpoint, keeping x's forces). Returns why the
   /// energy balance fails, or "" (failures are reported only when `check`).
   std::string measure_increment(const VectorXd& x, bool check);
   /// The per-bond factors (m_s and m_kbond, or m_s32 and m_kbond32) allocated again (zero)

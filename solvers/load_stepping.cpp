@@ -228,6 +228,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
       while (lambda < target - kReachedTarget * nominal) {
         if (!solver.prepared()) solver.prepare(x);  // tangent of the converged state
         const double next = std::min(lambda + increment, target);
+        solver.set_last_load(k == n && next == target);  // and its re-solves after breaking
         problem.set_load_factor(next);
         observer.attempt_started(k, n, next, step.cutbacks);
         predict(trial, x, x_before, lambda_before, lambda, next, loading, solver, step);

@@ -1,6 +1,8 @@
 #include "solvers/newton.hpp"
 
+#include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "core/clock.hpp"
@@ -32,6 +34,18 @@ constexpr double kPredictorStep = 1e-3;
 /// exceeds it only when ||r|| is already below the tolerance and Newton goes on for the
 /// increment test (`newton.stol`): a solve allowed to stop at 1 or above would return no step.
 constexpr double kLastSolveMax = 0.5;
+
+/// A 64-bit fingerprint of x's bits (every entry; a multiply-rotate mix), to tell that the
+/// predictor is given the state prepare() evaluated.
+std::uint64_t bits_fingerprint(const VectorXd& x) {
+  std::uint64_t h = 0x9E3779B97F4A7C15ULL ^ static_cast<std::uint64_t>(x.size());
+  for (Index k = 0; k < x.size(); ++k) {
+    std::uint64_t bits;
+    std::memcpy(&bits, &x[k], sizeof bits);
+    h = std::rotl(h ^ bits, 27) * 0x100000001B3ULL + 0x632BE59BD9B4E019ULL;
+  }
+  return h;
+}
 }  // namespace
 
 NewtonSolver::NewtonSolver(Problem& problem, LinearSolver& linear, const NewtonOptions& options)
@@ -99,6 +113,9 @@ void NewtonSolver::prepare(const VectorXd& x) {
   const double t0 = wall_seconds();
   m_problem.evaluate(x, m_r, &m_K);
   m_K_symmetric = m_problem.traits().tangent_symmetric;
+  m_tangent_skipped = false;
+  m_prepared_r = {true, m_problem.load_factor(), m_problem.traits().preconditioner_state,
+                  bits_fingerprint(x)};
   m_pending.seconds_evaluate += wall_seconds() - t0;
   factorize(m_pending);
   m_pending.factorizations += static_cast<int>(factorizations() - f0);
@@ -108,6 +125,7 @@ SolveReport NewtonSolver::solve(VectorXd& x, IterationObserver* observer) {
   follow_structure();
   SolveReport report = m_pending;
   m_pending = SolveReport{};
+  m_prepared_r.valid = false;  // m_r is the solve's from here
   const long f0 = factorizations();
   report = solve_iterations(x, observer, std::move(report));
   report.factorizations += static_cast<int>(factorizations() - f0);
@@ -119,25 +137,34 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
   const double to = m_problem.load_factor();
   if (!prepared() || m_factored == nullptr || to == from) return report;
   double t0 = wall_seconds();
+  // r(x; from) is prepare()'s when nothing moved since (the first attempt of a step): one
+  // residual fewer, the same bits. Not with touching pairs closed (below).
+  const bool as_prepared = m_prepared_r.valid && m_prepared_r.load_factor == from &&
+                           m_prepared_r.problem_state == m_problem.traits().preconditioner_state &&
+                           m_prepared_r.x_bits == bits_fingerprint(x);
+  m_prepared_r.valid = false;
   const double h = kPredictorStep * (to - from);
   m_problem.set_load_factor(from + h);
   m_problem.evaluate(x, m_trial_r, nullptr);
   m_problem.set_load_factor(from - h);
-  m_problem.evaluate(x, m_r, nullptr);
-  m_trial_r -= m_r;
+  m_problem.evaluate(x, m_dx, nullptr);
+  m_trial_r -= m_dx;
   m_trial_r *= 0.5 / kPredictorStep;  // dr/dlambda (to - from)
   m_problem.set_load_factor(from);
   // The tangent with touching contact pairs closed and stuck: an increment that pushes bodies
   // together is predicted with them in contact, not through each other (case 4.1, step 1:
   // 11 -> 5 Newton iterations). It replaces the factor when it differs from it.
   const bool closes = !reuse_factor() && m_problem.set_evaluation_mode(EvaluationMode::touching_closed);
-  {
+  if (closes || !as_prepared) {
     const ScopeExit reopen([&] {
       if (closes) m_problem.set_evaluation_mode(EvaluationMode::standard);
     });
     m_problem.evaluate(x, m_r, closes ? &m_K : nullptr);
   }
-  if (closes) m_K_symmetric = m_problem.traits().tangent_symmetric;
+  if (closes) {
+    m_K_symmetric = m_problem.traits().tangent_symmetric;
+    m_tangent_skipped = false;
+  }
   m_r += m_trial_r;  // the linearised residual at `to`
   m_problem.set_load_factor(to);
   report.seconds_evaluate += wall_seconds() - t0;
@@ -197,9 +224,15 @@ bool NewtonSolver::converged(double norm) const { return norm <= residual_tolera
 
 double NewtonSolver::evaluate_first(const VectorXd& x, bool& use_existing, SolveReport& report) {
   double t0 = wall_seconds();
-  const bool assemble0 = !(reuse_factor() || use_existing);
+  // A tangent left out at the last converged state (set_last_load) is evaluated here, with
+  // the factor kept: a re-solve at the same load (the contact multipliers updated) then steps
+  // with the tangent at its first iterate.
+  const bool assemble0 = !(reuse_factor() || use_existing) || (m_tangent_skipped && !reuse_factor());
   m_problem.evaluate(x, m_r, assemble0 ? &m_K : nullptr);
-  if (assemble0) m_K_symmetric = m_problem.traits().tangent_symmetric;
+  if (assemble0) {
+    m_K_symmetric = m_problem.traits().tangent_symmetric;
+    m_tangent_skipped = false;
+  }
   report.seconds_evaluate += wall_seconds() - t0;
   if (use_existing && !reuse_factor() && m_problem.traits().state_signature != m_factor_state) {
     // The first iterate's contact active set is not the one the factor was built with (the
@@ -214,21 +247,45 @@ double NewtonSolver::evaluate_first(const VectorXd& x, bool& use_existing, Solve
   return m_problem.unknowns().norm(m_r);
 }
 
-bool NewtonSolver::line_search(const VectorXd& x, double& norm, double& alpha, SolveReport& report) {
+bool NewtonSolver::expect_converged(const LinearSolver& lin, double norm, double previous_norm) const {
+  // Only Krylov solves estimate their residual; an increment test (newton.stol) needs the
+  // step, and a constant tangent is not evaluated anyway.
+  if (!m_last_load || !lin.traits().iterative || m_options.stol > 0.0 || reuse_factor() ||
+      previous_norm <= 0.0)
+    return false;
+  // The linear model's residual, and Newton's quadratic term from the last two residuals
+  // (||r+|| ~ C ||r||^2 with C = ||r|| / ||r-||^2), each within the tolerance.
+  const double tolerance = residual_tolerance(m_problem.force_scale());
+  const double ratio = norm / previous_norm;
+  return lin.stats().error * norm <= tolerance && ratio * ratio * norm <= tolerance;
+}
+
+bool NewtonSolver::line_search(const VectorXd& x, double& norm, double& alpha, bool expect_converged,
+                               SolveReport& report) {
   // Backtracking: accept alpha when ||r(x + alpha dx)|| <= (1 - kArmijo alpha) ||r(x)||.
   const NewtonOptions& o = m_options;
   alpha = 1.0;
   for (int ls = 0;; ++ls) {
     m_trial = x + alpha * m_dx;
-    const double t0 = wall_seconds();
-    m_problem.evaluate(m_trial, m_trial_r, reuse_factor() ? nullptr : &m_K);
-    if (!reuse_factor()) m_K_symmetric = m_problem.traits().tangent_symmetric;
+    double t0 = wall_seconds();
+    const bool tangent = !reuse_factor() && !(expect_converged && ls == 0);
+    m_problem.evaluate(m_trial, m_trial_r, tangent ? &m_K : nullptr);
+    if (tangent) m_K_symmetric = m_problem.traits().tangent_symmetric;
     report.seconds_evaluate += wall_seconds() - t0;
     const double trial_norm = m_problem.unknowns().norm(m_trial_r);
     const bool accept =
         !o.line_search || converged(trial_norm) || trial_norm <= (1.0 - kArmijo * alpha) * norm;
     if (accept && std::isfinite(trial_norm)) {
       norm = trial_norm;
+      if (tangent || reuse_factor()) return true;
+      if (converged(trial_norm)) {  // the converged state: its tangent goes unused
+        m_tangent_skipped = true;
+        return true;
+      }
+      t0 = wall_seconds();  // not converged after all: the next iteration needs the tangent
+      m_problem.evaluate(m_trial, m_trial_r, &m_K);
+      m_K_symmetric = m_problem.traits().tangent_symmetric;
+      report.seconds_evaluate += wall_seconds() - t0;
       return true;
     }
     if (ls >= o.line_search_max) {
@@ -297,7 +354,7 @@ SolveReport NewtonSolver::solve_iterations(VectorXd& x, IterationObserver* obser
 
     const double norm_before = norm;
     double alpha = 1.0;
-    if (!line_search(x, norm, alpha, report)) return report;
+    if (!line_search(x, norm, alpha, expect_converged(lin, norm, previous_norm), report)) return report;
     x.swap(m_trial);
     m_r.swap(m_trial_r);
     previous_norm = norm_before;

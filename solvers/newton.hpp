@@ -30,21 +30,25 @@ class NewtonSolver final : public StepSolver {
   /// step is computed with the tangent of the converged state, not of the state whose
   /// prescribed components have just jumped (docs/theory/newton.md, "Predictor").
   void prepare(const VectorXd& x) override;
-  /// True when a factor usable for the first iteration of the next solve exists.
+  /// True when a factor usable for the first iteration of the next solve exists, and the
+  /// tangent of the last converged state with it.
   bool prepared() const override {
-    return m_have_factor && m_structure == m_problem.traits().structure_version;
+    return m_have_factor && !m_tangent_skipped && m_structure == m_problem.traits().structure_version;
   }
   /// The Euler predictor x + dx, K(x) dx = -(r(x; from) + dr/dlambda (to - from)), with the
   /// factor of the converged state x and dr/dlambda by central differences at a thousandth
   /// of the increment: the linearised response to the prescribed increment, in place of the
   /// residual of the state whose prescribed components have jumped (docs/theory/newton.md,
-  /// "Predictor"). Keeps x when there is no factor or the solve fails.
+  /// "Predictor"). Keeps x when there is no factor or the solve fails. r(x; from) is
+  /// prepare()'s when x and the problem are those prepare() saw (no contact: a contact scene
+  /// evaluates it with touching pairs closed).
   SolveReport predict(VectorXd& x, double from) override;
   /// Forget the factorisation (after a failed solve, or when the pattern changed).
   void invalidate_factorization() override { m_have_factor = false; }
   /// max(rtol * force_scale, atol), the convergence test of every iterate.
   double residual_tolerance(double force_scale) const override;
   void set_reproducible(bool reproducible) override { m_reproducible = reproducible; }
+  void set_last_load(bool last) override { m_last_load = last; }
 
  private:
   SolveReport solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report);
@@ -53,7 +57,15 @@ class NewtonSolver final : public StepSolver {
   double evaluate_first(const VectorXd& x, bool& use_existing, SolveReport& report);
   /// Backtracking along m_dx from x: the accepted trial in m_trial, m_trial_r, its residual's
   /// norm in `norm` and its step length in `alpha`; false (with the reason) when none is.
-  bool line_search(const VectorXd& x, double& norm, double& alpha, SolveReport& report);
+  /// `expect_converged`: the full step is evaluated without the tangent, which is evaluated
+  /// after all when that trial is accepted and does not converge.
+  bool line_search(const VectorXd& x, double& norm, double& alpha, bool expect_converged,
+                   SolveReport& report);
+  /// Whether the full step of the linear solve just made is expected to converge at the last
+  /// load, where the converged state's tangent goes unused: the Krylov solve's residual
+  /// estimate says the linear model's residual meets the tolerance, and so does Newton's
+  /// quadratic term estimated from the residuals `norm` and `previous_norm` (0: none yet).
+  bool expect_converged(const LinearSolver& lin, double norm, double previous_norm) const;
   double relative(double norm) const;  ///< a residual norm relative to the force scale
   bool converged(double norm) const;   ///< whether a residual norm meets the tolerance
   /// The relative residual the Krylov solve of iteration `it` stops at, from the residual
@@ -85,7 +97,19 @@ class NewtonSolver final : public StepSolver {
   std::uint64_t m_structure = 0;  ///< the problem's traits().structure_version of m_K
   std::uint64_t m_factor_state = 0;  ///< the problem's traits().state_signature when the factor was built
   bool m_reproducible = true;        ///< see StepSolver::set_reproducible()
+  bool m_last_load = false;          ///< see StepSolver::set_last_load()
+  /// The last converged evaluation left the tangent out (the problem's is an earlier
+  /// iterate's): the next solve evaluates it at its first iterate, prepare() at its x.
+  bool m_tangent_skipped = false;
   SolveReport m_pending;  ///< work of prepare(), added to the next report
+  /// What m_r holds after prepare(): the residual at its x and load factor, for the
+  /// predictor's r(x; from) until the next evaluation by this solver.
+  struct PreparedResidual {
+    bool valid = false;
+    double load_factor = 0.0;
+    std::uint64_t problem_state = 0;  ///< traits().preconditioner_state: active set, broken bonds
+    std::uint64_t x_bits = 0;         ///< bits_fingerprint(x)
+  } m_prepared_r;
   VectorXd m_r, m_dx, m_trial, m_trial_r;
 };
 

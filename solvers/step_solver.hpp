@@ -84,6 +84,11 @@ class StepSolver {
   /// from the unloaded state, which every run solves the same way. Newton then stops its
   /// last Krylov solve as soon as the tolerance allows (docs/theory/newton.md, "Inexact Newton").
   virtual void set_reproducible(bool /*reproducible*/) {}
+  /// Whether the next solves are at the run's last load: their converged state's tangent is
+  /// then not used by a later solve (a re-solve after breaking, or a step that follows all the
+  /// same, calls prepare() first), and Newton may leave it out of the evaluation it expects to
+  /// converge.
+  virtual void set_last_load(bool /*last*/) {}
 };
 
 }  // namespace peristat

@@ -19,6 +19,7 @@ class ForwardingStepSolver : public StepSolver {
     return m_inner.residual_tolerance(force_scale);
   }
   void set_reproducible(bool reproducible) override { m_inner.set_reproducible(reproducible); }
+  void set_last_load(bool last) override { m_inner.set_last_load(last); }
 
  protected:
   StepSolver& m_inner;

@@ -1,8 +1,10 @@
 // Load stepping with cut-backs on a problem whose behaviour is known exactly: a single
 // unknown with r(x) = x - lambda that "fails" (non-finite residual) beyond a load factor.
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -381,6 +383,118 @@ TEST(LoadStepping, SolvesAreReproducibleFromTheFirstCheckpointOn) {
       expected = {true, true, true};
     }
     EXPECT_EQ(recording.reproducible, expected) << "resumed after " << steps_done << " steps";
+  }
+}
+
+}  // namespace
+}  // namespace peristat
+
+namespace peristat {
+namespace {
+
+/// One unknown with a cubic residual r(x) = x + x^3 - lambda, recording every evaluation:
+/// where, at which load factor, and whether it made the tangent. The tangent given is
+/// 1 + 3 f x^2: exact for f = 1; otherwise Newton converges linearly.
+class CubicProblem final : public OneUnknownProblem {
+ public:
+  struct Evaluation {
+    double x, lambda;
+    bool tangent;
+  };
+  explicit CubicProblem(double f) : m_f(f) {}
+  void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override {
+    r.resize(1);
+    r[0] = x[0] + x[0] * x[0] * x[0] - m_lambda;
+    if (K) K->coeffRef(0, 0) = 1.0 + 3.0 * m_f * x[0] * x[0];
+    log.push_back({x[0], m_lambda, K != nullptr});
+  }
+  std::vector<Evaluation> log;
+
+ private:
+  bool fails() const override { return false; }
+  double m_f;
+};
+
+/// Newton with a Krylov solver (BiCGSTAB, diagonal preconditioner: exact on one unknown, and it
+/// reports its residual estimate as Krylov solvers do) over `steps` equal steps to lambda = 1.
+std::vector<CubicProblem::Evaluation> cubic_run(int steps, double f, std::vector<double>& committed) {
+  LinearOptions lo;
+  lo.type = LinearSolverKind::bicgstab;
+  lo.preconditioner = PreconditionerKind::diagonal;
+  auto linear = make_linear_solver(lo);
+  CubicProblem p(f);
+  NewtonOptions no;
+  no.rtol = 1e-12;
+  NewtonSolver newton(p, *linear, no);
+  VectorXd x = VectorXd::Zero(1);
+  Loading loading;
+  loading.steps = steps;
+  test::StepLog log;
+  const RunReport r = run_load_steps(p, newton, x, loading, log);
+  EXPECT_TRUE(r.completed) << r.message;
+  // x + x^3 = 1 at the last load factor: x = 0.6823278038280193.
+  EXPECT_NEAR(x[0], 0.6823278038280193, 1e-12);
+  committed = p.committed;
+  return p.log;
+}
+
+// Newton's evaluations at the last load (StepSolver::set_last_load): the full step that the
+// Krylov solve's residual estimate expects to converge is evaluated without the tangent, and
+// only when it then does not converge is the tangent evaluated, at the same state. The
+// converged state of the last load keeps no tangent; every earlier step's does (the next step's
+// first iteration steps with it). The Euler predictor of step 1 reads prepare()'s residual at
+// the unloaded state and evaluates only the two load factors of its central difference.
+TEST(NewtonEvaluations, TheLastLoadsConvergedStateMakesNoTangent) {
+  for (const double f : {1.0, 0.8}) {
+    SCOPED_TRACE(f == 1.0 ? "exact tangent" : "tangent 20 % short of the x^3 term: linear convergence");
+    std::vector<double> committed;
+    const std::vector<CubicProblem::Evaluation> log = cubic_run(2, f, committed);
+    ASSERT_EQ(committed.size(), 2u);
+    // prepare() at x = 0, lambda = 0 with the tangent; then the predictor's lambda = +-1e-3 * 0.5.
+    ASSERT_GE(log.size(), 4u);
+    EXPECT_TRUE(log[0].tangent);
+    EXPECT_EQ(log[0].lambda, 0.0);
+    EXPECT_NEAR(log[1].lambda, 0.5e-3, 1e-15);
+    EXPECT_NEAR(log[2].lambda, -0.5e-3, 1e-15);
+    EXPECT_FALSE(log[1].tangent || log[2].tangent);
+    EXPECT_NE(log[3].lambda, 0.0) << "no third residual at the unloaded state: prepare()'s serves";
+    // Each step's converged state: evaluated with its tangent but at the last load.
+    for (std::size_t s = 0; s < committed.size(); ++s) {
+      const double lambda = 0.5 * static_cast<double>(s + 1);
+      bool with_tangent = false, found = false;
+      for (const CubicProblem::Evaluation& e : log)
+        if (e.lambda == lambda && e.x == committed[s]) {
+          with_tangent = with_tangent || e.tangent;
+          found = true;
+        }
+      ASSERT_TRUE(found) << "step " << s + 1;
+      EXPECT_EQ(with_tangent, s + 1 < committed.size())
+          << "step " << s + 1 << ": the tangent of its converged state";
+    }
+    // At the last load every line-search evaluation without a tangent at a state that did not
+    // converge is followed by one with the tangent at the same state. (The solve's first
+    // iterate, the secant's prediction, steps with the kept factor and the last converged
+    // state's tangent: it is evaluated without one in every step.)
+    std::size_t first = 0;
+    while (first < log.size() && log[first].lambda != 1.0) ++first;
+    ASSERT_LT(first, log.size());
+    EXPECT_FALSE(log[first].tangent);
+    int guessed_wrong = 0;
+    for (std::size_t k = first + 1; k + 1 < log.size(); ++k) {
+      const CubicProblem::Evaluation& e = log[k];
+      if (e.tangent || e.x == committed.back()) continue;
+      ++guessed_wrong;
+      EXPECT_TRUE(log[k + 1].tangent && log[k + 1].x == e.x) << "evaluation " << k;
+    }
+    std::printf("f = %.1f: %zu evaluations, %d at the last load left without the tangent and not converged\n",
+                f, log.size(), guessed_wrong);
+    // Newton's quadratic term predicts an exact tangent's residuals: measured no wrong guess.
+    // The short tangent converges linearly, slower than the estimate: measured 1 wrong guess,
+    // which cost one residual more.
+    if (f == 1.0)
+      EXPECT_EQ(guessed_wrong, 0);
+    else
+      EXPECT_GE(guessed_wrong, 1) << "the fallback was not exercised";
   }
 }
 

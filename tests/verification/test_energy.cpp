@@ -74,6 +74,38 @@ TEST(Energy, FiniteKinematicsTrapezoidErrorShrinksWithTheStep) {
   EXPECT_LT(q[0] / q[1], 5.0);
 }
 
+// The Simpson check evaluates the bonds at the midpoint of the increment and then puts x's
+// forces, force laws and energy back without evaluating x again: what the last evaluate() left
+// (the reactions, the stresses, the energy, which the results and the next commit read) must be
+// x's to the bit, as a fresh evaluation at x makes them.
+TEST(Energy, SimpsonCheckLeavesTheStatesForcesAndEnergy) {
+  auto s = tension("finite", 0.1, 2);
+  ASSERT_TRUE(s->run.completed) << s->run.message;
+  QuasiStaticProblem& p = *s->problem;
+  // A state away from the accepted one (the run's end), so that the midpoint is neither.
+  const VectorXd x = 0.5 * s->x;
+  VectorXd r(x.size()), r_again(x.size());
+  p.evaluate(x, r, nullptr);
+  const VectorXd force = p.internal_force();
+  const double energy = p.energy();
+  const Index probe = p.model().particles.size() / 2;
+  const Mat2 stress = p.stress(probe);
+  const Vec2 reaction = p.reaction(1);
+  // The check runs (its verdict on this non-equilibrium state does not matter here).
+  (void)p.check_converged_state(x);
+  EXPECT_EQ(p.energy_ledger().checked, 2) << "the two steps' checks; this one is pending, not counted";
+  EXPECT_TRUE((p.internal_force().array() == force.array()).all()) << "x's forces back, bit for bit";
+  EXPECT_EQ(p.energy(), energy);
+  EXPECT_TRUE((p.stress(probe).array() == stress.array()).all()) << "x's force laws back";
+  EXPECT_EQ(p.reaction(1).x(), reaction.x());
+  // The midpoint's forces are not x's: the comparison above could fail.
+  VectorXd midpoint_r(x.size());
+  p.evaluate(0.5 * (x + s->x), midpoint_r, nullptr);
+  EXPECT_GT((p.internal_force() - force).norm(), 1e-3 * force.norm());
+  p.evaluate(x, r_again, nullptr);
+  EXPECT_TRUE((r_again.array() == r.array()).all()) << "evaluation is deterministic";
+}
+
 // Case 4.1 (frictional sliding plates) at twice the spacing: the contact pairs take work
 // (stored in them plus dissipated by friction), and the ledger balances.
 TEST(Energy, SlidingPlatesContactTakesWork) {
