@@ -107,13 +107,18 @@ long NewtonSolver::factorizations() const {
   return m_linear.stats().factorizations + (m_unsymmetric ? m_unsymmetric->stats().factorizations : 0);
 }
 
+void NewtonSolver::evaluate(const VectorXd& x, VectorXd& r, bool tangent) {
+  m_problem.evaluate(x, r, tangent ? &m_K : nullptr);
+  if (!tangent) return;
+  m_K_symmetric = m_problem.traits().tangent_symmetric;
+  m_tangent_skipped = false;
+}
+
 void NewtonSolver::prepare(const VectorXd& x) {
   follow_structure();
   const long f0 = factorizations();
   const double t0 = wall_seconds();
-  m_problem.evaluate(x, m_r, &m_K);
-  m_K_symmetric = m_problem.traits().tangent_symmetric;
-  m_tangent_skipped = false;
+  evaluate(x, m_r, true);
   m_prepared_r = {true, m_problem.load_factor(), m_problem.traits().preconditioner_state,
                   bits_fingerprint(x)};
   m_pending.seconds_evaluate += wall_seconds() - t0;
@@ -159,11 +164,7 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
     const ScopeExit reopen([&] {
       if (closes) m_problem.set_evaluation_mode(EvaluationMode::standard);
     });
-    m_problem.evaluate(x, m_r, closes ? &m_K : nullptr);
-  }
-  if (closes) {
-    m_K_symmetric = m_problem.traits().tangent_symmetric;
-    m_tangent_skipped = false;
+    evaluate(x, m_r, closes);
   }
   m_r += m_trial_r;  // the linearised residual at `to`
   m_problem.set_load_factor(to);
@@ -228,19 +229,14 @@ double NewtonSolver::evaluate_first(const VectorXd& x, bool& use_existing, Solve
   // the factor kept: a re-solve at the same load (the contact multipliers updated) then steps
   // with the tangent at its first iterate.
   const bool assemble0 = !(reuse_factor() || use_existing) || (m_tangent_skipped && !reuse_factor());
-  m_problem.evaluate(x, m_r, assemble0 ? &m_K : nullptr);
-  if (assemble0) {
-    m_K_symmetric = m_problem.traits().tangent_symmetric;
-    m_tangent_skipped = false;
-  }
+  evaluate(x, m_r, assemble0);
   report.seconds_evaluate += wall_seconds() - t0;
   if (use_existing && !reuse_factor() && m_problem.traits().state_signature != m_factor_state) {
     // The first iterate's contact active set is not the one the factor was built with (the
     // predictor closed or opened pairs): that factor would step as if they had not, so the
     // tangent is evaluated here instead (case 4.3, step 1: 8 -> 5 Newton iterations).
     t0 = wall_seconds();
-    m_problem.evaluate(x, m_r, &m_K);
-    m_K_symmetric = m_problem.traits().tangent_symmetric;
+    evaluate(x, m_r, true);
     report.seconds_evaluate += wall_seconds() - t0;
     use_existing = false;
   }
@@ -269,8 +265,7 @@ bool NewtonSolver::line_search(const VectorXd& x, double& norm, double& alpha, b
     m_trial = x + alpha * m_dx;
     double t0 = wall_seconds();
     const bool tangent = !reuse_factor() && !(expect_converged && ls == 0);
-    m_problem.evaluate(m_trial, m_trial_r, tangent ? &m_K : nullptr);
-    if (tangent) m_K_symmetric = m_problem.traits().tangent_symmetric;
+    evaluate(m_trial, m_trial_r, tangent);
     report.seconds_evaluate += wall_seconds() - t0;
     const double trial_norm = m_problem.unknowns().norm(m_trial_r);
     const bool accept =
@@ -283,8 +278,7 @@ bool NewtonSolver::line_search(const VectorXd& x, double& norm, double& alpha, b
         return true;
       }
       t0 = wall_seconds();  // not converged after all: the next iteration needs the tangent
-      m_problem.evaluate(m_trial, m_trial_r, &m_K);
-      m_K_symmetric = m_problem.traits().tangent_symmetric;
+      evaluate(m_trial, m_trial_r, true);
       report.seconds_evaluate += wall_seconds() - t0;
       return true;
     }

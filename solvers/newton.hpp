@@ -52,6 +52,9 @@ class NewtonSolver final : public StepSolver {
 
  private:
   SolveReport solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report);
+  /// The problem's residual at x into r and, with `tangent`, its tangent into m_K (whose
+  /// symmetry it records; a tangent left out at the last load is then no longer missing).
+  void evaluate(const VectorXd& x, VectorXd& r, bool tangent);
   /// The residual at x, with the tangent unless the first iteration keeps the factor it has
   /// (`use_existing`, cleared when the predictor changed the active set); returns its norm.
   double evaluate_first(const VectorXd& x, bool& use_existing, SolveReport& report);
