@@ -187,6 +187,9 @@ class Problem {
   virtual IrreversibleState* irreversible_state() { return nullptr; }
   /// Accepts x as the converged state of the current load factor (history is committed).
   virtual void commit(const VectorXd& x) = 0;
+  /// Zeroes the components of an increment that the problem holds where they are (fragments,
+  /// docs/theory/failure.md): a predictor or a solve moves only what the problem solves for.
+  virtual void hold_increment(VectorXd& /*dx*/) const {}
 
   // ---- Checks.
   /// Checks a converged state before it is accepted; returns why it must be rejected (e.g. a

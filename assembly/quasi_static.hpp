@@ -146,6 +146,9 @@ class QuasiStaticProblem final : public Problem,
   /// components of both particles (a 2 x 2 block appears twice in a row, +J and -J).
   void add_stiffness_bound(VectorXd& row_sums) const override;
   void commit(const VectorXd& x) override;
+  void hold_increment(VectorXd& dx) const override {
+    for (const Index f : m_fragments.unknowns()) dx[f] = 0.0;
+  }
   /// This problem when the scene models failure, else null.
   IrreversibleState* irreversible_state() override { return m_failure ? this : nullptr; }
   /// Bond failure: the bonds over the scene's criterion at x break (BondFailure) and join

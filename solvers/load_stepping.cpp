@@ -161,14 +161,20 @@ std::string break_and_resolve(Problem& problem, StepSolver& solver, VectorXd& x,
 }
 /// The first iterate of an attempt at load factor `next` from the converged x at `lambda`:
 /// with loading.extrapolate, along the secant from (x_before, lambda_before) when there is one,
-/// else the solver's tangent predictor; x itself otherwise.
-void predict(VectorXd& trial, const VectorXd& x, const VectorXd& x_before, double lambda_before, double lambda,
-             double next, const Loading& loading, StepSolver& solver, StepReport& step) {
-  trial = x;
-  if (loading.extrapolate && lambda_before >= 0.0 && lambda > lambda_before)
-    trial += ((next - lambda) / (lambda - lambda_before)) * (x - x_before);
-  else if (loading.extrapolate)
-    accumulate(step, solver.predict(trial, lambda));  // no secant: the solver's tangent
+/// else the solver's tangent predictor; x itself otherwise. Held fragments stay where they are:
+/// the secant would carry them on by the motion they had before they were cut loose.
+void predict(VectorXd& trial, const VectorXd& x, const VectorXd& x_before, double lambda_before,
+             double lambda, double next, const Loading& loading, Problem& problem, StepSolver& solver,
+             StepReport& step) {
+  if (loading.extrapolate && lambda_before >= 0.0 && lambda > lambda_before) {
+    trial = ((next - lambda) / (lambda - lambda_before)) * (x - x_before);
+    problem.hold_increment(trial);
+    trial += x;
+  } else {
+    trial = x;
+    if (loading.extrapolate)
+      accumulate(step, solver.predict(trial, lambda));  // no secant: the solver's tangent
+  }
 }
 
 /// After a failed attempt of `step` at load factor `next` (its cut-backs and `halvings` counted):
@@ -231,7 +237,7 @@ RunReport run_load_steps(Problem& problem, StepSolver& solver, VectorXd& x, cons
         solver.set_last_load(k == n && next == target);  // and its re-solves after breaking
         problem.set_load_factor(next);
         observer.attempt_started(k, n, next, step.cutbacks);
-        predict(trial, x, x_before, lambda_before, lambda, next, loading, solver, step);
+        predict(trial, x, x_before, lambda_before, lambda, next, loading, problem, solver, step);
         const SolveReport r = solve_and_check(problem, solver, trial, r_check, observer, step);
         if (r.converged || r.accepted_unconverged) {
           x_before = x;

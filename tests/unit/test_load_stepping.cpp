@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <memory>
 #include <utility>
 #include <vector>
 
@@ -496,6 +497,86 @@ TEST(NewtonEvaluations, TheLastLoadsConvergedStateMakesNoTangent) {
     else
       EXPECT_GE(guessed_wrong, 1) << "the fallback was not exercised";
   }
+}
+
+/// Two unknowns, r = (x0 + x0^3 - lambda, x1 - 2 lambda), whose second the problem holds from
+/// its first commit on (as a fragment cut loose: its row zero, its tangent diagonal 1). The
+/// cubic makes Newton iterate after the secant's prediction.
+class HeldAfterStepOne final : public Problem {
+ public:
+  UnknownSpace unknowns() const override { return UnknownSpace(2); }
+  void set_load_factor(double l) override { m_lambda = l; }
+  double load_factor() const override { return m_lambda; }
+  void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override {
+    r.resize(2);
+    r[0] = x[0] + x[0] * x[0] * x[0] - m_lambda;
+    r[1] = m_held ? 0.0 : x[1] - 2.0 * m_lambda;
+    if (K) {
+      K->coeffRef(0, 0) = 1.0 + 3.0 * x[0] * x[0];
+      K->coeffRef(1, 1) = 1.0;
+    }
+  }
+  double force_scale() const override { return 1.0; }
+  SparseMatrix make_tangent() const override {
+    SparseMatrix K(2, 2);
+    K.insert(0, 0) = K.insert(1, 1) = 0.0;
+    K.makeCompressed();
+    return K;
+  }
+  ProblemTraits traits() const override { return {.tangent_symmetric = true, .tangent_constant = false}; }
+  void commit(const VectorXd&) override { m_held = true; }
+  void hold_increment(VectorXd& dx) const override {
+    if (m_held) dx[1] = 0.0;
+  }
+
+ private:
+  double m_lambda = 0.0;
+  bool m_held = false;
+};
+
+/// A direct solve that leaves 1e-3 of the right-hand side's norm in the update of an unknown
+/// whose right-hand side is zero, as a preconditioner that mixes rows leaves round-off in a
+/// decoupled row.
+class LeakyLinearSolver final : public LinearSolver {
+ public:
+  void analyzePattern(const SparseMatrix& A) override { m_inner->analyzePattern(A); }
+  void factorize(const SparseMatrix& A) override { m_inner->factorize(A); }
+  void solve(const VectorXd& b, VectorXd& x) override {
+    m_inner->solve(b, x);
+    if (b[1] == 0.0) x[1] += 1e-3 * b.norm();
+  }
+  Eigen::ComputationInfo info() const override { return m_inner->info(); }
+  LinearSolverTraits traits() const override { return m_inner->traits(); }
+  LinearSolverStats stats() const override { return m_inner->stats(); }
+
+ private:
+  std::unique_ptr<LinearSolver> m_inner = make_umfpack();
+  static std::unique_ptr<LinearSolver> make_umfpack() {
+    LinearOptions o;
+    o.type = LinearSolverKind::umfpack;
+    return make_linear_solver(o);
+  }
+};
+
+// Unknowns the problem holds (Problem::hold_increment) stay where they were at their first
+// commit: neither the secant predictor, which would carry x1 on by its motion in step 1, nor
+// Newton's updates, whatever the linear solve leaves in their rows, move them. Without the
+// hold x1 ends at 4/3 and more (1e-3 of the residual per Newton iteration) instead of 2/3.
+TEST(LoadStepping, HeldUnknownsStayWhereTheyWere) {
+  HeldAfterStepOne p;
+  LeakyLinearSolver linear;
+  NewtonOptions no;
+  no.rtol = 1e-12;
+  NewtonSolver newton(p, linear, no);
+  VectorXd x = VectorXd::Zero(2);
+  Loading loading;
+  loading.steps = 3;
+  test::StepLog log;
+  const RunReport r = run_load_steps(p, newton, x, loading, log);
+  ASSERT_TRUE(r.completed) << r.message;
+  EXPECT_NEAR(x[0], 0.6823278038280193, 1e-12);  // x + x^3 = 1
+  // Step 1 is solved with x1 free (the leak is then a residual that Newton corrects): x1 = 2/3.
+  EXPECT_NEAR(x[1], 2.0 / 3.0, 1e-12);
 }
 
 }  // namespace
