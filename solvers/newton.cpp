@@ -99,8 +99,9 @@ void NewtonSolver::solve_linear(LinearSolver& lin, double rtol, SolveReport& rep
   lin.configure({m_K_symmetric, rtol, m_problem.traits().preconditioner_state});
   lin.solve(-m_r, m_dx);
   // Held unknowns (fragments) move by exactly nothing: their rows are decoupled, but a
-  // preconditioner that mixes rows (an AMG's aggregates) leaves round-off there, and a held
-  // fragment's locked-in bonds turn that into energy no force accounts for.
+  // preconditioner that mixes rows (an AMG hierarchy built before the fragment was cut loose)
+  // leaves round-off there, which a fragment's stretched bonds turn into energy no force
+  // accounts for (docs/theory/failure.md, "Fragments").
   m_problem.hold_increment(m_dx);
   const double setup = lin.stats().setup_seconds - setup0;  // a deferred set-up counts as one
   report.seconds_factorize += setup;
