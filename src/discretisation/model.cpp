@@ -315,20 +315,48 @@ Stencil make_stencil(double horizon_factor, double spacing, Quadrature quadratur
   return s;
 }
 
+namespace {
+
+/// The width of "on the crack line", relative to the largest coordinate involved: the
+/// coordinates carry round-off of a few units of 2^-53 of their magnitude (a lattice point
+/// is origin + i dx, a crack end a decimal), so a point whose exact position is on the line
+/// is computed within about 1e-15 of that scale of it. 1e-12 is 500 times that and, for any
+/// lattice of fewer than 10^6 cells from the coordinates' origin, below 1e-6 dx.
+constexpr double kOnCrackLine = 1e-12;
+
+/// The side of point p of the line through a in direction d: +1 left, -1 right, 0 on it
+/// within kOnCrackLine of the largest coordinate. A function of (p, a, d) alone, so a
+/// particle is on one side for every bond it has.
+int side_of_crack_line(const Vec2& p, const Vec2& a, const Vec2& d, double scale) {
+  const double s = cross(d, p - a);  // |d| times the signed distance
+  const double band = kOnCrackLine * std::max(scale, p.cwiseAbs().maxCoeff()) * d.norm();
+  return s > band ? 1 : (s < -band ? -1 : 0);
+}
+
+}  // namespace
+
 bool bond_crosses_crack(const Vec2& p, const Vec2& q, const Vec2& a, const Vec2& b) {
   // The same answer for (p, q) and (q, p), by construction: the crossing point below is
-  // computed from p, and where the bond passes through a crack tip (u = 0 or 1 exactly) its
-  // round-off decides. Computed from either end, a bond through a tip was cut in one direction
-  // only, and the reverse of the other pointed at a wrong bond of the neighbour's family.
+  // computed from p. Computed from either end, a bond through a crack tip was cut in one
+  // direction only, and the reverse of the other pointed at a wrong bond of the neighbour's family.
   if (q.x() < p.x() || (q.x() == p.x() && q.y() < p.y())) return bond_crosses_crack(q, p, a, b);
-  // A point on the crack line counts as lying on its left (non-negative) side, so a
-  // particle exactly on the crack is on one face, never on both.
+  // A point on the crack line, up to the round-off of the coordinates, counts as lying on its
+  // left side, so a particle on the crack is on one face, never on both, and which face does
+  // not depend on how the machine rounds (docs/theory/osb.md, "Pre-cracks").
   const Vec2 d = b - a;
-  const double sp = cross(d, p - a), sq = cross(d, q - a);
-  if ((sp >= 0.0) == (sq >= 0.0)) return false;
-  const Vec2 x = p + (q - p) * (sp / (sp - sq));  // crossing with the crack line
-  const double u = (x - a).dot(d) / d.squaredNorm();
-  return u >= 0.0 && u <= 1.0;
+  const double scale = std::max({a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff(), d.norm()});
+  const int sp = side_of_crack_line(p, a, d, scale), sq = side_of_crack_line(q, a, d, scale);
+  if ((sp >= 0) == (sq >= 0)) return false;
+  // The crossing with the crack line: an end on the line is the crossing itself.
+  Vec2 x = sp == 0 ? p : q;
+  if (sp != 0 && sq != 0) {
+    const double cp = cross(d, p - a), cq = cross(d, q - a);
+    x = p + (q - p) * (cp / (cp - cq));
+  }
+  // The crack is a closed segment: a crossing at a tip, up to the same round-off, cuts.
+  const double length = d.norm(), along = (x - a).dot(d) / length;
+  const double band = kOnCrackLine * std::max(scale, x.cwiseAbs().maxCoeff());
+  return along >= -band && along <= length + band;
 }
 
 bool inside_polygon(const Polygon& polygon, const Vec2& p) {
