@@ -8,7 +8,7 @@
 
 namespace peristat {
 
-FragmentTracker::FragmentTracker(const Model& model, const BondFailure* failure, const ProblemOptions& options,
+FragmentTracker::FragmentTracker(const Model& model, BondFailure* failure, const ProblemOptions& options,
                                  const Ranks& ranks, ValueExchange* particle_values)
     : m_model(model), m_failure(failure), m_options(options), m_ranks(ranks) {
   if (!m_failure) return;
@@ -53,6 +53,7 @@ void FragmentTracker::update(ContactSystem* contact) {
   m_fragments = static_cast<Index>(std::unique(every.begin(), every.end()) - every.begin());
   m_fragment_particles = static_cast<Index>(m_ranks.sum(std::int64_t{m_fragment_particles}));
   if (contact) contact->set_excluded(m_fragment_particles > 0 ? m_fragment : std::vector<char>{});
+  m_failure->set_held(m_fragment_particles > 0 ? m_fragment : std::vector<char>{});
 }
 
 void FragmentTracker::hold(VectorXd& force) {

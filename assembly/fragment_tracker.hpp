@@ -27,13 +27,13 @@ class FragmentTracker {
   /// outlive this) gives the rows and the collectives of a distributed run.
   /// `particle_values`: with partitioned bonds, the exchange of one value per particle
   /// (RankExchanges::particle_values(), the problem's).
-  FragmentTracker(const Model& model, const BondFailure* failure, const ProblemOptions& options, const Ranks& ranks,
+  FragmentTracker(const Model& model, BondFailure* failure, const ProblemOptions& options, const Ranks& ranks,
                   ValueExchange* particle_values);
   FragmentTracker(const FragmentTracker&) = delete;
   FragmentTracker& operator=(const FragmentTracker&) = delete;
 
-  /// The fragments at the current bonds; the contact pairs (when modelled) exclude them.
-  /// On a part: collective.
+  /// The fragments at the current bonds; the contact pairs (when modelled) exclude them, and
+  /// the failure criterion leaves their bonds alone (BondFailure::set_held). On a part: collective.
   void update(ContactSystem* contact);
   /// Takes the fragments' components out of the forces of an evaluation (zero), and records
   /// the net force they take from the rest of the model (reaction()). On a part with
@@ -51,13 +51,15 @@ class FragmentTracker {
   /// nothing in the model balances.
   Index contacts(const ContactSystem* contact) const;
   double reaction() const { return m_fragment_reaction; }
+  /// Per particle of the model (of the part): 1 where it belongs to a fragment.
+  const std::vector<char>& particles_held() const { return m_fragment; }
   /// The fragments' unknowns.
   const std::vector<Index>& unknowns() const { return m_fragment_unknowns; }
   std::size_t memory_bytes() const;
 
  private:
   const Model& m_model;
-  const BondFailure* m_failure;
+  BondFailure* m_failure;
   const ProblemOptions& m_options;
   const Ranks& m_ranks;
   /// With partitioned bonds and failure: this rank's part of the bond graph (null otherwise).

@@ -214,6 +214,8 @@ class QuasiStaticProblem final : public Problem,
   /// FragmentTracker::contacts() and reaction() at the last evaluation.
   Index fragment_contacts() const { return m_fragments.contacts(m_contact.get()); }
   double fragment_reaction() const { return m_fragments.reaction(); }
+  /// With failure: per particle, 1 where it is held as a fragment at the current bonds.
+  const std::vector<char>& particles_held() const { return m_fragments.particles_held(); }
   /// The energy ledger up to the last accepted state.
   const EnergyLedger& energy_ledger() const { return m_balance.ledger(); }
   /// The contact candidates and their state, or null when the scene has no contact.

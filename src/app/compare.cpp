@@ -66,7 +66,8 @@ std::string to_json(const CompareArguments& args, int step_a, int step_b, double
                                 {"load_factor", lambda_b},
                                 {"load_factor_a", lambda_a},
                                 {"load_factor_b", lambda_b},
-                                {"particles", c.all.particles}};
+                                {"particles", c.all.particles},
+                                {"held_left_out", c.held_left_out}};
   add_measures(out, c.all);
   nlohmann::ordered_json& bodies = out["bodies"] = nlohmann::ordered_json::object();
   for (const BodyDifference& body : c.bodies) {
@@ -95,6 +96,11 @@ void print_text(const CompareArguments& args, int step_a, int step_b, double lam
       "compare %s (step %d, load factor %s) against %s (step %d, load factor %s): %d real particles\n",
       args.a.c_str(), step_a, shortest_decimal(lambda_a).c_str(), args.b.c_str(), step_b,
       shortest_decimal(lambda_b).c_str(), c.all.particles);
+  if (c.held_left_out > 0)
+    std::printf(
+        "  %ld more held as fragments in either file are left out: where a fragment is held is not "
+        "determined by the equations\n",
+        static_cast<long>(c.held_left_out));
   int width = 3;  // "all"
   for (const BodyDifference& body : c.bodies) width = std::max(width, static_cast<int>(5 + body.name.size()));
   print_measures("all", width, c.all);

@@ -241,6 +241,11 @@ void StepRecorder::gather_step_fields(const VectorXd& x) {
   if (m_problem->failure()) {                     // the committed state's
     const VectorXd mine = m_problem->damage();
     m_view->particle_values(mine, 1, m_damage);
+    const std::vector<char>& held = m_problem->particles_held();
+    VectorXd held_mine(static_cast<Eigen::Index>(held.size()));
+    for (std::size_t i = 0; i < held.size(); ++i) held_mine[static_cast<Eigen::Index>(i)] = held[i];
+    m_view->particle_values(held_mine, 1, m_held_whole);
+    m_held.assign(m_held_whole.begin(), m_held_whole.end());
   }
 }
 
@@ -269,6 +274,7 @@ void StepRecorder::write_record(const StepReport& s, double step_contact_seconds
   add_energy_counts(rec, m_problem->energy_ledger());
   if (const BondFailure* failure = m_problem->failure()) {
     rec.damage = &m_damage;
+    rec.held = &m_held;
     add_failure_counts(rec, *m_problem, *failure, s, m_fragment_contacts);
   }
   if (m_scene.solver.type == SolverKind::adr) {

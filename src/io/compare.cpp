@@ -101,17 +101,23 @@ std::string particle_mismatch(const ParticleTable& a, const std::string& name_a,
   return {};
 }
 
-Comparison compare_displacements(const ParticleTable& particles, const VectorXd& u_a, const VectorXd& u_b) {
+Comparison compare_displacements(const ParticleTable& particles, const VectorXd& u_a, const VectorXd& u_b,
+                                 const VectorXd& left_out) {
   const auto size = 2 * static_cast<Eigen::Index>(particles.size());
-  if (u_a.size() != size || u_b.size() != size) {
+  if (u_a.size() != size || u_b.size() != size || (left_out.size() != 0 && 2 * left_out.size() != size)) {
     throw InputError("compare: displacement vectors of size " + std::to_string(u_a.size()) + " and " +
-                     std::to_string(u_b.size()) + " for " + std::to_string(particles.size()) +
-                     " particles (expected " + std::to_string(size) + ")");
+                     std::to_string(u_b.size()) + " and " + std::to_string(left_out.size()) + " flags for " +
+                     std::to_string(particles.size()) + " particles (expected " + std::to_string(size) + ")");
   }
   Accumulator all;
   std::map<int, Accumulator> bodies;
+  Index held = 0;
   for (std::size_t i = 0; i < particles.size(); ++i) {
     if (particles.fictitious[i] != 0) continue;
+    if (left_out.size() != 0 && left_out[static_cast<Eigen::Index>(i)] != 0.0) {
+      ++held;
+      continue;
+    }
     const auto k = 2 * static_cast<Eigen::Index>(i);
     const Vec2 ub(u_b[k], u_b[k + 1]);
     const Vec2 du = Vec2(u_a[k], u_a[k + 1]) - ub;
@@ -120,6 +126,7 @@ Comparison compare_displacements(const ParticleTable& particles, const VectorXd&
   }
   Comparison c;
   c.all = all.finish();
+  c.held_left_out = held;
   for (const auto& [index, sums] : bodies) {
     BodyDifference body;
     body.index = index;
@@ -145,7 +152,8 @@ void require_same_particles(const ResultsReader& a, const std::string& name_a, c
 Comparison compare_results(const ResultsReader& a, const std::string& name_a, int step_a,
                            const ResultsReader& b, const std::string& name_b, int step_b) {
   require_same_particles(a, name_a, b, name_b);
-  return compare_displacements(b.particles(), a.displacement(step_a), b.displacement(step_b));
+  const VectorXd held = a.held(step_a).cwiseMax(b.held(step_b));
+  return compare_displacements(b.particles(), a.displacement(step_a), b.displacement(step_b), held);
 }
 
 }  // namespace peristat

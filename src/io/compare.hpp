@@ -37,6 +37,10 @@ struct BodyDifference {
 struct Comparison {
   DifferenceMeasures all;
   std::vector<BodyDifference> bodies;  ///< ascending body index
+  /// Real particles left out because either result holds them as fragments: a fragment is
+  /// held wherever it was cut loose, a position the equations do not determine
+  /// (docs/theory/failure.md, "Fragments").
+  Index held_left_out = 0;
 };
 
 /// Empty when `a` and `b` hold the same particles: same count, fictitious flags and body
@@ -51,10 +55,13 @@ void require_same_particles(const ResultsReader& a, const std::string& name_a, c
                             const std::string& name_b);
 
 /// Measures of uA - uB (2N interleaved each) over the non-fictitious particles of
-/// `particles`, overall and per body. Throws InputError unless both have size 2N.
-Comparison compare_displacements(const ParticleTable& particles, const VectorXd& u_a, const VectorXd& u_b);
+/// `particles`, overall and per body, leaving out those with a nonzero entry of `left_out`
+/// (N, or empty: none). Throws InputError unless both have size 2N.
+Comparison compare_displacements(const ParticleTable& particles, const VectorXd& u_a, const VectorXd& u_b,
+                                 const VectorXd& left_out = VectorXd());
 
-/// Reads step `step_a` of `a` and `step_b` of `b` and compares them (B is the reference).
+/// Reads step `step_a` of `a` and `step_b` of `b` and compares them (B is the reference),
+/// leaving out the particles either step holds as fragments (ResultsReader::held).
 /// Throws InputError as require_same_particles does, and naming the file when a step is absent.
 Comparison compare_results(const ResultsReader& a, const std::string& name_a, int step_a,
                            const ResultsReader& b, const std::string& name_b, int step_b);

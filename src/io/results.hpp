@@ -46,6 +46,8 @@ struct StepRecord : StepFigures {
   const VectorXd* damage = nullptr;         ///< N, only where failure is modelled
   const VectorXd* contact_force = nullptr;  ///< 2N, only where contact is modelled
   const std::vector<int>* contact_state = nullptr;  ///< N (0 no closed pair, 1 stick, 2 slip), with contact
+  /// N (1: held as a fragment, docs/theory/failure.md "Fragments"), only where failure is modelled
+  const std::vector<int>* held = nullptr;
 };
 
 /// Writes the three result files of a run.
@@ -110,6 +112,10 @@ class ResultsReader {
   /// Contact state of step K (N: 0 no closed pair, 1 stick, 2 slip); throws if the step is
   /// absent or the run modelled no contact.
   VectorXd contact_state(int step) const;
+  /// Which particles step K holds as fragments (N: 1 held, 0 not): their positions are not
+  /// determined by the equations. All 0 for a step without the dataset (no failure modelled,
+  /// or a file written before it existed); throws if the step is absent.
+  VectorXd held(int step) const;
   double load_factor(int step) const;
 
  private:

@@ -181,6 +181,16 @@ VectorXd ResultsReader::contact_state(int step) const {
   return per_particle(step, "contact_state", "the scene has no contact section");
 }
 
+VectorXd ResultsReader::held(int step) const {
+  const std::string dataset = step_path(m_path, m_steps, step) + "/held";
+  const bool present = as_input_error([&] {
+    h5::File file = h5::File::open(m_path, false);
+    return file.link_exists(file.id(), dataset);
+  });
+  return present ? per_particle(step, "held", "")
+                 : VectorXd::Zero(static_cast<Eigen::Index>(m_particles.size()));
+}
+
 double ResultsReader::load_factor(int step) const {
   const std::string group_path = step_path(m_path, m_steps, step);
   return as_input_error([&] {

@@ -12,6 +12,7 @@
 #include <numeric>
 #include <set>
 #include <stdexcept>
+#include <utility>
 
 #include <nlohmann/json.hpp>
 
@@ -40,6 +41,7 @@ struct StepSummary : StepFigures {
   bool has_damage = false;
   bool has_contact_force = false;
   bool has_contact_state = false;
+  bool has_held = false;
 };
 
 StepSummary summarise(const StepRecord& step) {
@@ -48,6 +50,7 @@ StepSummary summarise(const StepRecord& step) {
   s.has_damage = step.damage != nullptr;
   s.has_contact_force = step.contact_force != nullptr;
   s.has_contact_state = step.contact_state != nullptr;
+  s.has_held = step.held != nullptr;
   return s;
 }
 
@@ -100,10 +103,13 @@ void check_step(const StepRecord& step, std::size_t n, const std::vector<StepSum
   check_field(step.displacement, 2 * n, "displacement", step.index);
   check_field(step.damage, n, "damage", step.index);
   check_field(step.contact_force, 2 * n, "contact_force", step.index);
-  if (step.contact_state != nullptr && step.contact_state->size() != n) {
-    throw std::invalid_argument("ResultsWriter: step " + std::to_string(step.index) + ": contact_state has " +
-                                std::to_string(step.contact_state->size()) + " entries, expected " +
-                                std::to_string(n));
+  for (const auto& [field, name] :
+       {std::pair{step.contact_state, "contact_state"}, std::pair{step.held, "held"}}) {
+    if (field != nullptr && field->size() != n) {
+      throw std::invalid_argument("ResultsWriter: step " + std::to_string(step.index) + ": " + name +
+                                  " has " + std::to_string(field->size()) + " entries, expected " +
+                                  std::to_string(n));
+    }
   }
   check_attribute_names(step);
 }
@@ -143,6 +149,7 @@ void write_step_contents(const h5::File& file, hid_t group, const StepRecord& st
     file.write_doubles(group, "contact_force", step.contact_force->data(), {n, 2});
   }
   if (step.contact_state != nullptr) file.write_ints(group, "contact_state", step.contact_state->data(), {n});
+  if (step.held != nullptr) file.write_ints(group, "held", step.held->data(), {n});
   file.write_doubles(group, "residual_history", step.residual_history.data(),
                      {static_cast<hsize_t>(step.residual_history.size())});
   file.write_attribute(group, "load_factor", step.load_factor);
@@ -170,7 +177,7 @@ nlohmann::ordered_json step_json(const StepSummary& s) {
 /// The inverse of step_json (figures only), for a resumed run's earlier steps.
 /// Which fields a kept step group of a resumed run holds.
 struct StepFields {
-  bool damage = false, contact_force = false, contact_state = false;
+  bool damage = false, contact_force = false, contact_state = false, held = false;
 };
 
 StepSummary step_from_json(const nlohmann::ordered_json& j, const StepFields& fields) {
@@ -192,6 +199,7 @@ StepSummary step_from_json(const nlohmann::ordered_json& j, const StepFields& fi
   s.has_damage = fields.damage;
   s.has_contact_force = fields.contact_force;
   s.has_contact_state = fields.contact_state;
+  s.has_held = fields.held;
   return s;
 }
 
@@ -293,7 +301,7 @@ struct ResultsWriter::Impl {
   }
 
   /// Resume: removes the step groups after `last_step`; returns which of the others hold
-  /// damage and contact forces (by step index).
+  /// damage, contact fields and held flags (by step index).
   std::map<int, StepFields> keep_steps_up_to(int last_step) const {
     std::map<int, StepFields> kept;
     edit_copy(h5().string() + ".tmp", [&](h5::File& file) {
@@ -306,7 +314,7 @@ struct ResultsWriter::Impl {
         }
         h5::Handle group = file.open_group(steps_group, group_name);
         kept[index] = {file.link_exists(group, "damage"), file.link_exists(group, "contact_force"),
-                       file.link_exists(group, "contact_state")};
+                       file.link_exists(group, "contact_state"), file.link_exists(group, "held")};
       }
     });
     return kept;
@@ -316,7 +324,8 @@ struct ResultsWriter::Impl {
     std::vector<io::XdmfStep> xs;
     xs.reserve(steps.size());
     for (const StepSummary& s : steps) {
-      xs.push_back({s.index, s.load_factor, s.has_damage, s.has_contact_force, s.has_contact_state});
+      xs.push_back(
+          {s.index, s.load_factor, s.has_damage, s.has_contact_force, s.has_contact_state, s.has_held});
     }
     io::write_file_atomically(xdmf().string(), io::xdmf_document(name + ".h5", n_particles, xs));
   }

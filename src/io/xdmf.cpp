@@ -123,6 +123,7 @@ std::string xdmf_document(const std::string& h5_file_name, std::size_t n_particl
       if (step.has_damage) grid.scalar("damage", group + "/damage", false);
       if (step.has_contact_force) grid.vector2("contact_force", group + "/contact_force");
       if (step.has_contact_state) grid.scalar("contact_state", group + "/contact_state", true);
+      if (step.has_held) grid.scalar("held", group + "/held", true);
       grid.particle_scalars();
       grid.end();
     }

@@ -14,6 +14,7 @@ struct XdmfStep {
   bool has_damage = false;
   bool has_contact_force = false;
   bool has_contact_state = false;
+  bool has_held = false;
 };
 
 /// Xdmf 2 document: a temporal collection with one Polyvertex grid per step, geometry

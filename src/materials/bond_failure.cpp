@@ -124,6 +124,7 @@ void BondFailure::gather_candidates() {
       const std::int64_t gj = global(j);
       if (gj < gi || m_weight[b] == 0.0) continue;
       if (p.fictitious[i] && p.fictitious[j]) continue;
+      if (!m_held_particle.empty() && (m_held_particle[i] || m_held_particle[j])) continue;
       const Index r = bonds.reverse(i, b);
       if (r < 0)
         throw std::logic_error("BondFailure: the proposer of a pair does not hold its reverse family");

@@ -54,6 +54,11 @@ class BondFailure {
   /// part (FailureRanks::ids) those of which it holds a direction, by the part's indices
   /// (broken() counts every rank's).
   const std::vector<std::pair<Index, Index>>& break_over_criterion(std::span<const Vec2> eta, Index at_most);
+  /// Particles whose bonds the criterion leaves alone (N, 1: held; empty: none): the held
+  /// fragments (docs/theory/failure.md, "Fragments"), whose bonds stretch as wherever they
+  /// were cut loose, a position the equations do not determine. Their pairs neither break
+  /// nor count for peak().
+  void set_held(const std::vector<char>& held) { m_held_particle = held; }
   /// The pairs of the last round (broken, or restored by revert()).
   const std::vector<std::pair<Index, Index>>& last_round() const { return m_round; }
   /// How many pairs the last round broke, every rank's (on a part, last_round() holds those of
@@ -149,6 +154,7 @@ class BondFailure {
   std::vector<std::int64_t> m_broken_whole;            ///< every broken pair's whole index
   GlobalIds m_own;  ///< a whole model's identity numbering (no FailureRanks::ids)
   std::vector<char> m_held;                   ///< per particle: its family is held here
+  std::vector<char> m_held_particle;          ///< per particle: held as a fragment (set_held)
   std::vector<std::int64_t> m_whole_start;    ///< per particle (N + 1): its family's first whole bond index
   Index m_round_pairs = 0;                                  ///< pairs broken by the last round, every rank's
   Index m_broken = 0;

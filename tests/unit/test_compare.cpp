@@ -212,9 +212,9 @@ class CompareFiles : public ::testing::Test {
   }
 
   /// Writes DIR/<name>/<name>.h5 with one step per field (step k has fields[k-1],
-  /// load factor k / n) and returns its path.
-  std::string write(const std::string& name, const ParticleTable& table,
-                    const std::vector<VectorXd>& fields) {
+  /// load factor k / n, and held[k-1] when given and not empty) and returns its path.
+  std::string write(const std::string& name, const ParticleTable& table, const std::vector<VectorXd>& fields,
+                    const std::vector<std::vector<int>>& held = {}) {
     const std::string dir = (m_dir / name).string();
     ResultsWriter writer(dir, name, "name: " + name + "\n", table, "{}");
     for (std::size_t k = 0; k < fields.size(); ++k) {
@@ -222,6 +222,7 @@ class CompareFiles : public ::testing::Test {
       r.index = static_cast<int>(k + 1);
       r.load_factor = static_cast<double>(k + 1) / static_cast<double>(fields.size());
       r.displacement = &fields[k];
+      if (k < held.size() && !held[k].empty()) r.held = &held[k];
       writer.write_step(r);
     }
     writer.finish("completed", "");
@@ -251,6 +252,40 @@ TEST_F(CompareFiles, ReadsBothFilesAndComparesTheChosenSteps) {
   EXPECT_EQ(compare_results(ra, a, 1, rb, b, 1).all.relative_l2, 0.0);
   // Step 1 of A against step 2 of B: uA = uB / 2.
   EXPECT_NEAR(compare_results(ra, a, 1, rb, b, 2).all.relative_l2, 0.5, k_tight);
+}
+
+// A particle either file holds as a fragment is left out and counted: its position is not
+// determined by the equations. Particles 3 (body 0) and 9 (body 1) are 1 m off in A's last
+// step; B holds 3 there and A holds 9, so the rest compares exactly equal. Step 1 holds no
+// dataset (a run without failure): nothing is left out and the 1 m shows.
+TEST_F(CompareFiles, ParticlesHeldAsFragmentsInEitherFileAreLeftOut) {
+  const ParticleTable t = two_bodies();
+  const VectorXd u = reference_field(t);
+  VectorXd off = u;
+  for (const Eigen::Index i : {3, 9}) off.segment<2>(2 * i) += Vec2(1.0, 0.0);
+  std::vector<int> held_a(t.size(), 0), held_b(t.size(), 0);
+  held_a[9] = 1;
+  held_b[3] = 1;
+  const std::string a = write("a", t, {off, off}, {{}, held_a});
+  const std::string b = write("b", t, {u, u}, {{}, held_b});
+  const ResultsReader ra(a), rb(b);
+  EXPECT_EQ(ra.held(1), VectorXd::Zero(16));
+  EXPECT_EQ(ra.held(2)[9], 1.0);
+  EXPECT_EQ(ra.held(2).sum(), 1.0);
+
+  const Comparison last = compare_results(ra, a, 2, rb, b, 2);
+  EXPECT_EQ(last.held_left_out, 2);
+  EXPECT_EQ(last.all.particles, 12);  // 14 real particles, 2 held
+  EXPECT_EQ(last.all.relative_l2, 0.0);
+  EXPECT_EQ(last.all.max_abs, 0.0);
+  ASSERT_EQ(last.bodies.size(), 2u);
+  EXPECT_EQ(last.bodies[0].measures.particles, 6);
+  EXPECT_EQ(last.bodies[1].measures.particles, 6);
+
+  const Comparison first = compare_results(ra, a, 1, rb, b, 1);
+  EXPECT_EQ(first.held_left_out, 0);
+  EXPECT_EQ(first.all.particles, 14);
+  EXPECT_NEAR(first.all.max_abs, 1.0, 1e-12);
 }
 
 TEST_F(CompareFiles, DifferentParticlesAndMissingStepsNameTheFiles) {

@@ -83,7 +83,7 @@ ParticleTable small_table() {
 /// Fields of step k, distinct per step, entry and component.
 struct StepFields {
   VectorXd displacement, damage, contact_force;
-  std::vector<int> contact_state;
+  std::vector<int> contact_state, held;
 };
 
 StepFields fields_of_step(int k, std::size_t n) {
@@ -98,10 +98,11 @@ StepFields fields_of_step(int k, std::size_t n) {
   }
   for (Eigen::Index i = 0; i < m; ++i) f.damage[i] = 0.01 * k * static_cast<double>(i);
   for (std::size_t i = 0; i < n; ++i) f.contact_state.push_back(static_cast<int>((i + k) % 3));
+  for (std::size_t i = 0; i < n; ++i) f.held.push_back(i + 1 == n ? 1 : 0);
   return f;
 }
 
-/// Step k: damage from step 2 on, contact force on step 3 only.
+/// Step k: damage and held flags from step 2 on, contact force on step 3 only.
 StepRecord record_of_step(int k, const StepFields& f) {
   StepRecord r;
   r.index = k;
@@ -112,6 +113,7 @@ StepRecord record_of_step(int k, const StepFields& f) {
   r.wall_seconds = 0.5 * k;
   r.displacement = &f.displacement;
   r.damage = k >= 2 ? &f.damage : nullptr;
+  r.held = k >= 2 ? &f.held : nullptr;
   r.contact_force = k == 3 ? &f.contact_force : nullptr;
   r.contact_state = k == 3 ? &f.contact_state : nullptr;
   r.residual_history = {1.0, 1e-4 * k, 1e-10 * k};
@@ -278,7 +280,9 @@ TEST_F(ResultsTest, HdfLayoutFollowsTheContract) {
     EXPECT_EQ(file.exists(g + "/damage"), k >= 2);
     if (k >= 2) {
       EXPECT_EQ(file.dims(g + "/damage"), (std::vector<hsize_t>{6}));
+      EXPECT_EQ(file.doubles(g + "/held"), (std::vector<double>{0, 0, 0, 0, 0, 1}));
     }
+    EXPECT_EQ(file.exists(g + "/held"), k >= 2);
     EXPECT_EQ(file.exists(g + "/contact_force"), k == 3);
     if (k == 3) {
       EXPECT_EQ(file.dims(g + "/contact_force"), (std::vector<hsize_t>{6, 2}));
@@ -390,6 +394,7 @@ TEST_F(ResultsTest, XdmfDescribesEveryStep) {
     const std::string g = "small.h5:/steps/00000" + std::to_string(k);
     EXPECT_EQ(count_of(xdmf, g + "/displacement"), 1u);
     EXPECT_EQ(count_of(xdmf, g + "/damage"), k >= 2 ? 1u : 0u);
+    EXPECT_EQ(count_of(xdmf, g + "/held"), k >= 2 ? 1u : 0u);
     EXPECT_EQ(count_of(xdmf, g + "/contact_force"), k == 3 ? 1u : 0u);
     EXPECT_EQ(count_of(xdmf, g + "/contact_state"), k == 3 ? 1u : 0u);
   }

@@ -54,6 +54,49 @@ TEST(Fragments, AParticleWithoutBondsIsHeldAndTheRestIsSolved) {
   EXPECT_LT(r.norm(), 1e-8 * problem.force_scale());
 }
 
+// A held fragment's own bonds neither break nor count for the criterion's peak: where a
+// fragment is held is where it was cut loose, which the equations do not determine (a piece
+// that hung by one bond before: serial and two-rank runs held one of case 4.4 up to 6 mm
+// apart), so a bond of it over the criterion says nothing about the material. Two neighbouring
+// interior particles of the notched plate are moved by 10 dx together: their bonds to the
+// rest break and the pair between them, unstretched, stays: one fragment of two particles.
+// Then one of them is moved 2 dx further along the pair: its stretch is 2, far over s_c
+// (G_c = 10 J/m^2: s_c = 0.0021), and no other bond is stretched. Without the rule the pair
+// breaks.
+TEST(Fragments, AHeldFragmentsBondsDoNotBreak) {
+  const Scene scene = test::scene_from_yaml(test::notch_yaml(2e-5, true));
+  const Model model = discretise(scene);
+  QuasiStaticProblem problem(model, problem_options(scene));
+  const Particles& p = model.particles;
+  const auto nearest_to = [&](Vec2 at) {
+    Index best = -1;
+    for (Index i = 0; i < p.size(); ++i)
+      if (!p.fictitious[i] && (best < 0 || (p.position[i] - at).norm() < (p.position[best] - at).norm()))
+        best = i;
+    return best;
+  };
+  const Index a = nearest_to(Vec2(0.03, 0.015)), b = nearest_to(Vec2(0.031, 0.015));
+  ASSERT_NEAR((p.position[b] - p.position[a]).norm(), 1e-3, 1e-12) << "neighbours along x";
+  const Index ax = model.constraints.free_index[2 * a], bx = model.constraints.free_index[2 * b];
+  ASSERT_GE(ax, 0);
+  ASSERT_GE(bx, 0);
+  VectorXd x = VectorXd::Zero(problem.n_unknowns());
+  x[ax] = x[bx] = 1e-2;
+  problem.set_load_factor(0.0);
+  while (problem.advance_irreversible_state(x) > 0) problem.commit(x);
+  const Index broken = problem.failure()->broken();
+  EXPECT_EQ(broken, model.bonds.family_size(a) + model.bonds.family_size(b) - 2)
+      << "every bond of the two but the one between them";
+  ASSERT_EQ(problem.fragments(), 1);
+  ASSERT_EQ(problem.fragment_particles(), 2);
+
+  x[bx] += 2e-3;  // the pair's stretch: 2
+  EXPECT_EQ(problem.advance_irreversible_state(x), 0) << "the held fragment's pair broke";
+  EXPECT_EQ(problem.failure()->broken(), broken);
+  EXPECT_EQ(problem.failure()->peak().ratio, 0.0) << "the peak is over the bonds that can break";
+  EXPECT_EQ(problem.fragment_particles(), 2);
+}
+
 // A fragment comes back into contact as a fixed obstacle. Two blocks (30 x 20 particles each,
 // dx = 1 mm) touch along y = 20 mm; the upper one is pressed down by 1.2 dx. Before loading,
 // a particle of the lower block on the interface is cut loose (moved 10 dx, which stretches
