@@ -153,7 +153,13 @@ Comparison compare_results(const ResultsReader& a, const std::string& name_a, in
                            const ResultsReader& b, const std::string& name_b, int step_b) {
   require_same_particles(a, name_a, b, name_b);
   const VectorXd held = a.held(step_a).cwiseMax(b.held(step_b));
-  return compare_displacements(b.particles(), a.displacement(step_a), b.displacement(step_b), held);
+  Comparison c = compare_displacements(b.particles(), a.displacement(step_a), b.displacement(step_b), held);
+  if (c.all.particles == 0 && c.held_left_out > 0)  // no verdict from an empty set
+    throw InputError(name_a + " (step " + std::to_string(step_a) + ") and " + name_b + " (step " +
+                     std::to_string(step_b) +
+                     "): every real particle is held as a fragment in one of them, "
+                     "so no displacement is left to compare");
+  return c;
 }
 
 }  // namespace peristat

@@ -61,7 +61,8 @@ Comparison compare_displacements(const ParticleTable& particles, const VectorXd&
                                  const VectorXd& left_out = VectorXd());
 
 /// Reads step `step_a` of `a` and `step_b` of `b` and compares them (B is the reference),
-/// leaving out the particles either step holds as fragments (ResultsReader::held).
+/// leaving out the particles either step holds as fragments (ResultsReader::held); throws
+/// InputError when that leaves no real particle (a verdict over nothing would pass any --tol).
 /// Throws InputError as require_same_particles does, and naming the file when a step is absent.
 Comparison compare_results(const ResultsReader& a, const std::string& name_a, int step_a,
                            const ResultsReader& b, const std::string& name_b, int step_b);

@@ -286,6 +286,13 @@ TEST_F(CompareFiles, ParticlesHeldAsFragmentsInEitherFileAreLeftOut) {
   EXPECT_EQ(first.held_left_out, 0);
   EXPECT_EQ(first.all.particles, 14);
   EXPECT_NEAR(first.all.max_abs, 1.0, 1e-12);
+
+  // Every real particle held: nothing is left to compare, and a verdict over nothing would
+  // pass any tolerance, so it is refused.
+  std::vector<int> all_held(t.size(), 1);
+  const std::string c = write("c", t, {u}, {all_held});
+  const ResultsReader rc(c);
+  EXPECT_THROW(compare_results(rc, c, 1, rb, b, 1), InputError);
 }
 
 TEST_F(CompareFiles, DifferentParticlesAndMissingStepsNameTheFiles) {
