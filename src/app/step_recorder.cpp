@@ -242,10 +242,12 @@ void StepRecorder::gather_step_fields(const VectorXd& x) {
     const VectorXd mine = m_problem->damage();
     m_view->particle_values(mine, 1, m_damage);
     const std::vector<char>& held = m_problem->particles_held();
-    VectorXd held_mine(static_cast<Eigen::Index>(held.size()));
-    for (std::size_t i = 0; i < held.size(); ++i) held_mine[static_cast<Eigen::Index>(i)] = held[i];
-    m_view->particle_values(held_mine, 1, m_held_whole);
-    m_held.assign(m_held_whole.begin(), m_held_whole.end());
+    VectorXd held_whole;
+    m_view->particle_values(Eigen::Map<const Eigen::Matrix<char, Eigen::Dynamic, 1>>(
+                                held.data(), static_cast<Eigen::Index>(held.size()))
+                                .cast<double>(),
+                            1, held_whole);
+    m_held.assign(held_whole.begin(), held_whole.end());
   }
 }
 

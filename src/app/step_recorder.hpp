@@ -73,7 +73,7 @@ class StepRecorder {
   double m_contact_seconds_before = 0.0;  ///< contact evaluation time up to the previous step
   Index m_fragment_particles = 0;         ///< fragment particles already warned about
   bool m_fragment_contact_warned = false;  ///< contact on held fragments already warned about
-  VectorXd m_u, m_u_whole, m_contact_force, m_damage, m_held_whole;
+  VectorXd m_u, m_u_whole, m_contact_force, m_damage;
   std::vector<int> m_held;        ///< the whole model's held flags (with failure)
   Index m_fragment_contacts = 0;  ///< of the step being recorded (collective on the parts)
   std::vector<Vec2> m_reactions;  ///< of each boundary condition at the recorded step
