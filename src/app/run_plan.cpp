@@ -48,15 +48,12 @@ ModelChoice model_choice(const Scene& scene, const RunPlan& plan) {
 std::string shorten_bond_radius(RunPlan& plan, double unknowns, bool friction) {
   BondPreconditionerOptions& bond = plan.bond_preconditioner;
   if (!plan.matrix_free() || bond.radius_given) return {};
-  // The bond matrix's preconditioner dominates memory on large plates; a shorter radius
-  // makes it sparser for a few more iterations (docs/performance.md, "Matrix-free": with the
-  // bond factor, 700 x 700 at 2.25 / 2.0 / 1.42: 112 / 91 / 93 s, 7.1 / 5.6 / 4.4 GB; with
-  // its MueLu V-cycle, 300 x 300 at 1.42 / 2.0 / 2.25 / 3.0: 3.8 / 3.6 / 4.2 / 5.3 s, and
-  // 1000 x 1000 needs 1.42 to stay under 8 GB). With friction the default radius stays up to
-  // kShortBondsAbove: its stronger V-cycle serves every Newton iteration and re-solve of a run
-  // (run_plan.hpp, kMediumBondsAbove).
-  const bool medium = unknowns > kMediumBondsAbove && !friction;
-  const double radius = unknowns > kShortBondsAbove ? 1.42 : medium ? 2.0 : bond.bond_radius;
+  // Without friction a shorter radius makes the bond matrix sparser and its V-cycle cheaper
+  // for about the same iterations; with friction the 20 neighbours' stronger V-cycle serves
+  // every Newton iteration and re-solve of the run, up to kFrictionShortBondsAbove, where
+  // memory decides (run_plan.hpp, kMediumBondsAbove).
+  const double radius = friction ? (unknowns > kFrictionShortBondsAbove ? 1.42 : bond.bond_radius)
+                                 : (unknowns > kMediumBondsAbove ? 2.0 : bond.bond_radius);
   if (radius == bond.bond_radius) return {};
   char buf[120];
   std::snprintf(buf, sizeof buf, "; bond preconditioner radius %.3g dx for this size", radius);

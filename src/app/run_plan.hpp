@@ -23,26 +23,31 @@ struct LinearChoice {
 /// (docs/performance.md, "solver.linear: auto"); below the crossover a factor is also exact.
 inline constexpr double kDirectMaxUnknowns = 2500.0;
 /// With matrix_free, `auto` shortens the bond preconditioner's radius (unless the scene sets
-/// solver.krylov.bond_radius) to 2.0 dx above kMediumBondsAbove unknowns and 1.42 dx (the 8
-/// nearest neighbours) above kShortBondsAbove: measured on the tension plate at 300 x 300
-/// and 700 x 700 and on the contact cases (docs/performance.md, "Matrix-free"). With friction
-/// (contact.friction > 0) the radius is not shortened to 2.0 dx below kShortBondsAbove: 2.0
-/// against 2.25 dx, runs in turn, 2026-12-04: case 4.4 at dx = 0.01 m (160,600 unknowns)
-/// 52.8 / 46.6 against 36.9 / 34.0 s (2,817 against 1,769 Krylov iterations, the same bonds
-/// broken in every step); case 4.1 at dx = 2.5e-4 m 5.20 / 5.53 against 4.90 / 4.99 s; case
-/// 4.3 at dx = 0.004 m 4.63 / 4.74 against 4.31 / 4.26 s; 18 % more memory. Without friction
-/// 2.25 gains nothing (125,000 unknowns: lefm_inclined_crack 7.9 against 8.4 s,
-/// mixed_mode_crack 414 against 411 s).
+/// solver.krylov.bond_radius) to 2.0 dx above kMediumBondsAbove unknowns without friction;
+/// with friction (contact.friction > 0) it keeps 2.25 dx, its stronger V-cycle serving every
+/// Newton iteration and re-solve, up to kFrictionShortBondsAbove unknowns, and 1.42 dx above,
+/// for memory (docs/performance.md, "Matrix-free"). Runs in turn, 2026-12-04 and -05:
+/// - with friction, 2.0 against 2.25 dx: case 4.4 at dx = 0.01 m (160,600 unknowns) 52.8 /
+///   46.6 against 36.9 / 34.0 s (2,817 against 1,769 Krylov iterations, the same bonds broken
+///   in every step); case 4.1 at dx = 2.5e-4 m 5.20 / 5.53 against 4.90 / 4.99 s; case 4.3 at
+///   dx = 0.004 m 4.63 / 4.74 against 4.31 / 4.26 s; 18 % more memory. 1.42 against 2.25 dx on
+///   case 4.1 at dx = 1.2e-4 m (537,599 unknowns): 34.6 against 32.1 s, 0.96 against 1.35 GB;
+///   kept for memory, since the 20-neighbour V-cycle (about 2.7 KB per unknown at 65 bytes
+///   per bond-matrix nonzero) would refuse frictional models of a few million unknowns that
+///   fit at 1.42 dx.
+/// - without friction 2.25 gains nothing (125,000 unknowns: lefm_inclined_crack 7.9 against
+///   8.4 s, mixed_mode_crack 414 against 411 s), and 2.0 beats 1.42 dx on the 1000 x 1000
+///   plate: 45.6 against 52.6 s (175 against 260 Krylov iterations), 2.91 against 2.75 GB.
 inline constexpr double kMediumBondsAbove = 100000.0;
-inline constexpr double kShortBondsAbove = 500000.0;
+inline constexpr double kFrictionShortBondsAbove = 500000.0;
 /// solver.krylov.factors `auto` keeps the matrix-free action's per-bond factors in single
-/// precision (16 bytes per directed bond instead of 32) above this many unknowns, where `auto`
-/// also shortens the bond radius for memory, when the scene has no failure criterion. Measured
+/// precision (16 bytes per directed bond instead of 32) above this many unknowns, when the
+/// scene has no failure criterion. Measured
 /// in docs/performance.md ("Single-precision factors"): on the 1000 x 1000 plate the same
 /// Newton and Krylov iterations and answers within the Newton tolerance, 0.7 GB less; on
 /// cracked scenes whose ligaments thin as bonds break (the running crack) the iterations grew,
 /// so scenes with a failure criterion keep double.
-inline constexpr double kFloatFactorsAbove = kShortBondsAbove;
+inline constexpr double kFloatFactorsAbove = 500000.0;
 
 /// The linear solver `solver.linear: auto` stands for, from the number of unknowns (an
 /// estimate before discretising, or the model's), the scene's physics and the MPI ranks:
