@@ -45,8 +45,7 @@ void AdrSolver::prepare(const VectorXd& x) {
   // Gershgorin: with Lambda_ii >= 1/4 sum_j |K_ij| every eigenvalue of Lambda^-1 K is at most
   // 4, the stability limit of the central difference with unit time step (Kilic and Madenci).
   if (m_K.size() == 0 || m_structure != traits.structure_version) {
-    SparseMatrix K = m_problem.make_tangent();  // swapped, not copied (no move assignment in Eigen 3.4)
-    m_K.swap(K);
+    take(m_K, m_problem.make_tangent());
     m_structure = traits.structure_version;
   }
   m_problem.evaluate(x, m_r, &m_K);

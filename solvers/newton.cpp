@@ -59,8 +59,7 @@ void NewtonSolver::follow_structure() {
   const std::uint64_t structure = m_problem.traits().structure_version;
   if (structure == m_structure) return;
   m_structure = structure;
-  SparseMatrix K = m_problem.make_tangent();  // swapped, not copied (no move assignment in Eigen 3.4)
-  m_K.swap(K);
+  take(m_K, m_problem.make_tangent());
   m_analyzed = m_unsymmetric_analyzed = false;
   m_have_factor = false;
   m_factored = nullptr;

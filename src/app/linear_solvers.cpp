@@ -18,12 +18,7 @@ class ProblemSystem final : public LinearSystem {
   void apply(const VectorXd& v, VectorXd& y) override { m_problem.apply_tangent(v, y); }
   std::vector<Index> reads() const override { return m_problem.action_reads(); }
   void preconditioner(SparseMatrix& P) override {
-    if (P.rows() == 0) {
-      // Swapped in: Eigen 3.4's SparseMatrix has no move assignment, and `P = ...` copies
-      // every entry (at 1000 x 1000: 52 million, 1.3 s and 0.6 GB more at the set-up).
-      SparseMatrix made = m_problem.make_preconditioner();
-      P.swap(made);
-    }
+    if (P.rows() == 0) take(P, m_problem.make_preconditioner());
     m_problem.assemble_preconditioner(P);
   }
   bool suspend_action() override { return m_problem.suspend_action(); }

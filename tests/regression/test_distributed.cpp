@@ -386,7 +386,7 @@ void expect_failure_on_parts_as_serial(const std::string& extra, bool fragments)
       << "the crack must grow for this test to mean anything";
   for (const char* which : {"serial", "mpi"}) {
     const ResultsReader r(p.h5(which).string());
-    const nlohmann::json summary = which[0] == 's' ? serial : mpi;
+    const nlohmann::json& summary = std::string(which) == "serial" ? serial : mpi;
     for (const int step : r.steps())
       EXPECT_EQ(r.held(step).sum(), summary["steps"][step - 1]["counts"]["fragment_particles"].get<double>())
           << which << ", step " << step;
