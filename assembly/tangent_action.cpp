@@ -155,45 +155,42 @@ void TangentAction::multiply_on(const T* __restrict s, const T* __restrict k, co
   // One pass over the families, each family's bond data read once from memory and used while
   // it is in cache: the dilatation rate G_i = beta_i V_i g_i . w, then G_i s_self_i into row i
   // and G_i s_b into row j for each bond b = i -> j (the column form of beta_i V_i g_i g_i^T),
-  // and row i's pair stiffnesses (g I + c_b s_b s_b^T)(w_i - w_j) (pair_stiffness()) and
-  // contact pairs.
+  // and each pair's term f = (g I + c_b s_b s_b^T)(w_i - w_j) (pair_stiffness()) once, in the
+  // family of its lower index (j > i): f into row i, -f into row j; and row i's contact pairs.
+  // On a part, a family another rank's row needs may hold bonds to families not held here:
+  // their terms land in rows this rank does not keep (a row's neighbours are all held).
   const auto family = [&](Index i) {
+    if (own && !share->family_needed(i)) return;  // none of its terms reaches this rank's rows
     const double wx = w[2 * i], wy = w[2 * i + 1];
     const Index b0 = start[i], b1 = start[i + 1];
-    const bool needed = !own || share->family_needed(i);
-    const bool row = !own || rows.contains(i);  // else another rank's row, or one of no unknown
-    double G = 0.0;
-    if (needed) {
-      double g = s_self[2 * i] * wx + s_self[2 * i + 1] * wy;
-      for (Index b = b0; b < b1; ++b)
-        g += double(s[2 * b]) * w[2 * nbr[b]] + double(s[2 * b + 1]) * w[2 * nbr[b] + 1];
-      G = beta_volume[i] * g;
-    }
+    double g = s_self[2 * i] * wx + s_self[2 * i + 1] * wy;
+    for (Index b = b0; b < b1; ++b)
+      g += double(s[2 * b]) * w[2 * nbr[b]] + double(s[2 * b + 1]) * w[2 * nbr[b] + 1];
+    const double G = beta_volume[i] * g;
     double yx = G * s_self[2 * i], yy = G * s_self[2 * i + 1];
-    if (row) {
-      for (Index b = b0; b < b1; ++b) {
-        const Index j = nbr[b];
-        const double sx = s[2 * b], sy = s[2 * b + 1];
-        yf[2 * j] += G * sx;
-        yf[2 * j + 1] += G * sy;
+    for (Index b = b0; b < b1; ++b) {
+      const Index j = nbr[b];
+      const double sx = s[2 * b], sy = s[2 * b + 1];
+      double ux = G * sx, uy = G * sy;
+      if (j > i) {  // the pair's force, once: +f into row i, -f into row j
         const double dx = wx - w[2 * j], dy = wy - w[2 * j + 1];
-        const double g = k[2 * b + 1], c = double(k[2 * b]) * (sx * dx + sy * dy);
-        yx += g * dx + c * sx;
-        yy += g * dy + c * sy;
+        const double gk = k[2 * b + 1], c = double(k[2 * b]) * (sx * dx + sy * dy);
+        const double fx = gk * dx + c * sx, fy = gk * dy + c * sy;
+        yx += fx;
+        yy += fy;
+        ux -= fx;
+        uy -= fy;
       }
-      if (contact)
-        for (auto e = contact->incident_begin(i); e != contact->incident_end(i); ++e)
-          if (e->pair < static_cast<Index>(m_pair_jacobian.size())) {  // pairs added since: none yet
-            const Vec2 f = m_pair_jacobian[e->pair] * Vec2(wx - w[2 * e->other], wy - w[2 * e->other + 1]);
-            yx += f.x();
-            yy += f.y();
-          }
-    } else if (needed) {
-      for (Index b = b0; b < b1; ++b) {
-        yf[2 * nbr[b]] += G * double(s[2 * b]);
-        yf[2 * nbr[b] + 1] += G * double(s[2 * b + 1]);
-      }
+      yf[2 * j] += ux;
+      yf[2 * j + 1] += uy;
     }
+    if (contact && (!own || rows.contains(i)))
+      for (auto e = contact->incident_begin(i); e != contact->incident_end(i); ++e)
+        if (e->pair < static_cast<Index>(m_pair_jacobian.size())) {  // pairs added since: none yet
+          const Vec2 f = m_pair_jacobian[e->pair] * Vec2(wx - w[2 * e->other], wy - w[2 * e->other + 1]);
+          yx += f.x();
+          yy += f.y();
+        }
     yf[2 * i] += yx;
     yf[2 * i + 1] += yy;
   };

@@ -246,7 +246,8 @@ int action(const std::string& path, int reps, const std::vector<Override>& overr
   const double bonds = model.bonds.n_bonds();
   // Per bond, the data the single pass streams: the neighbour index, s_b and the pair stiffness,
   // in double or float (--set solver.krylov.factors=float); v, the dilatation rates and y are
-  // per particle and stay in cache.
+  // per particle and stay in cache. The pair stiffness is used for half the bonds (j > i), but
+  // those lie among the others in the family's order: every cache line of it is fetched.
   const bool single = scene.solver.action_factors == ActionFactors::single_precision;
   const double bytes =
       bonds * static_cast<double>(sizeof(Index) +
