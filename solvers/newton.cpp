@@ -135,9 +135,10 @@ SolveReport NewtonSolver::solve(VectorXd& x, IterationObserver* observer) {
   follow_structure();
   SolveReport report = m_pending;
   m_pending = SolveReport{};
+  const bool prepared_r = residual_is_prepared(x, m_problem.load_factor());
   m_prepared_r.valid = false;  // m_r is the solve's from here
   const long f0 = factorizations();
-  report = solve_iterations(x, observer, std::move(report));
+  report = solve_iterations(x, observer, std::move(report), prepared_r);
   report.factorizations += static_cast<int>(factorizations() - f0);
   return report;
 }
@@ -149,9 +150,7 @@ SolveReport NewtonSolver::predict(VectorXd& x, double from) {
   double t0 = wall_seconds();
   // r(x; from) is prepare()'s when nothing moved since (the first attempt of a step): one
   // residual fewer, the same bits. Not with touching pairs closed (below).
-  const bool as_prepared = m_prepared_r.valid && m_prepared_r.load_factor == from &&
-                           m_prepared_r.problem_state == m_problem.traits().preconditioner_state &&
-                           m_prepared_r.x_bits == bits_fingerprint(x);
+  const bool as_prepared = residual_is_prepared(x, from);
   m_prepared_r.valid = false;
   const double h = kPredictorStep * (to - from);
   m_problem.set_load_factor(from + h);
@@ -228,13 +227,22 @@ double NewtonSolver::relative(double norm) const { return norm / std::max(m_prob
 
 bool NewtonSolver::converged(double norm) const { return norm <= residual_tolerance(m_problem.force_scale()); }
 
-double NewtonSolver::evaluate_first(const VectorXd& x, bool& use_existing, SolveReport& report) {
+bool NewtonSolver::residual_is_prepared(const VectorXd& x, double load_factor) const {
+  return m_prepared_r.valid && m_prepared_r.load_factor == load_factor &&
+         m_prepared_r.problem_state == m_problem.traits().preconditioner_state &&
+         m_prepared_r.x_bits == bits_fingerprint(x);
+}
+
+double NewtonSolver::evaluate_first(const VectorXd& x, bool& use_existing, bool prepared_r,
+                                    SolveReport& report) {
   double t0 = wall_seconds();
   // A tangent left out at the last converged state (set_last_load) is evaluated here, with
   // the factor kept: a re-solve at the same load (the contact multipliers updated) then steps
   // with the tangent at its first iterate.
   const bool assemble0 = !(reuse_factor() || use_existing) || (m_tangent_skipped && !reuse_factor());
-  evaluate(x, m_r, assemble0);
+  // A re-solve after breaking starts where prepare() evaluated residual and tangent: its
+  // residual is m_r's bits already (a residual-only evaluation gives the same bits).
+  if (assemble0 || !prepared_r) evaluate(x, m_r, assemble0);
   report.seconds_evaluate += wall_seconds() - t0;
   if (use_existing && !reuse_factor() && m_problem.traits().state_signature != m_factor_state) {
     // The first iterate's contact active set is not the one the factor was built with (the
@@ -296,11 +304,12 @@ bool NewtonSolver::line_search(const VectorXd& x, double& norm, double& alpha, b
   }
 }
 
-SolveReport NewtonSolver::solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report) {
+SolveReport NewtonSolver::solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report,
+                                           bool prepared_r) {
   // Iteration 1 uses the factor of the last converged state when there is one.
   bool use_existing = m_have_factor;
   const NewtonOptions& o = m_options;
-  double norm = evaluate_first(x, use_existing, report);
+  double norm = evaluate_first(x, use_existing, prepared_r, report);
   report.residuals.push_back(relative(norm));
   if (observer) observer->iteration_done(0, report.residuals.back(), 0.0, 0);
   // Discrete states (contact active set) of the accepted iterates, to count changes and

@@ -51,13 +51,19 @@ class NewtonSolver final : public StepSolver {
   void set_last_load(bool last) override { m_last_load = last; }
 
  private:
-  SolveReport solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report);
+  SolveReport solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report, bool prepared_r);
   /// The problem's residual at x into r and, with `tangent`, its tangent into m_K (whose
   /// symmetry it records; a tangent left out at the last load is then no longer missing).
   void evaluate(const VectorXd& x, VectorXd& r, bool tangent);
   /// The residual at x, with the tangent unless the first iteration keeps the factor it has
   /// (`use_existing`, cleared when the predictor changed the active set); returns its norm.
-  double evaluate_first(const VectorXd& x, bool& use_existing, SolveReport& report);
+  /// `prepared_r`: m_r already holds prepare()'s residual at this x (a re-solve after
+  /// breaking), which is then not evaluated again.
+  double evaluate_first(const VectorXd& x, bool& use_existing, bool prepared_r, SolveReport& report);
+  /// True when m_r holds prepare()'s residual at x and `load_factor`: the same bits of x,
+  /// load factor and problem state (active set, broken bonds) as prepare() saw, and no
+  /// evaluation by this solver since.
+  bool residual_is_prepared(const VectorXd& x, double load_factor) const;
   /// Backtracking along m_dx from x: the accepted trial in m_trial, m_trial_r, its residual's
   /// norm in `norm` and its step length in `alpha`; false (with the reason) when none is.
   /// `expect_converged`: the full step is evaluated without the tangent, which is evaluated

@@ -499,6 +499,77 @@ TEST(NewtonEvaluations, TheLastLoadsConvergedStateMakesNoTangent) {
   }
 }
 
+/// One unknown whose stiffness drops as its bonds break, r(x) = (1 - 0.1 b) x + x^3 - lambda
+/// with b the broken bonds: from load factor 0.5 on, one bond breaks per round until three
+/// have. Records every evaluation (where, at which load factor and b, with a tangent or not).
+class WeakeningProblem final : public OneUnknownProblem, public IrreversibleState {
+ public:
+  struct Evaluation {
+    double x, lambda;
+    Index broken;
+    bool tangent;
+  };
+  void evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) override {
+    const double k = 1.0 - 0.1 * static_cast<double>(m_broken);
+    r.resize(1);
+    r[0] = k * x[0] + x[0] * x[0] * x[0] - m_lambda;
+    if (K) K->coeffRef(0, 0) = k + 3.0 * x[0] * x[0];
+    log.push_back({x[0], m_lambda, m_broken, K != nullptr});
+  }
+  ProblemTraits traits() const override {
+    return {.tangent_symmetric = true,
+            .tangent_constant = false,
+            .preconditioner_state = static_cast<std::uint64_t>(m_broken)};
+  }
+  IrreversibleState* irreversible_state() override { return this; }
+  Index advance_irreversible_state(const VectorXd&, Index) override {
+    m_round = m_lambda >= 0.5 && m_broken < 3 ? 1 : 0;
+    m_broken += m_round;
+    return m_round;
+  }
+  void revert_irreversible_state() override {
+    m_broken -= m_round;
+    m_round = 0;
+  }
+  std::vector<Evaluation> log;
+
+ private:
+  bool fails() const override { return false; }
+  Index m_broken = 0, m_round = 0;
+};
+
+// A re-solve after breaking starts at the committed state, where prepare() has just evaluated
+// the residual with the tangent without the broken bonds: Newton takes that residual instead
+// of evaluating it again (one residual fewer per re-solve, the same bits). Each round's state
+// is evaluated once at the committed x (prepare()'s, with the tangent), and every re-solve
+// converges to its own root.
+TEST(NewtonEvaluations, AReSolveAfterBreakingTakesPreparesResidual) {
+  WeakeningProblem p;
+  Loading loading;
+  loading.steps = 2;
+  const Outcome r = run_with(p, loading);
+  ASSERT_TRUE(r.report.completed) << r.report.message;
+  ASSERT_EQ(r.steps.size(), 2u);
+  EXPECT_EQ(r.steps[0].resolves, 3);
+  // Committed: step 1's first solve (b = 0) and its three re-solves (b = 1, 2, 3), then step 2.
+  ASSERT_EQ(p.committed.size(), 5u);
+  for (Index b = 1; b <= 3; ++b) {
+    const double from = p.committed[static_cast<std::size_t>(b - 1)];  // where round b starts
+    int at_start = 0, with_tangent = 0;
+    for (const WeakeningProblem::Evaluation& e : p.log)
+      if (e.broken == b && e.lambda == 0.5 && e.x == from) {
+        ++at_start;
+        with_tangent += e.tangent;
+      }
+    EXPECT_EQ(at_start, 1) << "round " << b << ": the re-solve's first iterate evaluated again";
+    EXPECT_EQ(with_tangent, 1) << "round " << b;
+    // (1 - 0.1 b) x + x^3 = 0.5 at the re-solve's converged state, within Newton's tolerance
+    // (the default rtol 1e-10 times a force scale of 1).
+    const double xb = p.committed[static_cast<std::size_t>(b)], k = 1.0 - 0.1 * static_cast<double>(b);
+    EXPECT_NEAR(k * xb + xb * xb * xb, 0.5, 1e-10) << "round " << b;
+  }
+}
+
 /// Two unknowns, r = (x0 + x0^3 - lambda, x1 - 2 lambda), whose second the problem holds from
 /// its first commit on (as a fragment cut loose: its row zero, its tangent diagonal 1). The
 /// cubic makes Newton iterate after the secant's prediction.
