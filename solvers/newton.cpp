@@ -135,10 +135,8 @@ SolveReport NewtonSolver::solve(VectorXd& x, IterationObserver* observer) {
   follow_structure();
   SolveReport report = m_pending;
   m_pending = SolveReport{};
-  const bool prepared_r = residual_is_prepared(x, m_problem.load_factor());
-  m_prepared_r.valid = false;  // m_r is the solve's from here
   const long f0 = factorizations();
-  report = solve_iterations(x, observer, std::move(report), prepared_r);
+  report = solve_iterations(x, observer, std::move(report));
   report.factorizations += static_cast<int>(factorizations() - f0);
   return report;
 }
@@ -233,8 +231,7 @@ bool NewtonSolver::residual_is_prepared(const VectorXd& x, double load_factor) c
          m_prepared_r.x_bits == bits_fingerprint(x);
 }
 
-double NewtonSolver::evaluate_first(const VectorXd& x, bool& use_existing, bool prepared_r,
-                                    SolveReport& report) {
+double NewtonSolver::evaluate_first(const VectorXd& x, bool& use_existing, SolveReport& report) {
   double t0 = wall_seconds();
   // A tangent left out at the last converged state (set_last_load) is evaluated here, with
   // the factor kept: a re-solve at the same load (the contact multipliers updated) then steps
@@ -242,6 +239,8 @@ double NewtonSolver::evaluate_first(const VectorXd& x, bool& use_existing, bool 
   const bool assemble0 = !(reuse_factor() || use_existing) || (m_tangent_skipped && !reuse_factor());
   // A re-solve after breaking starts where prepare() evaluated residual and tangent: its
   // residual is m_r's bits already (a residual-only evaluation gives the same bits).
+  const bool prepared_r = residual_is_prepared(x, m_problem.load_factor());
+  m_prepared_r.valid = false;  // m_r is the solve's from here
   if (assemble0 || !prepared_r) evaluate(x, m_r, assemble0);
   report.seconds_evaluate += wall_seconds() - t0;
   if (use_existing && !reuse_factor() && m_problem.traits().state_signature != m_factor_state) {
@@ -304,12 +303,11 @@ bool NewtonSolver::line_search(const VectorXd& x, double& norm, double& alpha, b
   }
 }
 
-SolveReport NewtonSolver::solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report,
-                                           bool prepared_r) {
+SolveReport NewtonSolver::solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report) {
   // Iteration 1 uses the factor of the last converged state when there is one.
   bool use_existing = m_have_factor;
   const NewtonOptions& o = m_options;
-  double norm = evaluate_first(x, use_existing, prepared_r, report);
+  double norm = evaluate_first(x, use_existing, report);
   report.residuals.push_back(relative(norm));
   if (observer) observer->iteration_done(0, report.residuals.back(), 0.0, 0);
   // Discrete states (contact active set) of the accepted iterates, to count changes and

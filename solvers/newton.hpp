@@ -51,15 +51,15 @@ class NewtonSolver final : public StepSolver {
   void set_last_load(bool last) override { m_last_load = last; }
 
  private:
-  SolveReport solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report, bool prepared_r);
+  SolveReport solve_iterations(VectorXd& x, IterationObserver* observer, SolveReport report);
   /// The problem's residual at x into r and, with `tangent`, its tangent into m_K (whose
   /// symmetry it records; a tangent left out at the last load is then no longer missing).
   void evaluate(const VectorXd& x, VectorXd& r, bool tangent);
   /// The residual at x, with the tangent unless the first iteration keeps the factor it has
   /// (`use_existing`, cleared when the predictor changed the active set); returns its norm.
-  /// `prepared_r`: m_r already holds prepare()'s residual at this x (a re-solve after
-  /// breaking), which is then not evaluated again.
-  double evaluate_first(const VectorXd& x, bool& use_existing, bool prepared_r, SolveReport& report);
+  /// When m_r already holds prepare()'s residual at this x (a re-solve after breaking), it
+  /// is not evaluated again.
+  double evaluate_first(const VectorXd& x, bool& use_existing, SolveReport& report);
   /// True when m_r holds prepare()'s residual at x and `load_factor`: the same bits of x,
   /// load factor and problem state (active set, broken bonds) as prepare() saw, and no
   /// evaluation by this solver since.
@@ -112,7 +112,8 @@ class NewtonSolver final : public StepSolver {
   bool m_tangent_skipped = false;
   SolveReport m_pending;  ///< work of prepare(), added to the next report
   /// What m_r holds after prepare(): the residual at its x and load factor, for the
-  /// predictor's r(x; from) until the next evaluation by this solver.
+  /// predictor's r(x; from) or the first iterate of a re-solve at that x (residual_is_prepared),
+  /// until the next evaluation by this solver.
   struct PreparedResidual {
     bool valid = false;
     double load_factor = 0.0;
