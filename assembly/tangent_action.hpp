@@ -83,7 +83,8 @@ class TangentAction {
   void multiply_on(const T* s, const T* k, const FamilyHessians& h, const ContactSystem* contact,
                    const OwnedRows& rows, const RankShare* share);
   /// Turns h.kbond into the pairs' stiffnesses (V_i k_b + V_j k_r, FamilyHessians), so that
-  /// apply() reads row i's bond terms from family i alone, with the s_b it reads already.
+  /// apply() reads each pair's term from one family (the lower index's), with the s_b it
+  /// reads already.
   void pair_stiffness(const FamilyHessians& h) const;
   template <class S, class K>
   void pair_stiffness_on(std::span<const S> s, std::span<K> kbond) const;
