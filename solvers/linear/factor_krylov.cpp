@@ -154,8 +154,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
     if (m_basis.cols() != m + 1 || m_basis.rows() != n) m_basis.resize(n, m + 1);
     Eigen::MatrixXd H = Eigen::MatrixXd::Zero(m + 1, m);  // (m+1) x m Hessenberg, small
     VectorXd cs(m), sn(m), g(m + 1);
-    product(x, m_q);
-    m_r = b - m_q;
+    initial_residual(b, x);
     double beta = m_r.norm();
     m_error = beta / bnorm;
     while (m_error > m_rtol && m_iterations < m_max_iterations) {
@@ -205,8 +204,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   // Preconditioned CG (Saad, Iterative Methods, alg. 9.1); stops at ||r|| <= rtol ||b||.
   void run_cg(const VectorXd& b, VectorXd& x) {
     const double bnorm = b.norm();
-    product(x, m_q);
-    m_r = b - m_q;
+    initial_residual(b, x);
     m_factor->solve(m_r, m_z);
     m_p = m_z;
     double rz = m_r.dot(m_z);
@@ -226,6 +224,17 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       rz = rz_new;
     }
     m_info = m_error <= m_rtol && std::isfinite(m_error) ? Eigen::Success : Eigen::NoConvergence;
+  }
+
+  /// m_r = b - A x. Newton's first guess is zero, whose product is zero: m_r is then b
+  /// without a product (one action per solve; b - 0 is b, so the same values).
+  void initial_residual(const VectorXd& b, const VectorXd& x) {
+    if ((x.array() == 0.0).all()) {
+      m_r = b;
+      return;
+    }
+    product(x, m_q);
+    m_r = b - m_q;
   }
 
   /// y = A x: the operator (matrix-free), else A's columns (a dot product per column when
