@@ -10,6 +10,7 @@
 
 #include "solvers/linear/factor_krylov.hpp"
 #include "solvers/linear/linear_solver.hpp"
+#include "support/laplacian.hpp"
 
 namespace peristat {
 namespace {
@@ -33,16 +34,7 @@ class CountingSystem final : public LinearSystem {
     }
   }
   std::vector<Index> reads() const override { return {}; }
-  void preconditioner(SparseMatrix& P) override {
-    std::vector<Eigen::Triplet<double, Index>> t;
-    for (Index i = 0; i < kN; ++i) {
-      t.emplace_back(i, i, 2.0);
-      if (i > 0) t.emplace_back(i, i - 1, -1.0);
-      if (i + 1 < kN) t.emplace_back(i, i + 1, -1.0);
-    }
-    P.resize(kN, kN);
-    P.setFromTriplets(t.begin(), t.end());
-  }
+  void preconditioner(SparseMatrix& P) override { P = test::laplacian_1d(kN); }
   long applies = 0;
 
  private:

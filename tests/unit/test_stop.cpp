@@ -9,29 +9,17 @@
 
 #include "core/stop.hpp"
 #include "solvers/linear/linear_solver.hpp"
+#include "support/laplacian.hpp"
 
 namespace peristat {
 namespace {
-
-/// The 1D Laplacian with a spring to the ground at each end: SPD, n x n.
-SparseMatrix laplacian(Index n) {
-  std::vector<Eigen::Triplet<double, Index>> t;
-  for (Index i = 0; i < n; ++i) {
-    t.emplace_back(i, i, 2.0);
-    if (i > 0) t.emplace_back(i, i - 1, -1.0);
-    if (i + 1 < n) t.emplace_back(i, i + 1, -1.0);
-  }
-  SparseMatrix A(n, n);
-  A.setFromTriplets(t.begin(), t.end());
-  return A;
-}
 
 TEST(Stop, AFactorPreconditionedKrylovSolveThrowsWhenAStopIsRequested) {
   LinearOptions o;
   o.type = LinearSolverKind::cg;
   o.preconditioner = PreconditionerKind::cholmod;
   auto solver = make_linear_solver(o);
-  const SparseMatrix A = laplacian(200);
+  const SparseMatrix A = test::laplacian_1d(200);
   solver->analyzePattern(A);
   solver->factorize(A);
   ASSERT_EQ(solver->info(), Eigen::Success);
