@@ -87,12 +87,21 @@ TEST(Resume, ThreeKillsEqualTheUninterruptedRun) {
   const fs::path early = test::fresh_directory("resume_early");
   int status = run_and_kill(early, 2, std::chrono::milliseconds(50));
   ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "the run ended before the kill";
+  EXPECT_EQ(converged_steps(early), 2) << "killed in step 3";
   resume_and_compare(early, reference);
 
-  // While step 5 breaks bonds (2.5 s after step 4 was written).
+  // While step 5 breaks bonds: halfway through the reference's step 5 after step 4 was
+  // written (a fixed delay ran past the end of the run once the solver got faster: steps 5
+  // and 6 took 2.3 s against a kill at 2.5 s).
+  const nlohmann::json steps = test::read_json(reference / "summary.json")["steps"];
+  ASSERT_EQ(steps.size(), 6u);
+  const double step5 = steps[4].value("wall_seconds", 0.0);
+  ASSERT_GT(step5, 0.0);
+  ASSERT_GT(steps[4]["counts"].value("bonds_broken", 0), 0) << "step 5 must break bonds";
   const fs::path breaking = test::fresh_directory("resume_breaking");
-  status = run_and_kill(breaking, 4, std::chrono::milliseconds(2500));
+  status = run_and_kill(breaking, 4, std::chrono::milliseconds(static_cast<long>(500.0 * step5)));
   ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "the run ended before the kill";
+  EXPECT_EQ(converged_steps(breaking), 4) << "killed in step 5";
   resume_and_compare(breaking, reference);
 
   // Inside the write of step 3's results (fault injection: the group is in the copy of the
