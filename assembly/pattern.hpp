@@ -25,6 +25,10 @@ struct OwnedRows {
   int rank = 0;
   std::vector<int> owner;  ///< per particle, the rank that owns its rows (-1: it has none); empty: all here
   bool all() const { return owner.empty(); }
+  /// Every row is this rank's: all(), or a one-rank part.
+  bool whole() const {
+    return std::all_of(owner.begin(), owner.end(), [this](int o) { return o == rank; });
+  }
   bool contains(Index p) const { return owner.empty() || owner[static_cast<std::size_t>(p)] == rank; }
   /// counted_by() for particle p; every particle when all().
   bool counts(Index p) const { return owner.empty() || counted_by(owner[static_cast<std::size_t>(p)], rank); }

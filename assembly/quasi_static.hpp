@@ -142,6 +142,12 @@ class QuasiStaticProblem final : public Problem,
   /// The `bond` preconditioner (assembly/bond_preconditioner.hpp), built on first request.
   SparseMatrix make_preconditioner() override;
   void assemble_preconditioner(SparseMatrix& P) override;
+  /// P's rows of the contact zone (assembly/contact_zone.hpp) at the state of the last
+  /// evaluation, the fragments decoupled as in P; the other rows empty. Pz: empty, or the
+  /// matrix of the last call (its pattern is made again when the zone moved). False, Pz untouched,
+  /// without contact, with solver.krylov.contact_zone 0, or when the zone is empty or over
+  /// its cap, or on a part of a distributed run (its rows are not all here).
+  bool assemble_contact_zone(SparseMatrix& Pz);
   /// Every candidate pair, whatever its state: 4 x ContactSystem::stiffness_bound on the two
   /// components of both particles (a 2 x 2 block appears twice in a row, +J and -J).
   void add_stiffness_bound(VectorXd& row_sums) const override;
@@ -289,6 +295,8 @@ class QuasiStaticProblem final : public Problem,
   std::unique_ptr<BondFailure> m_failure;    ///< null without failure: no checks, no state
   TangentPattern m_pattern;
   std::unique_ptr<BondPreconditioner> m_preconditioner;  ///< built on first request
+  std::unique_ptr<BondPreconditioner> m_zone_preconditioner;  ///< the contact zone's rows of it
+  std::vector<char> m_zone;                                   ///< the zone it was built for
   std::vector<std::unique_ptr<FamilyKernel>> m_kernels;  ///< per body: its material's kernel
   bool m_small_kinematics;                               ///< every body linearised: the bond tangent is constant
   /// The kernel's bond weights (omega_b w_b, 0 once broken) and weighted volumes.

@@ -1,9 +1,11 @@
 // QuasiStaticProblem's tangent: its action (matrix-free) and the dropping of its factors
-// while a preconditioner is set up, the assembled tangent, and the bond preconditioner's matrix.
+// while a preconditioner is set up, the assembled tangent, and the bond preconditioner's matrix
+// and its contact zone's rows.
 #include <stdexcept>
 #include <vector>
 
 #include "assembly/column_writer.hpp"
+#include "assembly/contact_zone.hpp"
 #include "assembly/quasi_static.hpp"
 #include "core/huge_pages.hpp"
 
@@ -141,6 +143,29 @@ void QuasiStaticProblem::assemble_preconditioner(SparseMatrix& P) {
   if (!m_preconditioner) make_preconditioner();
   m_preconditioner->assemble(P, m_correction, BondVectors{m_s, m_s32});
   m_fragments.decouple(P);
+}
+
+bool QuasiStaticProblem::assemble_contact_zone(SparseMatrix& Pz) {
+  const BondPreconditionerOptions& o = m_options.bond_preconditioner;
+  // The zone's rows are solved on this process alone: every row must be here.
+  if (!m_contact || o.contact_zone_layers == 0 || !m_options.rows.whole()) return false;
+  std::vector<char> zone = contact_zone(
+      m_model, *m_contact, {o.contact_zone_layers, o.contact_zone_cap, o.bond_radius * m_model.spacing});
+  if (zone.empty()) return false;
+  if (!m_zone_preconditioner || zone != m_zone || Pz.rows() == 0) {
+    // The zone's particles as the rows of "rank 0", the others as another rank's.
+    std::vector<int> owner(zone.size());
+    for (std::size_t p = 0; p < zone.size(); ++p) owner[p] = zone[p] ? 0 : 1;
+    m_zone_preconditioner = std::make_unique<BondPreconditioner>(
+        m_model, o, m_contact.get(),
+        m_correction.method() == SurfaceCorrectionMethod::none ? nullptr : &m_correction,
+        OwnedRows{0, std::move(owner)});
+    m_zone.swap(zone);
+    Pz = m_zone_preconditioner->make_matrix();
+  }
+  m_zone_preconditioner->assemble(Pz, m_correction, BondVectors{m_s, m_s32});
+  m_fragments.decouple(Pz);
+  return true;
 }
 
 }  // namespace peristat

@@ -9,6 +9,7 @@
 #include "core/stop.hpp"
 #include "solvers/linear/krylov_vectors.hpp"
 #include "solvers/linear/preconditioner_reuse.hpp"
+#include "solvers/linear/zone_correction.hpp"
 
 namespace peristat {
 
@@ -83,6 +84,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
     m_symmetric = next.symmetric;
     m_rtol = std::max(next.rtol, m_rtol_floor);
     m_reuse.set_state(next.state);
+    m_state = next.state;
   }
   void renew_preconditioner() override { m_reuse.renew(); }
 
@@ -148,6 +150,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   // residual it minimises is the true one, so it falls monotonically within a cycle. The
   // Gram-Schmidt runs on the threads, with the same bits on any number (KrylovVectors).
   void run_gmres(const VectorXd& b, VectorXd& x) {
+    prepare_zone();
     constexpr int m = 60;  // restart length: 60 basis vectors of the unknowns' size
     const double bnorm = b.norm();
     const Index n = static_cast<Index>(b.size());
@@ -166,6 +169,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       for (; k < m && m_iterations < m_max_iterations; ++k) {
         throw_if_stop_requested();  // a long solve honours Ctrl-C within an iteration
         m_factor->solve(m_basis.col(k), m_z);
+        m_zone.apply(m_basis.col(k), m_z);
         product(m_z, m_q);
         H(k + 1, k) = m_vectors.orthogonalize(m_basis.data(), n, k + 1, m_q.data(), H.col(k).data());
         if (H(k + 1, k) > 0.0) m_basis.col(k + 1) = m_q / H(k + 1, k);
@@ -192,6 +196,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       const VectorXd y = H.topLeftCorner(k, k).triangularView<Eigen::Upper>().solve(g.head(k));
       m_q = m_basis.leftCols(k) * y;
       m_factor->solve(m_q, m_z);
+      m_zone.apply(m_q, m_z);
       x += m_z;
       product(x, m_q);
       m_r = b - m_q;
@@ -199,6 +204,20 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       m_error = beta / bnorm;  // the true residual decides
     }
     m_info = m_error <= m_rtol && std::isfinite(m_error) ? Eigen::Success : Eigen::NoConvergence;
+  }
+
+  /// The contact zone's correction (zone_correction.hpp) after an inexact preconditioner (the
+  /// V-cycle), with the system's rows of P of the zone at the problem's current state: made
+  /// again when that state changed (active set, broken bonds) or when there was none, kept
+  /// otherwise. GMRES's only: the correction makes the preconditioner unsymmetric.
+  void prepare_zone() {
+    if (m_factor->exact() || !m_system) return;
+    if (m_zone_asked && m_state == m_zone_state && m_zone.active()) return;
+    const double t0 = wall_seconds();
+    m_zone_asked = true;
+    m_zone_state = m_state;
+    if (!m_system->contact_zone_rows(m_Pz) || !m_zone.set(m_Pz)) m_zone.clear();
+    m_setup_seconds += wall_seconds() - t0;
   }
 
   // Preconditioned CG (Saad, Iterative Methods, alg. 9.1); stops at ||r|| <= rtol ||b||.
@@ -264,6 +283,10 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   VectorXd m_r, m_z, m_p, m_q;  // work vectors, reused across solves
   Eigen::MatrixXd m_basis;      // GMRES Krylov basis (unknowns x 61), reused
   KrylovVectors m_vectors;      // GMRES's Gram-Schmidt on the threads
+  ZoneCorrection m_zone;        // GMRES's, after an inexact preconditioner
+  SparseMatrix m_Pz;            // the system's rows of the zone, for ZoneCorrection::set
+  std::uint64_t m_state = 0, m_zone_state = 0;  // the problem's at this solve, at the zone's
+  bool m_zone_asked = false;
 };
 
 }  // namespace

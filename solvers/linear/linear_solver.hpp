@@ -67,6 +67,11 @@ class LinearSystem {
   /// run's V-cycle is then no longer its memory's peak.
   virtual bool suspend_action() { return false; }
   virtual void resume_action() {}
+  /// P's rows of the contact zone at the state of the last evaluation, the other rows empty
+  /// (QuasiStaticProblem::assemble_contact_zone): Pz empty, or the matrix of the last call.
+  /// False when there is no zone (no contact, none asked for, over its cap, a part of a
+  /// distributed run).
+  virtual bool contact_zone_rows(SparseMatrix& /*Pz*/) { return false; }
 };
 
 /// What a solver is told once, when it is made (make_linear_solver()).

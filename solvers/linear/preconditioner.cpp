@@ -18,6 +18,7 @@ class FactorPreconditioner final : public Preconditioner {
   Eigen::ComputationInfo info() const override { return m_factor->info(); }
   std::string name() const override { return m_factor->name(); }
   long factorizations() const override { return m_factor->stats().factorizations; }
+  bool exact() const override { return true; }
 
  private:
   std::unique_ptr<LinearSolver> m_factor;

@@ -40,6 +40,9 @@ class Preconditioner {
   /// The bytes of matrix data one solve() reads, when the preconditioner knows them (the
   /// threaded V-cycle), else 0: the roofline's figure (peristat_bench cycle).
   virtual double matrix_bytes_per_solve() const { return 0.0; }
+  /// Whether solve() is P^-1 to round-off (a factor), not an approximation of it (a V-cycle):
+  /// GMRES then adds no zone correction (zone_correction.hpp).
+  virtual bool exact() const { return false; }
 };
 
 /// A direct LinearSolver (CHOLMOD) as a preconditioner: its factor of P.

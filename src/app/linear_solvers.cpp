@@ -23,6 +23,7 @@ class ProblemSystem final : public LinearSystem {
   }
   bool suspend_action() override { return m_problem.suspend_action(); }
   void resume_action() override { m_problem.resume_action(); }
+  bool contact_zone_rows(SparseMatrix& Pz) override { return m_problem.assemble_contact_zone(Pz); }
 
  private:
   QuasiStaticProblem& m_problem;

@@ -110,9 +110,22 @@ void price_belos_bond_matrix(const BelosOptions& belos, double n, SizeEstimate& 
   }
 }
 
+/// The contact zone GMRES solves exactly after the V-cycle (assembly/contact_zone.hpp), with
+/// friction (GMRES) and solver.krylov.contact_zone > 0, at its largest: contact_zone_cap of
+/// the particles, `nnz` the whole bond matrix's nonzeros. Its rows are held four times (the
+/// problem's, the solver's, ZoneCorrection's by rows and its block) besides the factor.
+void price_contact_zone(const Scene& scene, const RunPlan& plan, double n, double nnz, SizeEstimate& e) {
+  const BondPreconditionerOptions& o = plan.bond_preconditioner;
+  if (!scene.contact.enabled || scene.contact.friction <= 0.0 || o.contact_zone_layers == 0) return;
+  const double zone_nnz = o.contact_zone_cap * nnz;
+  e.factor_of += " and the contact zone's factor";
+  e.factor_bytes += kBytesPerFactorNonzero * factor_fill(o.contact_zone_cap * n, true) * zone_nnz +
+                    4.0 * kBytesPerCopiedNonzero * zone_nnz;
+}
+
 /// The bond preconditioner of cg, matrix_free or belos: its factor, or its MueLu V-cycle
-/// (bond_amg).
-void price_bond_preconditioner(const RunPlan& plan, double n, SizeEstimate& e) {
+/// (bond_amg) and the contact zone's factor.
+void price_bond_preconditioner(const Scene& scene, const RunPlan& plan, double n, SizeEstimate& e) {
   // kBondNonzeroShare is for the default radius (20 lattice neighbours); another radius
   // scales it by its own neighbour count (1.42 dx: 8).
   const double radius = plan.bond_preconditioner.bond_radius;
@@ -127,6 +140,7 @@ void price_bond_preconditioner(const RunPlan& plan, double n, SizeEstimate& e) {
     e.factor_of = "the bond matrix, its copy in Tpetra and MueLu's hierarchy";
     e.factor_bytes = kBytesPerAmgNonzero * nnz;
     e.factor_bytes += kBytesPerBlockedNonzero * nnz;  // (the copy's CSR values go then: not counted)
+    price_contact_zone(scene, plan, n, nnz, e);
   } else {
     e.factor_of = "the bond preconditioner";
     e.factor_nonzeros = factor_fill(n, true) * nnz;
@@ -149,7 +163,7 @@ void price_factorisation(const Scene& scene, const RunPlan& plan, double n, Size
     // copy in Tpetra is (added by share_over_ranks()).
     e.factor_of = "the tangent's copy in Tpetra (the preconditioner's own storage not estimated)";
   } else if ((cg || belos) && (pc == PreconditionerKind::bond || pc == PreconditionerKind::bond_amg)) {
-    price_bond_preconditioner(plan, n, e);
+    price_bond_preconditioner(scene, plan, n, e);
   } else if ((!cg && !belos && kind != LinearSolverKind::bicgstab) || (cg && pc == PreconditionerKind::cholmod)) {
     e.factor_of = "the tangent";
     const double lu = kind == LinearSolverKind::umfpack || kind == LinearSolverKind::klu ? 2.0 : 1.0;

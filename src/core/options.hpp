@@ -133,6 +133,13 @@ struct LinearOptions {
 /// neighbours; docs/theory/newton.md, "Bond preconditioner").
 struct BondPreconditionerOptions {
   double bond_radius = 2.25;
+  /// solver.krylov.contact_zone: rings of the stencil around the contact pairs' particles
+  /// whose current rows of P GMRES solves exactly after each V-cycle (0: none;
+  /// docs/theory/newton.md, "The contact zone's exact correction").
+  int contact_zone_layers = 3;
+  /// solver.krylov.contact_zone_cap: the zone stops growing past this fraction of the
+  /// particles, and is not used when the contact particles alone pass it.
+  double contact_zone_cap = 0.2;
   bool radius_given = false;  ///< the scene set it (solver.linear: auto then leaves it alone)
 };
 

@@ -26,7 +26,15 @@ Kind read_kind(const Field& field, std::initializer_list<Kind> kinds) {
 }
 
 void read_krylov(const Field& field, SolverOptions& o) {
-  const Map m = checked_map(field, {"rtol", "max_iterations", "preconditioner", "bond_radius", "factors"});
+  const Map m = checked_map(field, {"rtol", "max_iterations", "preconditioner", "bond_radius", "factors",
+                                    "contact_zone", "contact_zone_cap"});
+  if (auto f = m.find("contact_zone"))
+    o.bond_preconditioner.contact_zone_layers = schema::int_at_least(*f, 0);
+  if (auto f = m.find("contact_zone_cap")) {
+    const double cap = schema::positive(*f);
+    if (cap > 1.0) schema::out_of_range(*f, "0 < contact_zone_cap <= 1 (a fraction of the particles)");
+    o.bond_preconditioner.contact_zone_cap = cap;
+  }
   if (auto f = m.find("rtol")) o.linear.rtol = schema::positive(*f);
   if (auto f = m.find("bond_radius")) {
     o.bond_preconditioner.bond_radius = schema::at_least(*f, 1.0);

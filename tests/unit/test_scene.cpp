@@ -486,6 +486,17 @@ TEST(SceneErrors, SolverAndLoadingRanges) {
   expect_error(k_minimal + "solver:\n  adr: {breaking: always}\n", "scene.yaml:22: solver.adr.breaking",
                "equilibrium, iterations");
   expect_error(k_minimal + "output: {every: 0}\n", "scene.yaml:21: output.every", "expected every >= 1");
+  expect_error(k_minimal + "solver:\n  krylov: {contact_zone: -1}\n",
+               "scene.yaml:22: solver.krylov.contact_zone", "expected contact_zone >= 0");
+  expect_error(k_minimal + "solver:\n  krylov: {contact_zone: 1.5}\n",
+               "scene.yaml:22: solver.krylov.contact_zone", "integer");
+  expect_error(k_minimal + "solver:\n  krylov: {contact_zone_cap: 0}\n",
+               "scene.yaml:22: solver.krylov.contact_zone_cap", "expected contact_zone_cap > 0");
+  expect_error(k_minimal + "solver:\n  krylov: {contact_zone_cap: 1.5}\n",
+               "scene.yaml:22: solver.krylov.contact_zone_cap", "expected 0 < contact_zone_cap <= 1");
+  const Scene zone = parse(k_minimal + "solver:\n  krylov: {contact_zone: 0, contact_zone_cap: 1}\n");
+  EXPECT_EQ(zone.solver.bond_preconditioner.contact_zone_layers, 0);
+  EXPECT_EQ(zone.solver.bond_preconditioner.contact_zone_cap, 1.0);
 }
 
 TEST(SceneErrors, EmptySections) {

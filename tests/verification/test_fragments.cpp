@@ -183,6 +183,27 @@ TEST(Fragments, AHeldFragmentIsAnObstacleToTheRest) {
   VectorXd u;
   problem.expand(x, u);
   EXPECT_LT(c.first_crossed(u), 0) << "no pair has crossed";
+
+  // The contact zone that matrix-free GMRES solves exactly (assembly/contact_zone.hpp) holds
+  // the held particle by its pair, and decouples its unknowns as the bond matrix does: a
+  // positive diagonal and nothing else in their rows and columns (else its block would be
+  // singular: the particle has no bond).
+  SparseMatrix Pz;
+  ASSERT_TRUE(problem.assemble_contact_zone(Pz));
+  const Index fy = model.constraints.free_index[2 * held + 1];
+  int diagonals = 0;
+  for (Index col = 0; col < Pz.outerSize(); ++col)
+    for (SparseMatrix::InnerIterator it(Pz, col); it; ++it) {
+      const bool held_entry = it.row() == fx || it.row() == fy || col == fx || col == fy;
+      if (!held_entry) continue;
+      if (it.row() == col) {
+        EXPECT_GT(it.value(), 0.0);
+        ++diagonals;
+      } else {
+        EXPECT_EQ(it.value(), 0.0) << "(" << it.row() << ", " << col << ")";
+      }
+    }
+  EXPECT_EQ(diagonals, 2) << "both unknowns of the held particle are rows of the zone";
 }
 
 }  // namespace
