@@ -372,6 +372,11 @@ ProblemTraits QuasiStaticProblem::traits() const {
 void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* K) {
   m_balance.discard();  // a check measured an earlier evaluation
   ++m_evaluations;
+  // With linearised kinematics the families' factors s_b, k_b (and the pairs' stiffnesses made
+  // of them) depend on the bonds alone: a tangent evaluation at the bonds of the last one keeps
+  // them, bit for bit what the kernel would write again.
+  const bool keep_factors = K && m_options.matrix_free && m_small_kinematics && !m_action_suspended &&
+                            m_factors_version == m_bonds_version;
   if (K) {
     m_tangent_evaluation = m_evaluations;
     m_tangent_broken = m_failure ? m_failure->broken() : 0;
@@ -383,7 +388,7 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   expand_state(x);
   if (m_own_rows_only && K)
     throw std::logic_error("QuasiStaticProblem::evaluate: own rows only, with a tangent");
-  bond_forces(K != nullptr);
+  bond_forces(K != nullptr && !keep_factors);
   if (m_contact) {
     const double t0 = wall_seconds();
     m_contact->evaluate(m_u, K != nullptr);
@@ -396,7 +401,9 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   if (m_own_rows_only)
     for (const Index f : m_share.other_unknowns()) r[f] = 0.0;
   if (K && m_options.matrix_free) {
-    m_action.prepare(hessians(), m_contact.get(), !m_fragments.unknowns().empty());
+    m_action.prepare(hessians(), m_contact.get(), !m_fragments.unknowns().empty(), !keep_factors);
+    m_factors_version = m_bonds_version;
+    if (!keep_factors) ++m_factor_evaluations;
   } else if (K) {
     gather_tangent(*K);
     m_fragments.decouple(*K);
@@ -651,6 +658,7 @@ void QuasiStaticProblem::revert_irreversible_state() {
 }
 
 void QuasiStaticProblem::collect_changed_families(const std::vector<std::pair<Index, Index>>& pairs) {
+  ++m_bonds_version;  // every change of the bonds passes here (a round, its undoing, a restore)
   m_changed_families.clear();
   for (const auto& [i, j] : pairs) {
     m_changed_families.push_back(i);

@@ -139,6 +139,11 @@ class QuasiStaticProblem final : public Problem,
   bool set_evaluation_mode(EvaluationMode mode) override;
   /// This problem: the `bond` preconditioner and the contact pairs' stiffness bound.
   PreconditionerSource* preconditioner_source() override { return this; }
+  /// Matrix-free: the evaluations with a tangent that made the families' factors s_b, k_b
+  /// and the pairs' stiffnesses. With linearised kinematics they depend on the bonds alone,
+  /// and an evaluation at the bonds of the last one keeps them (docs/theory/newton.md,
+  /// "Matrix-free").
+  long factor_evaluations() const { return m_factor_evaluations; }
   /// The `bond` preconditioner (assembly/bond_preconditioner.hpp), built on first request.
   SparseMatrix make_preconditioner() override;
   void assemble_preconditioner(SparseMatrix& P) override;
@@ -347,6 +352,10 @@ class QuasiStaticProblem final : public Problem,
   Index m_tangent_broken = 0;  ///< broken bonds at the last evaluate() with a tangent
   std::size_t m_suspend_bonds = kSuspendActionBonds;
   bool m_action_suspended = false;  ///< m_s and m_kbond dropped (suspend_action())
+  long m_factor_evaluations = 0;    ///< factor_evaluations()
+  std::uint64_t m_bonds_version = 0;  ///< counts the changes of the bonds
+  /// m_bonds_version when the action's factors were last made (none yet: never equal)
+  std::uint64_t m_factors_version = ~std::uint64_t{0};
   /// Above m_suspend_bonds: m_u of the last evaluate() with a tangent, once an evaluation
   /// without one has followed (resume_action() computes the factors there again)
   VectorXd m_u_tangent;

@@ -93,8 +93,9 @@ void TangentAction::set_chunk(Index chunk) {
   m_colours = chunk_colours(m_model, m_chunk = std::max<Index>(1, chunk));
 }
 
-void TangentAction::prepare(const FamilyHessians& h, const ContactSystem* contact, bool fragments) {
-  pair_stiffness(h);
+void TangentAction::prepare(const FamilyHessians& h, const ContactSystem* contact, bool fragments,
+                            bool families) {
+  if (families) pair_stiffness(h);
   if (contact) {
     m_pair_jacobian.resize(static_cast<std::size_t>(contact->size()));
     for (Index k = 0; k < contact->size(); ++k) m_pair_jacobian[k] = contact->jacobian(k);

@@ -62,7 +62,10 @@ class TangentAction {
   /// (pair_stiffness()), keeps the contact pairs' Jacobians (a residual-only evaluation
   /// recomputes the pairs without them, and the product must stay the tangent's) and, with
   /// fragments, the largest diagonal entry of K over the unknowns (their diagonal).
-  void prepare(const FamilyHessians& h, const ContactSystem* contact, bool fragments);
+  /// `families` false: h's factors are those of the last prepare() (linearised kinematics,
+  /// the same bonds), already turned into the pairs' stiffnesses; the pairs' Jacobians and the
+  /// fragments' diagonal are taken again.
+  void prepare(const FamilyHessians& h, const ContactSystem* contact, bool fragments, bool families = true);
   /// prepare()'s work on h.kbond alone, for factors computed again at the same state
   /// (QuasiStaticProblem::resume_action()): the pairs' Jacobians and the fragments' diagonal
   /// it kept stay.

@@ -83,6 +83,72 @@ TEST(MatrixFree, ActionEqualsTheAssembledTangentOnACrackedPlate) {
   }
 }
 
+/// A matrix-free problem of p's scene and model, at load factor 1.
+std::unique_ptr<QuasiStaticProblem> matrix_free_problem(const Pair& p) {
+  ProblemOptions options = problem_options(p.scene);
+  options.matrix_free = true;
+  auto q = std::make_unique<QuasiStaticProblem>(p.model, options);
+  q->set_load_factor(1.0);
+  return q;
+}
+
+/// a's and b's actions on the same vector, bit for bit.
+void expect_same_action(QuasiStaticProblem& a, QuasiStaticProblem& b, const char* what) {
+  const VectorXd v = random_vector(a.n_unknowns(), 1.0, 9u);
+  VectorXd ya, yb;
+  a.apply_tangent(v, ya);
+  b.apply_tangent(v, yb);
+  ASSERT_EQ(ya.size(), yb.size());
+  EXPECT_EQ((ya - yb).cwiseAbs().maxCoeff(), 0.0) << what;
+}
+
+// With linearised kinematics the families' factors s_b, k_b depend on the bonds alone: an
+// evaluation with a tangent at the bonds of the last one keeps them and the pairs'
+// stiffnesses made of them (factor_evaluations() does not grow), and its action is bit for bit
+// that of a problem that made them at the same state. A round of breaking, and its undoing,
+// make them again. With finite kinematics every evaluation with a tangent makes them.
+TEST(MatrixFree, KeptFactorsAreTheKernelsBitForBit) {
+  auto p = both(cracked_plate("small") + "failure: {criterion: stretch, G_c: 1.0e-3}\n");
+  QuasiStaticProblem& kept = *p->matrix_free;
+  const double dx = p->scene.discretization.spacing;
+  const Index n = kept.n_unknowns();
+  SparseMatrix none = kept.make_tangent();
+  VectorXd r;
+  kept.evaluate(random_vector(n, 0.01 * dx, 1u), r, &none);
+  EXPECT_EQ(kept.factor_evaluations(), 1);
+  const VectorXd x = random_vector(n, 0.05 * dx, 2u);
+  kept.evaluate(x, r, &none);
+  EXPECT_EQ(kept.factor_evaluations(), 1) << "the same bonds: the factors are kept";
+  const auto intact = matrix_free_problem(*p);
+  intact->evaluate(x, r, &none);
+  expect_same_action(kept, *intact, "kept");
+
+  // The same random state as Tangent.ConsistentAfterBondsBreak: a few hundred bonds over the
+  // small critical stretch.
+  const VectorXd x0 = random_vector(n, 0.05 * dx, 11u);
+  const Index broke = kept.advance_irreversible_state(x0, 300);
+  ASSERT_GT(broke, 50);
+  kept.evaluate(x, r, &none);
+  EXPECT_EQ(kept.factor_evaluations(), 2) << "bonds broke: the factors are made again";
+  const auto broken = matrix_free_problem(*p);
+  ASSERT_EQ(broken->advance_irreversible_state(x0, 300), broke);
+  broken->evaluate(x, r, &none);
+  expect_same_action(kept, *broken, "after a round of breaking");
+  kept.evaluate(x0, r, &none);
+  EXPECT_EQ(kept.factor_evaluations(), 2);
+
+  kept.revert_irreversible_state();
+  kept.evaluate(x, r, &none);
+  EXPECT_EQ(kept.factor_evaluations(), 3) << "the round undone: the factors are made again";
+  expect_same_action(kept, *intact, "after the round's undoing");
+
+  auto finite = both(cracked_plate("finite"));
+  SparseMatrix placeholder = finite->matrix_free->make_tangent();
+  for (unsigned seed : {1u, 2u})
+    finite->matrix_free->evaluate(random_vector(n, 0.05 * dx, seed), r, &placeholder);
+  EXPECT_EQ(finite->matrix_free->factor_evaluations(), 2) << "finite kinematics: made at every evaluation";
+}
+
 /// A plate held by mirror grips on both ends, one of them pulled.
 std::string mirror_gripped_plate() {
   test::PlateSpec spec;
