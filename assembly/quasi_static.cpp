@@ -375,7 +375,7 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   // With linearised kinematics the families' factors s_b, k_b (and the pairs' stiffnesses made
   // of them) depend on the bonds alone: a tangent evaluation at the bonds of the last one keeps
   // them, bit for bit what the kernel would write again.
-  const bool keep_factors = K && m_options.matrix_free && m_small_kinematics && !m_action_suspended &&
+  const bool factors_kept = K && m_options.matrix_free && m_small_kinematics && !m_action_suspended &&
                             m_factors_version == m_bonds_version;
   if (K) {
     m_tangent_evaluation = m_evaluations;
@@ -388,7 +388,7 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   expand_state(x);
   if (m_own_rows_only && K)
     throw std::logic_error("QuasiStaticProblem::evaluate: own rows only, with a tangent");
-  bond_forces(K != nullptr && !keep_factors);
+  bond_forces(K != nullptr && !factors_kept);
   if (m_contact) {
     const double t0 = wall_seconds();
     m_contact->evaluate(m_u, K != nullptr);
@@ -401,9 +401,9 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   if (m_own_rows_only)
     for (const Index f : m_share.other_unknowns()) r[f] = 0.0;
   if (K && m_options.matrix_free) {
-    m_action.prepare(hessians(), m_contact.get(), !m_fragments.unknowns().empty(), !keep_factors);
+    m_action.prepare(hessians(), m_contact.get(), !m_fragments.unknowns().empty(), !factors_kept);
     m_factors_version = m_bonds_version;
-    if (!keep_factors) ++m_factor_evaluations;
+    if (!factors_kept) ++m_factor_evaluations;
   } else if (K) {
     gather_tangent(*K);
     m_fragments.decouple(*K);

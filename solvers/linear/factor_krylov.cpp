@@ -212,9 +212,8 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   /// otherwise. GMRES's only: the correction makes the preconditioner unsymmetric.
   void prepare_zone() {
     if (m_factor->exact() || !m_system) return;
-    if (m_zone_asked && m_state == m_zone_state && m_zone.active()) return;
+    if (m_zone.active() && m_state == m_zone_state) return;
     const double t0 = wall_seconds();
-    m_zone_asked = true;
     m_zone_state = m_state;
     if (!m_system->contact_zone_rows(m_Pz) || !m_zone.set(m_Pz)) m_zone.clear();
     m_setup_seconds += wall_seconds() - t0;
@@ -286,7 +285,6 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   ZoneCorrection m_zone;        // GMRES's, after an inexact preconditioner
   SparseMatrix m_Pz;            // the system's rows of the zone, for ZoneCorrection::set
   std::uint64_t m_state = 0, m_zone_state = 0;  // the problem's at this solve, at the zone's
-  bool m_zone_asked = false;
 };
 
 }  // namespace
