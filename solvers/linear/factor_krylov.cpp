@@ -146,7 +146,8 @@ class FactorPreconditionedKrylov final : public LinearSolver {
   }
 
   // Right-preconditioned restarted GMRES(m) (Saad, Iterative Methods, alg. 9.5) with
-  // modified Gram-Schmidt and Givens rotations; stops at ||b - A x|| <= rtol ||b||. The
+  // modified Gram-Schmidt and Givens rotations; stops when its estimate of ||b - A x|| (the
+  // least-squares residual, equal to the true one in exact arithmetic) is <= rtol ||b||. The
   // residual it minimises is the true one, so it falls monotonically within a cycle. The
   // Gram-Schmidt runs on the threads, with the same bits on any number (KrylovVectors).
   void run_gmres(const VectorXd& b, VectorXd& x) {
@@ -198,10 +199,15 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       m_factor->solve(m_q, m_z);
       m_zone.apply(m_q, m_z);
       x += m_z;
+      // A cycle that ends within the tolerance, or at the iteration limit, ends the solve on
+      // its estimate: the caller (Newton) evaluates the true residual of its own problem next,
+      // so a product here would only confirm it (one action per solve: case 4.4 at
+      // dx = 0.01 m, 0.45 s of 24). A restart starts from the true residual.
+      if (m_error <= m_rtol || m_iterations >= m_max_iterations) break;
       product(x, m_q);
       m_r = b - m_q;
       beta = m_r.norm();
-      m_error = beta / bnorm;  // the true residual decides
+      m_error = beta / bnorm;
     }
     m_info = m_error <= m_rtol && std::isfinite(m_error) ? Eigen::Success : Eigen::NoConvergence;
   }
