@@ -201,10 +201,17 @@ class QuasiStaticProblem final : public Problem,
   /// First Piola stress at particle i from the last evaluate, P = sum_b t_b M_b xi_b^T: the
   /// derivative of W with respect to the deformation gradient when the family deforms
   /// homogeneously (docs/theory/osb.md, section 5). Meaningful away from boundaries.
-  Mat2 stress(Index i) const;
+  Mat2 stress(Index i);
   /// Total strain energy Pi [J] of the last evaluate: every family, fictitious ones included
   /// (with mirror conditions, the ghosts' families too).
-  double energy() const { return m_energy; }
+  double energy() {
+    ensure_laws();
+    return m_energy;
+  }
+  /// Evaluations whose bond forces were the kept factors' product (linear_forces()), and all
+  /// evaluations, since the problem was made.
+  long linear_force_evaluations() const { return m_linear_force_evaluations; }
+  long evaluations() const { return static_cast<long>(m_evaluations); }
   const Model& model() const { return m_model; }
   /// The rows this process assembles (ProblemOptions::rows).
   const OwnedRows& owned_rows() const { return m_options.rows; }
@@ -257,6 +264,13 @@ class QuasiStaticProblem final : public Problem,
   }
   void compute_families(bool want_tangent);
   void gather_forces();
+  /// The bond forces at m_u from the action's kept factors, f = H u (TangentAction::
+  /// bond_forces()), where that is the same function as the families' forces: every body
+  /// linearised, the factors made at the current bonds and kept in double, a whole model.
+  /// The families' laws and energy are then left behind (ensure_laws()).
+  bool linear_forces() const;
+  /// m_law and m_energy at m_u, when an evaluation by linear_forces() left them behind.
+  void ensure_laws();
   /// The norm of m_force over every component; with own rows only, summed over the ranks.
   double force_norm() const;
   /// m_u from the state x: on a part, x's ghost tail imported first (RankExchanges::ghosts()).
@@ -304,6 +318,11 @@ class QuasiStaticProblem final : public Problem,
   std::vector<char> m_zone;                                   ///< the zone it was built for
   std::vector<std::unique_ptr<FamilyKernel>> m_kernels;  ///< per body: its material's kernel
   bool m_small_kinematics;                               ///< every body linearised: the bond tangent is constant
+  /// linear_forces() may serve (matrix-free, every body linearised, double factors, one
+  /// process's whole model): decided at construction
+  bool m_linear_forces_allowed = false;
+  bool m_laws_current = true;  ///< m_law and m_energy are m_u's (false after linear forces)
+  long m_linear_force_evaluations = 0;
   /// The kernel's bond weights (omega_b w_b, 0 once broken) and weighted volumes.
   SurfaceCorrection m_correction;
   /// What this rank computes: the families and forces its rows read (every one of a whole model).

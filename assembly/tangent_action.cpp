@@ -127,6 +127,17 @@ void TangentAction::apply(const FamilyHessians& h, const ContactSystem* contact,
     for (const Index f : share->other_unknowns()) y[f] = 0.0;
 }
 
+void TangentAction::bond_forces(const FamilyHessians& h, const OwnedRows& rows, const VectorXd& u,
+                                VectorXd& f) {
+  const Index n = m_model.particles.size();
+  if (m_colours.empty() && n > 0)
+    throw std::logic_error("TangentAction::bond_forces: the problem was not built matrix-free");
+  m_v_full = u;
+  m_y_full.setZero(2 * n);
+  multiply(h, nullptr, rows, nullptr);
+  f.swap(m_y_full);  // f's old storage is the next product's scratch
+}
+
 void TangentAction::multiply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows,
                              const RankShare* share) {
   // Vec2 and BondStiffness: two packed doubles; Float2: two packed floats.

@@ -70,6 +70,11 @@ class TangentAction {
   /// (QuasiStaticProblem::resume_action()): the pairs' Jacobians and the fragments' diagonal
   /// it kept stay.
   void prepare_families(const FamilyHessians& h) const { pair_stiffness(h); }
+  /// f = H u over every component at the full displacement u (every particle's rows), from the
+  /// factors prepare() saw, without the contact pairs and the fragments' decoupling: with
+  /// linearised kinematics the bonds' internal force dPi/du, which is linear in u and zero at
+  /// u = 0 (QuasiStaticProblem::evaluate()). A whole model's; f is resized to 2N.
+  void bond_forces(const FamilyHessians& h, const OwnedRows& rows, const VectorXd& u, VectorXd& f);
   /// y = K v with K the tangent prepare() saw; the fragments' unknowns decoupled (zero row
   /// and column, the diagonal of prepare()). With `share` (distributed: rows a part), only
   /// this rank's rows of y, bit for bit the whole product's; the other rows are zero.
