@@ -44,14 +44,13 @@ bool columns_are_domain(const ThreadedCycle::crs_t& m) {
 
 // The kernels. Each row is one thread's, so the results do not depend on the thread count.
 
-/// b_i - (A x)_i with A's values `a` (its own doubles, or rounded to floats; the arithmetic in
-/// doubles)
-template <class Value>
-inline double row_residual(const local_t& A, const Value* a, const double* b, const double* x, LO i) {
+/// b_i - (A x)_i
+inline double row_residual(const local_t& A, const double* b, const double* x, LO i) {
   const auto* row = A.graph.row_map.data();
   const LO* col = A.graph.entries.data();
+  const double* a = A.values.data();
   double s = b[i];
-  for (auto k = row[i]; k < row[i + 1]; ++k) s -= static_cast<double>(a[k]) * x[col[k]];
+  for (auto k = row[i]; k < row[i + 1]; ++k) s -= a[k] * x[col[k]];
   return s;
 }
 
@@ -76,11 +75,10 @@ inline void block_residual(const ThreadedCycle::Blocks& B, const Value* a, const
 }
 
 /// f(i, (b - A x)_i) for every row i, each row one thread's: from the blocks (of doubles or
-/// floats) when there are, else from the CSR matrix, with its values rounded to floats
-/// (`rounded`) when there are.
+/// floats) when there are, else from the CSR matrix.
 template <class F>
-void for_each_residual(const local_t& A, const float* rounded, const ThreadedCycle::Blocks& B,
-                       const double* b, const double* x, F&& f) {
+void for_each_residual(const local_t& A, const ThreadedCycle::Blocks& B, const double* b, const double* x,
+                       F&& f) {
   const auto by_blocks = [&](const auto* a) {
     const auto blocks = static_cast<LO>(B.start.size() - 1);
 #pragma omp parallel for schedule(static)
@@ -91,15 +89,10 @@ void for_each_residual(const local_t& A, const float* rounded, const ThreadedCyc
       f(2 * p + 1, s1);
     }
   };
-  const auto by_rows = [&](const auto* a) {
+  if (B.empty()) {
     const LO n = A.numRows();
 #pragma omp parallel for schedule(static)
-    for (LO i = 0; i < n; ++i) f(i, row_residual(A, a, b, x, i));
-  };
-  if (B.empty() && rounded) {
-    by_rows(rounded);
-  } else if (B.empty()) {
-    by_rows(A.values.data());
+    for (LO i = 0; i < n; ++i) f(i, row_residual(A, b, x, i));
   } else if (B.values.empty()) {
     by_blocks(B.rounded.data());
   } else {
@@ -108,40 +101,19 @@ void for_each_residual(const local_t& A, const float* rounded, const ThreadedCyc
 }
 
 /// r = b - A x
-void residual(const local_t& A, const float* rounded, const ThreadedCycle::Blocks& B, const double* b,
-              const double* x, double* r) {
-  for_each_residual(A, rounded, B, b, x, [r](LO i, double s) { r[i] = s; });
+void residual(const local_t& A, const ThreadedCycle::Blocks& B, const double* b, const double* x, double* r) {
+  for_each_residual(A, B, b, x, [r](LO i, double s) { r[i] = s; });
 }
 
 /// w = c1 D^-1 (b - A x) + c2 w, then x += w (c2 = 0: w's old values are not read).
-void scaled_residual_step(const local_t& A, const float* rounded, const ThreadedCycle::Blocks& B,
-                          const double* d_inv, const double* b, double* x, double* w, double c1, double c2) {
+void scaled_residual_step(const local_t& A, const ThreadedCycle::Blocks& B, const double* d_inv,
+                          const double* b, double* x, double* w, double c1, double c2) {
   const LO n = A.numRows();
-  for_each_residual(A, rounded, B, b, x, [&](LO i, double s) {
+  for_each_residual(A, B, b, x, [&](LO i, double s) {
     w[i] = c2 == 0.0 ? c1 * d_inv[i] * s : c1 * d_inv[i] * s + c2 * w[i];
   });
 #pragma omp parallel for schedule(static)
   for (LO i = 0; i < n; ++i) x[i] += w[i];
-}
-
-/// Floats keep every one of the n values to their 24 bits: none beyond a float's range, and no
-/// non-zero one among the subnormals (a scene in extreme units keeps doubles).
-bool floats_keep(const double* a, std::size_t n) {
-  return std::all_of(a, a + n, [](double v) {
-    const double m = std::abs(v);
-    return m == 0.0 || (m >= static_cast<double>(std::numeric_limits<float>::min()) &&
-                        m <= static_cast<double>(std::numeric_limits<float>::max()));
-  });
-}
-
-/// A CSR matrix's values rounded to floats, or empty where floats_keep() says no.
-std::vector<float> rounded_values(const local_t& M) {
-  const auto n = static_cast<std::size_t>(M.values.extent(0));
-  if (!floats_keep(M.values.data(), n)) return {};
-  std::vector<float> r(n);
-#pragma omp parallel for schedule(static)
-  for (std::size_t k = 0; k < n; ++k) r[k] = static_cast<float>(M.values[k]);
-  return r;
 }
 
 /// A's rows in 2 x 2 blocks, or empty if A has an odd number of rows; `rounded`: the values
@@ -155,7 +127,13 @@ ThreadedCycle::Blocks to_blocks(const local_t& A, bool rounded) {
   const double* a = A.values.data();
   const LO blocks = n / 2;
   const auto nonzeros = static_cast<std::ptrdiff_t>(row[n]);
-  const bool to_float = rounded && floats_keep(a, static_cast<std::size_t>(nonzeros));
+  // Floats only where every entry keeps its 24 bits: none beyond a float's range, and no
+  // non-zero one among the subnormals (a scene in extreme units; it keeps doubles).
+  const bool to_float = rounded && std::all_of(a, a + nonzeros, [](double v) {
+                          const double m = std::abs(v);
+                          return m == 0.0 || (m >= static_cast<double>(std::numeric_limits<float>::min()) &&
+                                              m <= static_cast<double>(std::numeric_limits<float>::max()));
+                        });
   B.start.assign(static_cast<std::size_t>(blocks) + 1, 0);
   // Two passes over the block rows, each row one thread's: the block counts, then (after
   // their prefix sum) the columns and values.
@@ -201,47 +179,6 @@ ThreadedCycle::Blocks to_blocks(const local_t& A, bool rounded) {
     }
   }
   return B;
-}
-
-/// b_c = P^T r, P's values `p` (its doubles, or rounded to floats): `chunks` fixed row ranges
-/// scatter into their own buffers (`scratch`, chunks x b_c's size), added in order: the same
-/// bits on any number of threads.
-template <class Value>
-void restrict_residual(const local_t& P, const Value* p, const double* r, double* scratch, int chunks,
-                       std::vector<double>& bc) {
-  const LO n = P.numRows();
-  const auto nc = static_cast<LO>(bc.size());
-  const auto* row = P.graph.row_map.data();
-  const LO* col = P.graph.entries.data();
-#pragma omp parallel for schedule(static)
-  for (int c = 0; c < chunks; ++c) {
-    double* y = scratch + static_cast<std::size_t>(c) * nc;
-    std::fill(y, y + nc, 0.0);
-    const LO begin = static_cast<LO>(static_cast<long long>(n) * c / chunks);
-    const LO end = static_cast<LO>(static_cast<long long>(n) * (c + 1) / chunks);
-    for (LO i = begin; i < end; ++i)
-      for (auto k = row[i]; k < row[i + 1]; ++k) y[col[k]] += static_cast<double>(p[k]) * r[i];
-  }
-#pragma omp parallel for schedule(static)
-  for (LO j = 0; j < nc; ++j) {
-    double s = 0.0;
-    for (int c = 0; c < chunks; ++c) s += scratch[static_cast<std::size_t>(c) * nc + j];
-    bc[static_cast<std::size_t>(j)] = s;
-  }
-}
-
-/// x += P x_c, P's values `p` (its doubles, or rounded to floats)
-template <class Value>
-void add_prolonged(const local_t& P, const Value* p, const double* xc, double* x) {
-  const LO n = P.numRows();
-  const auto* row = P.graph.row_map.data();
-  const LO* col = P.graph.entries.data();
-#pragma omp parallel for schedule(static)
-  for (LO i = 0; i < n; ++i) {
-    double s = 0.0;
-    for (auto k = row[i]; k < row[i + 1]; ++k) s += static_cast<double>(p[k]) * xc[col[k]];
-    x[i] += s;
-  }
 }
 
 /// x = c D^-1 b (and w = x)
@@ -404,22 +341,6 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
   // The finest level read in blocks: its CSR values are not read again (its graph gives the
   // rows), and the cycle no longer holds them (their owner may drop them).
   if (!c->m_levels[0].blocks.empty()) c->m_levels[0].A.values = decltype(local_t::values)();
-  // Finest blocks of floats: the prolongators and the coarser levels' matrices are read as
-  // floats too (each where floats keep its values), and their doubles let go: 8 bytes per
-  // entry instead of 12. Case 4.4 at dx = 0.01 m, the degree-1 cycle of peristat_bench: 124.5
-  // -> 106.8 MB of matrix data per cycle (docs/performance.md, "Float prolongators").
-  if (!c->m_levels[0].blocks.rounded.empty())
-    for (int i = 0; i < levels; ++i) {
-      Level& level = c->m_levels[static_cast<std::size_t>(i)];
-      if (i > 0) {
-        level.A_rounded = rounded_values(level.A);
-        if (!level.A_rounded.empty()) level.A.values = decltype(local_t::values)();
-      }
-      if (i + 1 < levels) {
-        level.P_rounded = rounded_values(level.P);
-        if (!level.P_rounded.empty()) level.P.values = decltype(local_t::values)();
-      }
-    }
   for (int i = 0; i + 1 < levels; ++i) {
     Level& level = c->m_levels[static_cast<std::size_t>(i)];
     level.chunks.assign(static_cast<std::size_t>(kChunks) * c->m_levels[i + 1].b.size(), 0.0);
@@ -432,8 +353,8 @@ void ThreadedCycle::apply(const double* b, double* x) {
 }
 
 double ThreadedCycle::matrix_bytes_per_apply() const {
-  const auto csr_bytes = [](const local_t& M, bool rounded) {
-    return static_cast<double>(M.nnz()) * ((rounded ? sizeof(float) : sizeof(double)) + sizeof(LO)) +
+  const auto csr_bytes = [](const local_t& M) {
+    return static_cast<double>(M.nnz()) * (sizeof(double) + sizeof(LO)) +
            (M.numRows() + 1.0) * sizeof(std::size_t);
   };
   // Sweeps of a level's matrix by a smoother (scaled_residual_step calls in smooth()).
@@ -447,7 +368,7 @@ double ThreadedCycle::matrix_bytes_per_apply() const {
     const Level& level = m_levels[l];
     const bool coarsest = l + 1 == m_levels.size();
     const Blocks& k = level.blocks;
-    const double a = k.empty() ? csr_bytes(level.A, !level.A_rounded.empty())
+    const double a = k.empty() ? csr_bytes(level.A)
                                : static_cast<double>(k.start.size()) * sizeof(std::size_t) +
                                      static_cast<double>(k.col.size()) * sizeof(LO) +
                                      static_cast<double>(k.values.size()) * sizeof(double) +
@@ -455,7 +376,7 @@ double ThreadedCycle::matrix_bytes_per_apply() const {
     const bool pre = level.pre.kind != Smoother::Kind::none;
     int n = sweeps(level.pre, true) + (coarsest ? sweeps(level.post, !pre) : 1 + sweeps(level.post, false));
     bytes += n * a;
-    if (!coarsest) bytes += 2.0 * csr_bytes(level.P, !level.P_rounded.empty());
+    if (!coarsest) bytes += 2.0 * csr_bytes(level.P);
   }
   return bytes;
 }
@@ -470,7 +391,7 @@ void ThreadedCycle::smooth(Level& level, const Smoother& s, const double* b, dou
       if (sweep == 0 && zero_guess)
         scaled_diagonal(n, d_inv, b, x, w, s.damping);
       else
-        scaled_residual_step(level.A, level.rounded_A(), level.blocks, d_inv, b, x, w, s.damping, 0.0);
+        scaled_residual_step(level.A, level.blocks, d_inv, b, x, w, s.damping, 0.0);
     }
     return;
   }
@@ -486,13 +407,13 @@ void ThreadedCycle::smooth(Level& level, const Smoother& s, const double* b, dou
   if (zero_guess)
     scaled_diagonal(n, d_inv, b, x, w, 1.0 / theta);
   else
-    scaled_residual_step(level.A, level.rounded_A(), level.blocks, d_inv, b, x, w, 1.0 / theta, 0.0);
+    scaled_residual_step(level.A, level.blocks, d_inv, b, x, w, 1.0 / theta, 0.0);
   double rho = 1.0 / s1;
   for (int k = 1; k < s.degree; ++k) {
     const double rho_next = 1.0 / (2.0 * s1 - rho);
     const double c2 = rho_next * rho, c1 = 2.0 * rho_next * delta;
     rho = rho_next;
-    scaled_residual_step(level.A, level.rounded_A(), level.blocks, d_inv, b, x, w, c1, c2);
+    scaled_residual_step(level.A, level.blocks, d_inv, b, x, w, c1, c2);
   }
 }
 
@@ -518,18 +439,48 @@ void ThreadedCycle::cycle(std::size_t l, const double* b, double* x) {
   }
   if (zero_guess) std::fill(x, x + n, 0.0);
   double* r = level.work.data();  // the residual (the smoother's W is not live here)
-  residual(level.A, level.rounded_A(), level.blocks, b, x, r);
+  residual(level.A, level.blocks, b, x, r);
+  // b_c = P^T r: kChunks fixed row ranges scatter into their own buffers, added in order.
   Level& coarse = m_levels[l + 1];
-  // b_c = P^T r, then the next level, then x += P x_c.
-  if (level.P_rounded.empty())
-    restrict_residual(level.P, level.P.values.data(), r, level.chunks.data(), kChunks, coarse.b);
-  else
-    restrict_residual(level.P, level.P_rounded.data(), r, level.chunks.data(), kChunks, coarse.b);
+  const LO nc = coarse.A.numRows();
+  {
+    const local_t& P = level.P;
+    const auto* row = P.graph.row_map.data();
+    const LO* col = P.graph.entries.data();
+    const double* p = P.values.data();
+    double* chunks = level.chunks.data();
+#pragma omp parallel for schedule(static)
+    for (int c = 0; c < kChunks; ++c) {
+      double* y = chunks + static_cast<std::size_t>(c) * nc;
+      std::fill(y, y + nc, 0.0);
+      const LO begin = static_cast<LO>(static_cast<long long>(n) * c / kChunks);
+      const LO end = static_cast<LO>(static_cast<long long>(n) * (c + 1) / kChunks);
+      for (LO i = begin; i < end; ++i)
+        for (auto k = row[i]; k < row[i + 1]; ++k) y[col[k]] += p[k] * r[i];
+    }
+    double* bc = coarse.b.data();
+#pragma omp parallel for schedule(static)
+    for (LO j = 0; j < nc; ++j) {
+      double s = 0.0;
+      for (int c = 0; c < kChunks; ++c) s += chunks[static_cast<std::size_t>(c) * nc + j];
+      bc[j] = s;
+    }
+  }
   cycle(l + 1, coarse.b.data(), coarse.x.data());
-  if (level.P_rounded.empty())
-    add_prolonged(level.P, level.P.values.data(), coarse.x.data(), x);
-  else
-    add_prolonged(level.P, level.P_rounded.data(), coarse.x.data(), x);
+
+  {  // x += P x_c
+    const local_t& P = level.P;
+    const auto* row = P.graph.row_map.data();
+    const LO* col = P.graph.entries.data();
+    const double* p = P.values.data();
+    const double* xc = coarse.x.data();
+#pragma omp parallel for schedule(static)
+    for (LO i = 0; i < n; ++i) {
+      double s = 0.0;
+      for (auto k = row[i]; k < row[i + 1]; ++k) s += p[k] * xc[col[k]];
+      x[i] += s;
+    }
+  }
   if (level.post.kind != Smoother::Kind::none) smooth(level, level.post, b, x, false);
 }
 

@@ -88,10 +88,6 @@ class ThreadedCycle {
     local_t A;                   ///< this level's matrix
     Blocks blocks;               ///< the finest level's A in 2 x 2 blocks (empty on the others)
     local_t P;                   ///< prolongation from the next level (not on the coarsest)
-    /// With finest float blocks: A's values rounded to floats (not on the finest level) and
-    /// P's; their doubles are then let go. Empty where floats would not keep them.
-    std::vector<float> A_rounded, P_rounded;
-    const float* rounded_A() const { return A_rounded.empty() ? nullptr : A_rounded.data(); }
     std::vector<double> d_inv;   ///< 1 / diag(A)
     Smoother pre, post;
     std::vector<double> b, x;  ///< right-hand side and iterate (the coarser levels'; the finest's are the caller's)
