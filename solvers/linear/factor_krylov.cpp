@@ -139,9 +139,9 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       m_info = Eigen::Success;
       return;
     }
-    if (m_symmetric)
+    if (m_symmetric && m_factor->symmetric())
       run_cg(b, x);
-    else
+    else  // an unsymmetric system, or a preconditioner CG cannot use
       run_gmres(b, x);
   }
 

@@ -43,6 +43,10 @@ class Preconditioner {
   /// Whether solve() is P^-1 to round-off (a factor), not an approximation of it (a V-cycle):
   /// GMRES then adds no zone correction (zone_correction.hpp).
   virtual bool exact() const { return false; }
+  /// Whether solve() is a symmetric operator for a symmetric P, as CG needs of its
+  /// preconditioner; the Krylov solver runs GMRES on a symmetric system when it is not (the
+  /// V-cycle that serves GMRES: muelu_cycle.cpp).
+  virtual bool symmetric() const { return true; }
 };
 
 /// A direct LinearSolver (CHOLMOD) as a preconditioner: its factor of P.

@@ -21,9 +21,11 @@ std::unique_ptr<LinearSolver> make_belos_solver(const BelosOptions& options, Lin
 /// Who applies the MueLu V-cycle, and from what copy of its finest matrix.
 enum class CycleApply {
   /// This program's OpenMP threads on MueLu's hierarchy (solvers/trilinos/threaded_cycle.hpp),
-  /// the finest matrix in 2 x 2 blocks of floats. The default.
+  /// the finest matrix in 2 x 2 blocks of floats; for GMRES (LinearSetup::may_be_unsymmetric)
+  /// pre-smoothing of degree 1 (ThreadedCycle::from's pre_degree). The default.
   threads,
-  /// The same threads, blocks of doubles: MueLu's own arithmetic, to rounding (for tests).
+  /// The same threads, blocks of doubles and MueLu's smoothing: MueLu's own cycle, to
+  /// rounding (for tests).
   threads_exact,
   /// MueLu's apply, on one core (for comparison).
   muelu,

@@ -24,8 +24,9 @@ using namespace tpetra;
 /// of factor-preconditioned Krylov (solver.krylov.preconditioner: bond_amg): the bond matrix
 /// approximated instead of factorised. In this process only (a serial communicator), the
 /// unknowns grouped by particle with the rigid-body modes as near-null space. A fixed linear
-/// operator, symmetric positive definite for a symmetric positive definite P (Chebyshev
-/// smoothing, the same before and after, and a relaxed coarsest level), so CG may use it.
+/// operator; for CG (may_be_unsymmetric false) symmetric positive definite for a symmetric
+/// positive definite P (Chebyshev smoothing, the same before and after, and a relaxed coarsest
+/// level); for GMRES, on the threads, lighter before than after, not symmetric (symmetric()).
 class MueLuCycle final : public Preconditioner {
  public:
   MueLuCycle(const LinearSetup& setup, CycleApply apply)
@@ -99,6 +100,8 @@ class MueLuCycle final : public Preconditioner {
   std::string name() const override { return m_muelu.is_null() || m_cycle ? "muelu" : "muelu-serial"; }
   long factorizations() const override { return m_builds; }
   double matrix_bytes_per_solve() const override { return m_cycle ? m_cycle->matrix_bytes_per_apply() : 0.0; }
+  /// The threaded GMRES cycle pre-smooths with degree 1, post-smooths with 2 (set_up()).
+  bool symmetric() const override { return !(m_cycle && m_light_pre); }
 
  private:
   /// MueLu's hierarchy of the filled copy, and its threaded cycle.
@@ -157,7 +160,12 @@ class MueLuCycle final : public Preconditioner {
         const bool blocked = m_copy.d.per_node == 2;
         const Finest finest =
             !blocked ? Finest::csr : m_apply == CycleApply::threads ? Finest::float_blocks : Finest::blocks;
-        m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not, finest);
+        // For GMRES, degree 1 before (from the cycle's zero guess D^-1 b scaled, no product)
+        // and MueLu's 2 after: the finest matrix read three times a cycle instead of four, for
+        // as many Krylov iterations or fewer (docs/performance.md, "The V-cycle"). Not
+        // symmetric: a symmetric solve with it runs GMRES (symmetric()).
+        m_light_pre = m_gmres && m_apply == CycleApply::threads;
+        m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not, finest, m_light_pre ? 1 : 0);
         // The threaded cycle holds the levels' matrices it reads (Kokkos views count their
         // owners): MueLu's hierarchy, its smoothers' vectors and near-null spaces go (22 MB
         // at 500 x 500).
@@ -181,6 +189,7 @@ class MueLuCycle final : public Preconditioner {
   CycleApply m_apply;
   bool m_loaded = false;  ///< load() filled m_copy for a set-up not built yet
   bool m_gmres = false;   ///< the cycle may serve GMRES (LinearSetup::may_be_unsymmetric): Chebyshev degree 2
+  bool m_light_pre = false;                ///< the threaded cycle pre-smooths with degree 1 (GMRES's)
   std::unique_ptr<ThreadedCycle> m_cycle;  ///< m_muelu's cycle on this program's threads, or null
   std::string m_why_not;                   ///< why the last hierarchy has no threaded cycle
   long m_builds = 0;

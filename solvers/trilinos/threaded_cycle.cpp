@@ -290,7 +290,8 @@ bool ThreadedCycle::read_smoothing(MueLu::Level& L, int i, Level& level, std::st
   return true;
 }
 
-std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& why_not, Finest finest) {
+std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& why_not, Finest finest,
+                                                   int pre_degree) {
   std::unique_ptr<ThreadedCycle> c(new ThreadedCycle);
   if (h.GetCycle() != MueLu::VCYCLE) {
     why_not = "not a V-cycle";
@@ -331,6 +332,8 @@ std::unique_ptr<ThreadedCycle> ThreadedCycle::from(hierarchy_t& h, std::string& 
     }
     finer = A;
     if (!read_smoothing(L, i, level, why_not)) return nullptr;
+    if (pre_degree > 0 && level.pre.kind == Smoother::Kind::chebyshev)
+      level.pre.degree = std::min(level.pre.degree, pre_degree);
     const LO n = level.A.numRows();
     if (i > 0) {  // the finest level's are the caller's
       level.b.assign(static_cast<std::size_t>(n), 0.0);

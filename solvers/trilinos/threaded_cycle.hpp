@@ -38,7 +38,11 @@ class ThreadedCycle {
   /// The cycle of `h` (one process, no rebalancing), or null with the reason in `why_not`.
   /// `finest`: blocks of either kind need two rows per particle (odd rows: csr); float_blocks
   /// holds doubles instead where a non-zero entry is beyond a float's range or subnormal as one.
-  static std::unique_ptr<ThreadedCycle> from(hierarchy_t& h, std::string& why_not, Finest finest);
+  /// `pre_degree` > 0: the Chebyshev pre-smoothers of a higher degree are applied with this
+  /// degree (their eigenvalue estimates unchanged), a cycle lighter before than after and no
+  /// longer symmetric; 0: MueLu's smoothing.
+  static std::unique_ptr<ThreadedCycle> from(hierarchy_t& h, std::string& why_not, Finest finest,
+                                             int pre_degree = 0);
 
   /// x = M b: one V-cycle from a zero initial guess, as MueLu's apply of the hierarchy as a
   /// preconditioner. b and x hold the finest level's rows.
