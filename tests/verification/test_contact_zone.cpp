@@ -99,8 +99,10 @@ TEST(ContactZone, ItsRowsAreTheBondMatrixs) {
 
 // Case 4.4 (crack growth with friction), coarse: with the zone (the default, 3 layers) and
 // without it (contact_zone: 0), the same bonds break in every step and the answers agree to
-// the Newton tolerance, in far fewer Krylov iterations (measured 1,982 against 3,165; the
-// bound 0.8 leaves room for other machines' rounding while failing if the zone does nothing).
+// the Newton tolerance, in fewer Krylov iterations (measured 2,047 against 2,326 with GMRES's
+// V-cycle pre-smoothing with degree 1, 1,982 against 3,165 with degree 2 before it: that cycle
+// serves the crack's rows better by itself; the bound 0.95 leaves room for other machines'
+// rounding while failing if the zone does nothing).
 TEST(ContactZone, FewerKrylovIterationsTheSameBondsAndAnswer) {
   const std::vector<std::string> o = {"discretization.spacing=0.05"};
   std::vector<std::string> off = o;
@@ -127,7 +129,7 @@ TEST(ContactZone, FewerKrylovIterationsTheSameBondsAndAnswer) {
   std::printf("case 4.4, dx = 0.05 m: Krylov iterations %ld with the zone, %ld without; relative L2 %.2e\n",
               krylov_with, krylov_without, difference);
   EXPECT_LT(difference, 1e-8);
-  EXPECT_LT(static_cast<double>(krylov_with), 0.8 * static_cast<double>(krylov_without));
+  EXPECT_LT(static_cast<double>(krylov_with), 0.95 * static_cast<double>(krylov_without));
 }
 
 }  // namespace
