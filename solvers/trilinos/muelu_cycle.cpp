@@ -123,8 +123,10 @@ class MueLuCycle final : public Preconditioner {
       // (docs/performance.md, "The V-cycle"), degree 2 against 1: Krylov iterations 4.1
       // 301 -> 206 (wall 3.33 -> 3.01 s, medians of 6), 4.4 2690 -> 2244, 4.2 3.2 -> 2.6 s,
       // 4.3 the same wall; but the symmetric ones take more: the frictionless LEFM case
-      // 150 -> 165 (5.1 -> 6.0 s), the tension plate 400 x 400 218 -> 239. The smoother is
-      // symmetric either way, so CG may use a degree-2 cycle while all pairs stick.
+      // 150 -> 165 (5.1 -> 6.0 s), the tension plate 400 x 400 218 -> 239. The threaded
+      // cycle applies the degree-2 pre-smoothers with degree 1 (below); MueLu's own apply
+      // (CycleApply::muelu, and a hierarchy the threads cannot repeat) keeps 2 before and
+      // after, a symmetric cycle.
       p.sublist("smoother: params").set("chebyshev: degree", m_gmres ? 2 : 1);
       p.set("coarse: type", "RELAXATION");
       p.set("coarse: max size", 100);
@@ -162,8 +164,8 @@ class MueLuCycle final : public Preconditioner {
             !blocked ? Finest::csr : m_apply == CycleApply::threads ? Finest::float_blocks : Finest::blocks;
         // For GMRES, degree 1 before (from the cycle's zero guess D^-1 b scaled, no product)
         // and MueLu's 2 after: the finest matrix read three times a cycle instead of four, for
-        // as many Krylov iterations or fewer (docs/performance.md, "The V-cycle"). Not
-        // symmetric: a symmetric solve with it runs GMRES (symmetric()).
+        // as many Krylov iterations or fewer (docs/performance.md, "Crack growth at dx =
+        // 0.01 m"). Not symmetric: a symmetric solve with it runs GMRES (symmetric()).
         m_light_pre = m_gmres && m_apply == CycleApply::threads;
         m_cycle = ThreadedCycle::from(*m_muelu->GetHierarchy(), m_why_not, finest, m_light_pre ? 1 : 0);
         // The threaded cycle holds the levels' matrices it reads (Kokkos views count their
