@@ -208,10 +208,9 @@ class QuasiStaticProblem final : public Problem,
     ensure_laws();
     return m_energy;
   }
-  /// Evaluations whose bond forces were the kept factors' product (linear_forces()), and all
-  /// evaluations, since the problem was made.
+  /// Evaluations whose bond forces were the kept factors' product (linear_forces()) since the
+  /// problem was made.
   long linear_force_evaluations() const { return m_linear_force_evaluations; }
-  long evaluations() const { return static_cast<long>(m_evaluations); }
   const Model& model() const { return m_model; }
   /// The rows this process assembles (ProblemOptions::rows).
   const OwnedRows& owned_rows() const { return m_options.rows; }
@@ -269,6 +268,10 @@ class QuasiStaticProblem final : public Problem,
   /// linearised, the factors made at the current bonds and kept in double, a whole model.
   /// The families' laws and energy are then left behind (ensure_laws()).
   bool linear_forces() const;
+  /// The action's factors are those of the current bonds: matrix-free, every body linearised
+  /// (the factors depend on the bonds alone), held (not suspended) and made since the bonds
+  /// last changed.
+  bool factors_current() const;
   /// m_law and m_energy at m_u, when an evaluation by linear_forces() left them behind.
   void ensure_laws();
   /// The norm of m_force over every component; with own rows only, summed over the ranks.
