@@ -195,7 +195,7 @@ class FactorPreconditionedKrylov final : public LinearSolver {
       }
       // x += M^-1 V y with H y = g (upper triangular k x k).
       const VectorXd y = H.topLeftCorner(k, k).triangularView<Eigen::Upper>().solve(g.head(k));
-      m_q = m_basis.leftCols(k) * y;
+      m_q.noalias() = m_basis.leftCols(k) * y;
       m_factor->solve(m_q, m_z);
       m_zone.apply(m_q, m_z);
       x += m_z;

@@ -14,7 +14,11 @@ class FactorPreconditioner final : public Preconditioner {
   explicit FactorPreconditioner(std::unique_ptr<LinearSolver> factor) : m_factor(std::move(factor)) {}
   void analyzePattern(const SparseMatrix& P) override { m_factor->analyzePattern(P); }
   void factorize(const SparseMatrix& P) override { m_factor->factorize(P); }
-  void solve(const VectorXd& b, VectorXd& x) override { m_factor->solve(b, x); }
+  /// The factor's solve takes a whole vector: b is copied into one kept for it.
+  void solve(VectorIn b, VectorXd& x) override {
+    m_b = b;
+    m_factor->solve(m_b, x);
+  }
   Eigen::ComputationInfo info() const override { return m_factor->info(); }
   std::string name() const override { return m_factor->name(); }
   long factorizations() const override { return m_factor->stats().factorizations; }
@@ -22,6 +26,7 @@ class FactorPreconditioner final : public Preconditioner {
 
  private:
   std::unique_ptr<LinearSolver> m_factor;
+  VectorXd m_b;
 };
 
 /// The registered makers (register_preconditioner), set once at start-up.

@@ -31,7 +31,7 @@ class Preconditioner {
   /// that load()'s matrix: the two are then never held together.
   virtual void release_factor() {}
   /// x = M^-1 b.
-  virtual void solve(const VectorXd& b, VectorXd& x) = 0;
+  virtual void solve(VectorIn b, VectorXd& x) = 0;
   /// Success of the last call.
   virtual Eigen::ComputationInfo info() const = 0;
   virtual std::string name() const = 0;

@@ -46,7 +46,7 @@ bool ZoneCorrection::set(const SparseMatrix& Pz) {
   return true;
 }
 
-void ZoneCorrection::apply(const VectorXd& v, VectorXd& z) {
+void ZoneCorrection::apply(VectorIn v, VectorXd& z) {
   const Index nz = size();
   if (nz == 0) return;
 #pragma omp parallel for schedule(static)

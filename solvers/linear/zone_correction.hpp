@@ -26,7 +26,7 @@ class ZoneCorrection {
   Index size() const { return static_cast<Index>(m_rows.size()); }
   /// z += E P_zz^-1 E^T (v - P z): the zone's rows of P z on the threads, then the factor's
   /// solve. No allocation after the first call at a size.
-  void apply(const VectorXd& v, VectorXd& z);
+  void apply(VectorIn v, VectorXd& z);
 
  private:
   using RowMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor, Index>;

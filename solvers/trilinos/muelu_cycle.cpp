@@ -72,7 +72,7 @@ class MueLuCycle final : public Preconditioner {
     if (m_loaded) set_up();
   }
 
-  void solve(const VectorXd& b, VectorXd& x) override {
+  void solve(VectorIn b, VectorXd& x) override {
     set_up_loaded();
     if (m_muelu.is_null() && !m_cycle) {  // no hierarchy (a failed set-up): the caller sees info()
       m_info = Eigen::NumericalIssue;

@@ -122,11 +122,15 @@ class Jacobi final : public Preconditioner {
     m_inverse = P.diagonal().cwiseInverse();
     ++m_builds;
   }
-  void solve(const VectorXd& b, VectorXd& x) override { x = m_inverse.cwiseProduct(b); }
+  void solve(VectorIn b, VectorXd& x) override {
+    inputs.push_back(b.data());
+    x = m_inverse.cwiseProduct(b);
+  }
   Eigen::ComputationInfo info() const override { return Eigen::Success; }
   std::string name() const override { return "jacobi"; }
   long factorizations() const override { return m_builds; }
   bool symmetric() const override { return m_symmetric; }
+  std::vector<const double*> inputs;  ///< where each solve() read b
 
  private:
   VectorXd m_inverse;
@@ -244,6 +248,37 @@ TEST(ZoneCorrection, CgDoesWithoutTheZone) {
   EXPECT_EQ(with.iterations, without.iterations);
   const Solves gmres = solve(0.0, true, {7}, kM, false);
   EXPECT_EQ(gmres.asked, 1) << "a symmetric system with an unsymmetric preconditioner: GMRES";
+}
+
+// GMRES gives the preconditioner its basis vectors in place: the k-th call of an unrestarted
+// cycle reads column k of the basis, k n doubles after column 0. A `const VectorXd&` there
+// made a temporary copy per iteration, which at case 4.4's 160,600 unknowns (1.3 MB) was an
+// mmap, 313 page faults and an munmap: 0.2 million page faults in a run.
+TEST(ZoneCorrection, GmresPassesItsBasisVectorsWithoutACopy) {
+  const Index m = kM, n = m * m;
+  auto system = std::make_shared<ZoneSystem>(0.3, true, m);
+  auto jacobi = std::make_unique<Jacobi>();
+  const Jacobi& seen = *jacobi;
+  LinearOptions o;
+  o.rtol = 1e-10;
+  o.max_iterations = 2000;
+  auto solver = make_factor_preconditioned_krylov(std::move(jacobi), FactorSource::preconditioner_matrix, o,
+                                                  system, true);
+  const SparseMatrix none;
+  solver->analyzePattern(none);
+  solver->factorize(none);
+  solver->configure({false, 1e-10, 7});
+  VectorXd x = VectorXd::Zero(n);
+  solver->solve(wavy(n, 0.5), x);
+  ASSERT_EQ(solver->info(), Eigen::Success);
+  const int iterations = solver->stats().iterations;
+  ASSERT_GT(iterations, 5);
+  ASSERT_LT(iterations, 60) << "one cycle";
+  ASSERT_EQ(static_cast<int>(seen.inputs.size()), iterations + 1)
+      << "one call per iteration, one for the update";
+  for (int k = 1; k < iterations; ++k)
+    EXPECT_EQ(seen.inputs[static_cast<std::size_t>(k)] - seen.inputs[0], static_cast<std::ptrdiff_t>(k) * n)
+        << "call " << k;
 }
 
 }  // namespace
