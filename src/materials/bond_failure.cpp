@@ -107,38 +107,70 @@ const std::vector<std::pair<Index, Index>>& BondFailure::break_over_criterion(st
   return m_round;
 }
 
+namespace {
+/// Particles per block of gather_candidates(): fixed, so that the blocks, and the order their
+/// candidates are joined in, do not depend on the threads.
+constexpr Index kCandidateBlock = 256;
+}  // namespace
+
 void BondFailure::gather_candidates() {
   // Each rank proposes the pairs (i, j > i) of the families it is the proposer of, the same
   // pairs one process loops over (b < reverse(i, b)). Particles go by their whole model's index
-  // (global(), the part's own index otherwise).
+  // (global(), the part's own index otherwise). On the threads, block by block of particles;
+  // the blocks' candidates joined in block order, their peaks by the rule of one loop (the
+  // largest ratio, the smallest (i, k) among equals): the same candidates and peak as one
+  // loop over the particles, on any number of threads.
   const Bonds& bonds = m_model.bonds;
   const Particles& p = m_model.particles;
   const Index n = p.size();
+  const Index blocks = (n + kCandidateBlock - 1) / kCandidateBlock;
+  std::vector<std::vector<Candidate>> found(static_cast<std::size_t>(blocks));
+  std::vector<RankPeak> peaks_of(static_cast<std::size_t>(blocks), RankPeak{0.0, -1, -1, -1, 0.0, 0.0});
+  const auto better = [](const RankPeak& a, const RankPeak& b) {
+    return a.ratio > b.ratio || (a.ratio == b.ratio && b.i >= 0 && std::pair(a.i, a.k) < std::pair(b.i, b.k));
+  };
+  bool unpaired = false;
+#pragma omp parallel for schedule(dynamic, 1) reduction(|| : unpaired)
+  for (Index block = 0; block < blocks; ++block) {
+    std::vector<Candidate>& mine = found[static_cast<std::size_t>(block)];
+    RankPeak& peak = peaks_of[static_cast<std::size_t>(block)];
+    for (Index i = block * kCandidateBlock; i < std::min(n, (block + 1) * kCandidateBlock); ++i) {
+      if (!m_share.proposes[static_cast<std::size_t>(i)]) continue;
+      const std::int64_t gi = global(i);
+      for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
+        const Index j = bonds.neighbour[b];
+        const std::int64_t gj = global(j);
+        if (gj < gi || m_weight[b] == 0.0) continue;
+        if (p.fictitious[i] && p.fictitious[j]) continue;
+        if (!m_held_particle.empty() && (m_held_particle[i] || m_held_particle[j])) continue;
+        const Index r = bonds.reverse(i, b);
+        if (r < 0) {
+          unpaired = true;
+          continue;
+        }
+        const double ratio = std::max(m_ratio[b], m_ratio[r]);
+        const Index k = b - bonds.start[i];
+        // One process keeps the first bond of the largest ratio: the smallest (i, k).
+        const RankPeak here{ratio, gi, k, gj, 0.0, 0.0};
+        if (better(here, peak)) {
+          const Vec2 at = p.position[i] + 0.5 * Vec2(p.position[j] - p.position[i]);
+          peak = RankPeak{ratio, gi, k, gj, at.x(), at.y()};
+        }
+        if (ratio <= 1.0) continue;
+        mine.push_back(
+            {ratio, gi, k, gj, r - bonds.start[j], m_whole_start[static_cast<std::size_t>(i)] + k});
+      }
+    }
+  }
+  if (unpaired)
+    throw std::logic_error("BondFailure: the proposer of a pair does not hold its reverse family");
   std::vector<Candidate> mine;
   RankPeak peak{0.0, -1, -1, -1, 0.0, 0.0};
-  for (Index i = 0; i < n; ++i) {
-    if (!m_share.proposes[static_cast<std::size_t>(i)]) continue;
-    const std::int64_t gi = global(i);
-    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
-      const Index j = bonds.neighbour[b];
-      const std::int64_t gj = global(j);
-      if (gj < gi || m_weight[b] == 0.0) continue;
-      if (p.fictitious[i] && p.fictitious[j]) continue;
-      if (!m_held_particle.empty() && (m_held_particle[i] || m_held_particle[j])) continue;
-      const Index r = bonds.reverse(i, b);
-      if (r < 0)
-        throw std::logic_error("BondFailure: the proposer of a pair does not hold its reverse family");
-      const double ratio = std::max(m_ratio[b], m_ratio[r]);
-      const Index k = b - bonds.start[i];
-      // One process keeps the first bond of the largest ratio: the smallest (i, k).
-      if (ratio > peak.ratio || (ratio == peak.ratio && peak.i >= 0 && std::pair<std::int64_t, std::int64_t>(gi, k) <
-                                                                             std::pair(peak.i, peak.k))) {
-        const Vec2 at = p.position[i] + 0.5 * Vec2(p.position[j] - p.position[i]);
-        peak = RankPeak{ratio, gi, k, gj, at.x(), at.y()};
-      }
-      if (ratio <= 1.0) continue;
-      mine.push_back({ratio, gi, k, gj, r - bonds.start[j], m_whole_start[static_cast<std::size_t>(i)] + k});
-    }
+  for (Index block = 0; block < blocks; ++block) {
+    const std::vector<Candidate>& f = found[static_cast<std::size_t>(block)];
+    mine.insert(mine.end(), f.begin(), f.end());
+    if (better(peaks_of[static_cast<std::size_t>(block)], peak))
+      peak = peaks_of[static_cast<std::size_t>(block)];
   }
   m_candidates = m_ranks.all_gather(mine);
   // The peak over the ranks, in rank order, with the same tie-break.

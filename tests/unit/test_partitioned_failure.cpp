@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include "app/setup.hpp"
 #include "assembly/pattern.hpp"
@@ -196,6 +197,19 @@ void expect_parts_break_as_one_process(const Scene& scene, const Model& model, c
   }
 }
 
+/// The notched plate with contact on the new faces (friction 0.3), broken by stretch.
+Scene notch_with_contact() {
+  return test::scene_from_yaml(
+      test::notch_yaml(0.0, true, "{linear: umfpack}", "contact: {friction: 0.3, radius_factor: 1.2}\n"));
+}
+
+/// The scene's critical stretch (its first material, its horizon).
+double critical_stretch_of(const Scene& scene) {
+  const Material& m = scene.materials.begin()->second;
+  return critical_stretch(scene.failure.G_c, bulk_modulus_2d(m), shear_modulus(m),
+                          scene.discretization.horizon_factor * scene.discretization.spacing);
+}
+
 void expect_ranks_break_as_one_process(const Scene& scene, double stretch, double shear, Index at_most) {
   const Model model = discretise(scene);
   const Index moved = nearest_particle(model, Vec2(0.0255, 0.0125));
@@ -324,11 +338,8 @@ TEST(PartitionedFailure, PiecesAcrossThePartsAreThoseOfOneProcess) {
 TEST(PartitionedFailure, StretchWithContactBreaksAsOneProcess) {
   // The notched plate pulled at 1.3 times the critical stretch: vertical bonds first, in
   // rounds of 7 (ties broken by the whole model's bond index), the new faces contact pairs.
-  const Scene scene = test::scene_from_yaml(
-      test::notch_yaml(0.0, true, "{linear: umfpack}", "contact: {friction: 0.3, radius_factor: 1.2}\n"));
-  const Material& m = scene.materials.begin()->second;
-  const double s_c = critical_stretch(scene.failure.G_c, bulk_modulus_2d(m), shear_modulus(m),
-                                      scene.discretization.horizon_factor * scene.discretization.spacing);
+  const Scene scene = notch_with_contact();
+  const double s_c = critical_stretch_of(scene);
   expect_ranks_break_as_one_process(scene, 1.3 * s_c, 0.0, 7);
 }
 
@@ -342,6 +353,37 @@ TEST(PartitionedFailure, SkewBreaksAsOneProcess) {
   const double g_c = critical_skew(scene.failure.G_c, shear_modulus(m),
                                    scene.discretization.horizon_factor * scene.discretization.spacing);
   expect_ranks_break_as_one_process(scene, 0.0, 1.3 * g_c, 5);
+}
+
+// One process gathers the pairs over the criterion on its threads, block by block of 256
+// particles (bond_failure.cpp, gather_candidates): the notched plate's 800 particles make
+// four blocks, whose candidates and peaks are joined by one loop's rule. On 1, 2 and 3 threads
+// the same pairs break in the same rounds of 7 (ties broken by the whole bond index) with the
+// same peak, bit for bit.
+TEST(PartitionedFailure, OneProcessBreaksAlikeOnAnyNumberOfThreads) {
+  const Scene scene = notch_with_contact();
+  const double s_c = critical_stretch_of(scene);
+  const Model model = discretise(scene);
+  ASSERT_GT(model.particles.size(), 3 * 256) << "several blocks of particles";
+  const VectorXd x = affine_state(model, 1.3 * s_c, 0.0, nearest_particle(model, Vec2(0.0255, 0.0125)));
+  const int saved = omp_get_max_threads();
+  std::vector<Record> runs;
+  for (const int threads : {1, 2, 3}) {
+    omp_set_num_threads(threads);
+    runs.push_back(break_save_restore(model, problem_options(scene), x, 7));
+  }
+  omp_set_num_threads(saved);
+  ASSERT_GE(runs[0].rounds.size(), 4u);
+  for (std::size_t t = 1; t < runs.size(); ++t) {
+    SCOPED_TRACE(std::to_string(t + 1) + " threads");
+    EXPECT_EQ(runs[t].rounds, runs[0].rounds);
+    ASSERT_EQ(runs[t].peaks.size(), runs[0].peaks.size());
+    for (std::size_t r = 0; r < runs[0].peaks.size(); ++r) {
+      EXPECT_EQ(runs[t].peaks[r].ratio, runs[0].peaks[r].ratio) << "round " << r;
+      EXPECT_EQ(runs[t].peaks[r].i, runs[0].peaks[r].i) << "round " << r;
+      EXPECT_EQ(runs[t].peaks[r].j, runs[0].peaks[r].j) << "round " << r;
+    }
+  }
 }
 
 }  // namespace
