@@ -123,6 +123,9 @@ QuasiStaticProblem::QuasiStaticProblem(const Model& model, const ProblemOptions&
       options.matrix_free && m_small_kinematics && !options.float_factors && options.rows.whole();
   m_s_self.assign(n, Vec2::Zero());
   m_beta_volume.assign(n, 0.0);
+  if (options.float_copy && (!options.matrix_free || options.float_factors))
+    throw std::logic_error("QuasiStaticProblem: a float copy is of the matrix-free action's double factors");
+  m_action.set_float_copy(options.float_copy);
   m_u = VectorXd::Zero(2 * n);
   m_force = VectorXd::Zero(2 * n);
   if (m_failure && model.constraints.has_images()) {

@@ -49,6 +49,9 @@ struct ProblemOptions {
   /// solver.krylov.factors float (matrix_free only): the action's per-bond factors kept in
   /// single precision, 16 bytes per bond instead of 32 (RunPlan::float_factors).
   bool float_factors = false;
+  /// Double factors, and a single-precision copy of them that the Krylov action reads
+  /// (TangentAction::set_float_copy; RunPlan::float_copy).
+  bool float_copy = false;
   /// The rows this process assembles: a rank of a distributed run holds its part of the model
   /// (global_id below) and writes only its rows of the tangent and of the bond preconditioner
   /// (docs/guide/distributed.md). Every row by default. With the rows split, the problem's

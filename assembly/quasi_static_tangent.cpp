@@ -25,6 +25,7 @@ bool QuasiStaticProblem::suspend_action() {
   decltype(m_kbond)().swap(m_kbond);
   decltype(m_s32)().swap(m_s32);
   decltype(m_kbond32)().swap(m_kbond32);
+  m_action.release_float_copy();
   m_action_suspended = true;
   return true;
 }

@@ -96,11 +96,80 @@ void TangentAction::set_chunk(Index chunk) {
 void TangentAction::prepare(const FamilyHessians& h, const ContactSystem* contact, bool fragments,
                             bool families) {
   if (families) pair_stiffness(h);
+  if (m_float_copy && !h.single && (families || !m_have_copy)) make_float_copy(h);
   if (contact) {
     m_pair_jacobian.resize(static_cast<std::size_t>(contact->size()));
     for (Index k = 0; k < contact->size(); ++k) m_pair_jacobian[k] = contact->jacobian(k);
   }
   m_fragment_diagonal = fragments ? tangent_diagonal_max(h, contact) : 0.0;
+}
+
+void TangentAction::prepare_families(const FamilyHessians& h) {
+  pair_stiffness(h);
+  if (m_float_copy && !h.single) make_float_copy(h);
+}
+
+void TangentAction::set_float_copy(bool on) {
+  m_float_copy = on;
+  if (!on) {
+    release_float_copy();
+    return;
+  }
+  // Held from the start, as the factors are (QuasiStaticProblem::restore_action_storage()):
+  // the memory the run reports before its first solve includes it.
+  const std::size_t bonds = m_model.bonds.neighbour.size(),
+                    n = static_cast<std::size_t>(m_model.particles.size());
+  m_s32.assign(bonds, Float2{});
+  m_k32.assign(bonds, Float2{});
+  m_s_self32.assign(n, Vec2::Zero());
+  m_beta_volume32.assign(n, 0.0);
+}
+
+void TangentAction::release_float_copy() {
+  decltype(m_s32)().swap(m_s32);
+  decltype(m_k32)().swap(m_k32);
+  m_have_copy = false;
+}
+
+void TangentAction::make_float_copy(const FamilyHessians& h) {
+  const Bonds& bonds = m_model.bonds;
+  const Index n = m_model.particles.size();
+  m_s32.resize(bonds.neighbour.size());
+  m_k32.resize(bonds.neighbour.size());
+  m_s_self32.resize(static_cast<std::size_t>(n));
+  m_beta_volume32.resize(static_cast<std::size_t>(n));
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < n; ++i) {
+    const Index b0 = bonds.start[i], b1 = bonds.start[i + 1];
+    double largest = 0.0;
+    for (Index b = b0; b < b1; ++b) largest = std::max(largest, h.s[b].cwiseAbs().maxCoeff());
+    const int e = largest > 0.0 ? std::ilogb(largest) : 0;
+    const double inverse = std::ldexp(1.0, -e);
+    for (Index b = b0; b < b1; ++b)
+      m_s32[b] = Float2{static_cast<float>(inverse * h.s[b].x()), static_cast<float>(inverse * h.s[b].y())};
+    // Reading the floats back, in loops of their own (keep_factors(): GCC 12.2 at -O3 once
+    // summed the unrounded doubles of a fused loop).
+    Vec2 s = Vec2::Zero();
+    for (Index b = b0; b < b1; ++b) s -= widened(m_s32[b]);
+    for (Index b = b0; b < b1; ++b) {
+      const double full = h.s[b].squaredNorm(), kept = widened(m_s32[b]).squaredNorm();
+      m_k32[b] = Float2{static_cast<float>(kept > 0.0 ? h.kbond[b][0] * full / kept : 0.0),
+                        static_cast<float>(h.kbond[b][1])};
+    }
+    m_s_self32[static_cast<std::size_t>(i)] = s;
+    m_beta_volume32[static_cast<std::size_t>(i)] = h.beta_volume[i] * std::ldexp(1.0, 2 * e);
+  }
+  m_have_copy = true;
+}
+
+FamilyHessians TangentAction::float_copy() const {
+  FamilyHessians f;
+  f.s32 = m_s32;
+  f.kbond32 = std::span<Float2>(const_cast<Float2*>(m_k32.data()), m_k32.size());
+  f.single = true;
+  f.s_self = m_s_self32;
+  f.beta_volume = m_beta_volume32;
+  return f;
 }
 
 void TangentAction::apply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows,
@@ -118,7 +187,7 @@ void TangentAction::apply(const FamilyHessians& h, const ContactSystem* contact,
   m_model.constraints.scatter(m_v_free, m_v_full);
   m_y_full.setZero(2 * n);
   // Distributed: this rank's rows only, from the families they read (as the own-rows residual).
-  multiply(h, contact, rows, share);
+  multiply(m_have_copy ? float_copy() : h, contact, rows, share);
   if (share)
     for (const Index q : share->other_particles()) m_y_full[2 * q] = m_y_full[2 * q + 1] = 0.0;
   m_model.constraints.gather(m_y_full, y);
@@ -298,7 +367,9 @@ std::size_t TangentAction::memory_bytes() const {
   std::size_t colours = 0;
   for (const std::vector<Index>& c : m_colours) colours += c.capacity() * sizeof(Index);
   return colours + m_pair_jacobian.capacity() * sizeof(Mat2) +
-         static_cast<std::size_t>(m_v_free.size() + m_v_full.size() + m_y_full.size()) * sizeof(double);
+         static_cast<std::size_t>(m_v_free.size() + m_v_full.size() + m_y_full.size()) * sizeof(double) +
+         (m_s32.capacity() + m_k32.capacity()) * sizeof(Float2) + m_s_self32.capacity() * sizeof(Vec2) +
+         m_beta_volume32.capacity() * sizeof(double);
 }
 
 }  // namespace peristat

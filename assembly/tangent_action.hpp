@@ -69,7 +69,7 @@ class TangentAction {
   /// prepare()'s work on h.kbond alone, for factors computed again at the same state
   /// (QuasiStaticProblem::resume_action()): the pairs' Jacobians and the fragments' diagonal
   /// it kept stay.
-  void prepare_families(const FamilyHessians& h) const { pair_stiffness(h); }
+  void prepare_families(const FamilyHessians& h);
   /// f = H u over every component at the full displacement u (every particle's rows), from the
   /// factors prepare() saw, without the contact pairs and the fragments' decoupling: with
   /// linearised kinematics the bonds' internal force dPi/du, which is linear in u and zero at
@@ -81,8 +81,23 @@ class TangentAction {
   void apply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows, const RankShare* share,
              const std::vector<Index>& fragment_unknowns, const VectorXd& v, VectorXd& y);
   std::size_t memory_bytes() const;
+  /// With `on`, apply() reads a single-precision copy of double factors (16 bytes per bond
+  /// besides their 32), made by prepare() and prepare_families(), while bond_forces() reads
+  /// the doubles: the Krylov iterations read half the factor bytes, the residual keeps double
+  /// precision (solver.krylov.factors `mixed`). Nothing with single-precision factors.
+  void set_float_copy(bool on);
+  /// Frees the copy (the factors are dropped while a preconditioner is set up); the next
+  /// prepare() or prepare_families() makes it again.
+  void release_float_copy();
 
  private:
+  /// The float copy of h's double factors, scaled by each family's power of two as
+  /// QuasiStaticProblem::keep_factors() scales single-precision ones: s_b / sigma_i rounded,
+  /// s_self the sum of the rounded s_b (no action on a rigid translation), the pair
+  /// coefficient c_b |s_b|^2 / |s_b rounded|^2 (the same (a - g)), beta_i V_i sigma_i^2.
+  void make_float_copy(const FamilyHessians& h);
+  /// The copy as FamilyHessians (single), for multiply().
+  FamilyHessians float_copy() const;
   /// m_y_full += H m_v_full over the families and contact pairs (with `share`, those of this
   /// rank's rows), colour by colour.
   void multiply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows, const RankShare* share);
@@ -112,6 +127,11 @@ class TangentAction {
   std::vector<Mat2> m_pair_jacobian;
   double m_fragment_diagonal = 0.0;
   VectorXd m_v_free, m_v_full, m_y_full;  ///< scratch (allocated once)
+  bool m_float_copy = false;              ///< set_float_copy()
+  bool m_have_copy = false;               ///< the copy holds the factors prepare() saw
+  std::vector<Float2> m_s32, m_k32;       ///< per bond: s_b / sigma_i, (c_b sigma_i^2, g)
+  std::vector<Vec2> m_s_self32;           ///< per particle: -sum_b of the rounded s_b
+  std::vector<double> m_beta_volume32;    ///< per particle: beta_i V_i sigma_i^2
 };
 
 }  // namespace peristat

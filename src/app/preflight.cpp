@@ -200,7 +200,9 @@ SizeEstimate estimate_size(const Scene& scene, const RunPlan& plan) {
     const double n = e.particles + e.fictitious;
     // No tangent and no pattern: the model and the families' tangent data only.
     if (plan.matrix_free())
-      e.memory_bytes = matrix_free_bytes_per_nonzero(scene.failure.enabled, plan.float_factors) * e.nonzeros;
+      e.memory_bytes =
+          matrix_free_bytes_per_nonzero(scene.failure.enabled, plan.float_factors, plan.float_copy) *
+          e.nonzeros;
     price_factorisation(scene, plan, n, e);
     share_over_ranks(scene, plan, n, e);
   }
@@ -313,13 +315,14 @@ std::vector<std::string> preflight(const Scene& scene, const RunPlan& plan, cons
       throw InputError(d.spacing * 2.0 > longest ? d.spacing_where : d.horizon_where, buf);
     }
   }
-  if (scene.solver.action_factors == ActionFactors::single_precision && !plan.matrix_free()) {
+  if ((scene.solver.action_factors == ActionFactors::single_precision ||
+       scene.solver.action_factors == ActionFactors::mixed) &&
+      !plan.matrix_free()) {
     const std::string why = plan.newton() ? "solver.linear " + std::string(to_string(plan.linear)) : "ADR";
-    std::snprintf(
-        buf, sizeof buf,
-        "float keeps the matrix-free action's factors in single precision, but this run assembles its "
-        "tangent (%s); set solver.linear=matrix_free, or remove the key",
-        why.c_str());
+    std::snprintf(buf, sizeof buf,
+                  "%s keeps the matrix-free action's factors in single precision, but this run assembles its "
+                  "tangent (%s); set solver.linear=matrix_free, or remove the key",
+                  std::string(to_string(scene.solver.action_factors)).c_str(), why.c_str());
     throw InputError(scene.solver.factors_where, buf);
   }
   check_memory(scene, plan, e);

@@ -43,10 +43,13 @@ inline constexpr double kMatrixFreeFailureBytesPerNonzero = 2.6;
 /// less: 16 of their 32 bytes per directed bond (the 1000 x 1000 plate, `check`, 2026-12-04:
 /// 1,125 against 1,838 MB, 2.08 against 3.40 B per estimated nonzero).
 inline constexpr double kMatrixFreeFloatFactorsSaving = 1.3;
-/// Matrix-free bytes per tangent nonzero of a scene.
-inline double matrix_free_bytes_per_nonzero(bool failure, bool float_factors = false) {
+/// Matrix-free bytes per tangent nonzero of a scene; a float copy beside double factors
+/// (solver.krylov.factors mixed) adds what float factors save.
+inline double matrix_free_bytes_per_nonzero(bool failure, bool float_factors = false,
+                                            bool float_copy = false) {
   return kMatrixFreeBytesPerNonzero + (failure ? kMatrixFreeFailureBytesPerNonzero : 0.0) -
-         (float_factors ? kMatrixFreeFloatFactorsSaving : 0.0);
+         (float_factors ? kMatrixFreeFloatFactorsSaving : 0.0) +
+         (float_copy ? kMatrixFreeFloatFactorsSaving : 0.0);
 }
 /// The Cholesky factor's nonzeros per nonzero of the matrix factorised, by CHOLMOD's default
 /// ordering on square plates of N particles (m = 3; peristat_bench factor, 2026-11-25): the

@@ -70,6 +70,17 @@ bool picks_linear_solver(const Scene& scene) {
 void resolve_action_factors(const Scene& scene, RunPlan& plan, double unknowns) {
   if (scene.solver.action_factors != ActionFactors::automatic) return;  // plan_with_linear() took it
   plan.float_factors = plan.matrix_free() && unknowns > kFloatFactorsAbove && !scene.failure.enabled;
+  // GMRES (slipping pairs) on the double factors' float copy: case 4.4 at dx = 0.01 m, 4.6
+  // against 5.0 ms an action and 1,260 against 1,282 Krylov iterations; CG (the running crack)
+  // took 6 % more iterations on it (docs/performance.md, "Mixed factors").
+  plan.float_copy =
+      !plan.float_factors && plan.matrix_free() && scene.contact.enabled && scene.contact.friction > 0.0;
+  if (plan.float_copy) {
+    plan.factors_auto =
+        "mixed: frictional contact (GMRES): the Krylov iterations read a float copy of the double "
+        "factors, 16 more bytes per bond";
+    return;
+  }
   if (!plan.float_factors) return;
   char buf[200];
   std::snprintf(buf, sizeof buf,
@@ -128,6 +139,7 @@ RunPlan plan_with_linear(const Scene& scene, int ranks, LinearSolverKind linear)
   // An explicit `float` without the action has nothing to store (preflight() refuses it);
   // `auto` is make_run_plan()'s.
   plan.float_factors = scene.solver.action_factors == ActionFactors::single_precision && plan.matrix_free();
+  plan.float_copy = scene.solver.action_factors == ActionFactors::mixed && plan.matrix_free();
   plan.model = model_choice(scene, plan);
   return plan;
 }
@@ -202,8 +214,9 @@ RunPlan resolve_run_plan(Scene& scene, int ranks) {
     scene.solver.bond_preconditioner = plan.bond_preconditioner;
   }
   if (scene.solver.action_factors == ActionFactors::automatic && plan.newton())
-    scene.solver.action_factors =
-        plan.float_factors ? ActionFactors::single_precision : ActionFactors::double_precision;
+    scene.solver.action_factors = plan.float_factors ? ActionFactors::single_precision
+                                  : plan.float_copy  ? ActionFactors::mixed
+                                                     : ActionFactors::double_precision;
   return plan;
 }
 

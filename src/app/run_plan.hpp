@@ -86,6 +86,9 @@ struct RunPlan {
   /// The matrix-free action keeps its per-bond factors in single precision
   /// (solver.krylov.factors; `auto` resolved by make_run_plan(): kFloatFactorsAbove).
   bool float_factors = false;
+  /// Double factors with a single-precision copy that the Krylov iterations read
+  /// (solver.krylov.factors mixed; `auto` with frictional contact, make_run_plan()).
+  bool float_copy = false;
   std::string factors_auto;  ///< what `auto` picked for the factors and why, when it picked float
   ModelChoice model;  ///< the rank's part of the model and its rings, or the whole model
 

@@ -21,6 +21,7 @@ ProblemOptions problem_options(const Scene& scene, const RunPlan& plan) {
   options.surface_correction = scene.discretization.surface_correction;
   options.matrix_free = plan.matrix_free();
   options.float_factors = plan.float_factors;
+  options.float_copy = plan.float_copy;
   return options;
 }
 

@@ -28,7 +28,7 @@ std::string_view to_string(PreconditionerKind kind) {
 }
 
 std::string_view to_string(ActionFactors kind) {
-  return name_of(kind, std::array<std::string_view, 3>{"auto", "double", "float"});
+  return name_of(kind, std::array<std::string_view, 4>{"auto", "double", "float", "mixed"});
 }
 
 std::string_view to_string(BelosMethod kind) {

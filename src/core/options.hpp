@@ -71,8 +71,9 @@ enum class PreconditionerKind { automatic, bond, cholmod, ic, diagonal, ilut, bo
 /// solver.krylov.factors: how the matrix-free action keeps the families' per-bond factors
 /// (s_b and the pair stiffness, assembly/tangent_action.hpp). `automatic` (the key's value
 /// `auto`): single precision on the largest models without a failure criterion
-/// (RunPlan::float_factors), double otherwise.
-enum class ActionFactors { automatic, double_precision, single_precision };
+/// (RunPlan::float_factors); with frictional contact (GMRES) double with a single-precision
+/// copy for the Krylov iterations (`mixed`, RunPlan::float_copy); double otherwise.
+enum class ActionFactors { automatic, double_precision, single_precision, mixed };
 
 /// solver.belos.method: Belos's Krylov method. `automatic` (the key's value `auto`): CG while
 /// the tangent is symmetric, GMRES while contact pairs slip.

@@ -42,8 +42,8 @@ void read_krylov(const Field& field, SolverOptions& o) {
   }
   if (auto f = m.find("max_iterations")) o.linear.max_iterations = schema::int_at_least(*f, 1);
   if (auto f = m.find("factors")) {
-    o.action_factors = read_kind(
-        *f, {ActionFactors::automatic, ActionFactors::double_precision, ActionFactors::single_precision});
+    o.action_factors = read_kind(*f, {ActionFactors::automatic, ActionFactors::double_precision,
+                                      ActionFactors::single_precision, ActionFactors::mixed});
     o.factors_where = f->where();
   }
   if (auto f = m.find("preconditioner"))

@@ -217,6 +217,7 @@ std::unique_ptr<Evaluated> evaluated(const std::string& path, const std::vector<
   ProblemOptions options = problem_options(e->scene);
   options.matrix_free = true;
   options.float_factors = e->scene.solver.action_factors == ActionFactors::single_precision;
+  options.float_copy = e->scene.solver.action_factors == ActionFactors::mixed;
   e->problem = std::make_unique<QuasiStaticProblem>(e->model, options);
   e->problem->set_load_factor(1.0);
   VectorXd x = VectorXd::Zero(e->problem->n_unknowns()), r;
@@ -245,10 +246,12 @@ int action(const std::string& path, int reps, const std::vector<Override>& overr
   std::sort(t.begin(), t.end());
   const double bonds = model.bonds.n_bonds();
   // Per bond, the data the single pass streams: the neighbour index, s_b and the pair stiffness,
-  // in double or float (--set solver.krylov.factors=float); v, the dilatation rates and y are
-  // per particle and stay in cache. The pair stiffness is used for half the bonds (j > i), but
-  // those lie among the others in the family's order: every cache line of it is fetched.
-  const bool single = scene.solver.action_factors == ActionFactors::single_precision;
+  // in double or float (--set solver.krylov.factors=float, or mixed: the float copy); v, the
+  // dilatation rates and y are per particle and stay in cache. The pair stiffness is used for
+  // half the bonds (j > i), but those lie among the others in the family's order: every cache
+  // line of it is fetched.
+  const bool single = scene.solver.action_factors == ActionFactors::single_precision ||
+                      scene.solver.action_factors == ActionFactors::mixed;
   const double bytes =
       bonds * static_cast<double>(sizeof(Index) +
                                   (single ? 2 * sizeof(Float2) : sizeof(Vec2) + sizeof(BondStiffness)));

@@ -26,7 +26,7 @@ struct Pair {
 
 /// The same scene as an assembled and as a matrix-free problem (with `float_factors`, its
 /// factors in single precision).
-std::unique_ptr<Pair> both(const std::string& yaml, bool float_factors = false) {
+std::unique_ptr<Pair> both(const std::string& yaml, bool float_factors = false, bool float_copy = false) {
   auto p = std::make_unique<Pair>();
   p->scene = test::scene_from_yaml(yaml);
   p->model = discretise(p->scene);
@@ -35,6 +35,7 @@ std::unique_ptr<Pair> both(const std::string& yaml, bool float_factors = false) 
   p->assembled = std::make_unique<QuasiStaticProblem>(p->model, options);
   options.matrix_free = true;
   options.float_factors = float_factors;
+  options.float_copy = float_copy;
   p->matrix_free = std::make_unique<QuasiStaticProblem>(p->model, options);
   p->assembled->set_load_factor(1.0);
   p->matrix_free->set_load_factor(1.0);
@@ -337,7 +338,7 @@ struct FrictionalScene {
   double dx = 1e-3;
 };
 
-FrictionalScene frictional_scene(bool float_factors = false) {
+FrictionalScene frictional_scene(bool float_factors = false, bool float_copy = false) {
   FrictionalScene f;
   test::PlateSpec spec;
   spec.nx = 12;
@@ -345,7 +346,8 @@ FrictionalScene frictional_scene(bool float_factors = false) {
   spec.dx = f.dx;
   spec.boundary = "  - {body: plate, edge: left, ux: 0, uy: 0}\n";
   spec.cracks = "  - {from: [0.0061, -0.001], to: [0.0061, 0.009]}\n";
-  f.p = both(test::plate_yaml(spec) + "contact:\n  friction: 0.2\n  radius_factor: 1.2\n", float_factors);
+  f.p = both(test::plate_yaml(spec) + "contact:\n  friction: 0.2\n  radius_factor: 1.2\n", float_factors,
+             float_copy);
   std::mt19937 gen(11);
   std::uniform_real_distribution<double> d(-1.0, 1.0);
   const Model& model = f.p->model;
@@ -539,6 +541,43 @@ TEST(MatrixFree, FloatFactorsWithFrictionalContactComeBackAfterASuspension) {
   const std::size_t bonds = f.p->model.bonds.neighbour.size();
   EXPECT_GE(held - problem.memory_bytes(), 16 * bonds) << "s_b and k_b in float are freed";
   EXPECT_LT(held - problem.memory_bytes(), 32 * bonds) << "and they took 16 bytes per bond, not 32";
+  problem.resume_action();
+  problem.apply_tangent(v, y_after);
+  ASSERT_EQ(y_after.size(), y_before.size());
+  for (Index k = 0; k < n; ++k) ASSERT_EQ(y_after[k], y_before[k]) << "row " << k;
+}
+
+// solver.krylov.factors mixed (the default with frictional contact): the action reads a float
+// copy of the double factors, so it is the tangent to single precision (2e-6, as float
+// factors) and not the double product, while the residual stays the double one (the
+// kernels', or with linearised kinematics the double factors' product): the same bits as
+// without the copy. Suspending the factors frees the copy too (48 bytes per bond
+// in all) and brings the product back bit for bit.
+TEST(MatrixFree, MixedFactorsActOnTheFloatCopyAndKeepTheResidualDouble) {
+  FrictionalScene f = frictional_scene(false, true);
+  FrictionalScene d = frictional_scene();
+  QuasiStaticProblem& problem = *f.p->matrix_free;
+  expect_action_is_the_tangent(*f.p, f.x, 2e-6);
+  EXPECT_GT(problem.contact()->counts().slip, 0);
+  const Index n = problem.n_unknowns();
+  SparseMatrix placeholder = problem.make_tangent(), placeholder_d = d.p->matrix_free->make_tangent();
+  VectorXd r, r_double, y_before, y_double, y_after;
+  problem.set_suspend_bonds(0);
+  problem.evaluate(f.x, r, &placeholder);
+  d.p->matrix_free->evaluate(f.x, r_double, &placeholder_d);
+  const VectorXd v = random_vector(n, 1.0, 9u);
+  problem.apply_tangent(v, y_before);
+  d.p->matrix_free->apply_tangent(v, y_double);
+  EXPECT_GT((y_before - y_double).norm(), 1e-10 * y_double.norm()) << "the copy was not read";
+  const VectorXd moved = f.x + random_vector(n, 0.01 * f.dx, 5u);  // the state moves on
+  problem.evaluate(moved, r, nullptr);
+  d.p->matrix_free->evaluate(moved, r_double, nullptr);
+  ASSERT_EQ(r.size(), r_double.size());
+  for (Index k = 0; k < n; ++k) ASSERT_EQ(r[k], r_double[k]) << "residual row " << k;
+  const std::size_t held = problem.memory_bytes();
+  ASSERT_TRUE(problem.suspend_action());
+  const std::size_t bonds = f.p->model.bonds.neighbour.size();
+  EXPECT_GE(held - problem.memory_bytes(), 48 * bonds) << "s_b and k_b in double and their float copy";
   problem.resume_action();
   problem.apply_tangent(v, y_after);
   ASSERT_EQ(y_after.size(), y_before.size());

@@ -248,10 +248,13 @@ TEST(LinearAuto, FloatFactorsOnTheLargestModelsWithoutFailure) {
     Scene scene = case_scene(file, sets);
     const bool automatic = scene.solver.action_factors == ActionFactors::automatic;
     const RunPlan plan = resolve_run_plan(scene, 1);
-    EXPECT_EQ(scene.solver.action_factors,
-              plan.float_factors ? ActionFactors::single_precision : ActionFactors::double_precision)
+    EXPECT_EQ(scene.solver.action_factors, plan.float_factors ? ActionFactors::single_precision
+                                           : plan.float_copy  ? ActionFactors::mixed
+                                                              : ActionFactors::double_precision)
         << file;
-    EXPECT_EQ(!plan.factors_auto.empty(), automatic && plan.float_factors) << "auto says why it picked float";
+    EXPECT_FALSE(plan.float_factors && plan.float_copy) << file;
+    EXPECT_EQ(!plan.factors_auto.empty(), automatic && (plan.float_factors || plan.float_copy))
+        << "auto says why it picked float or mixed";
     return plan;
   };
   const char* plate = "tension_plate/scene.yaml";
@@ -267,21 +270,35 @@ TEST(LinearAuto, FloatFactorsOnTheLargestModelsWithoutFailure) {
       << "about 1,000,000 unknowns with a failure criterion";
   EXPECT_FALSE(plan_for(plate, {"discretization.spacing=1e-4", "solver.linear=cg"}).float_factors)
       << "an assembled tangent has no action";
+  // Frictional contact (GMRES): double factors and their float copy (`mixed`); without
+  // friction (CG: the running crack took 6 % more iterations on the copy) double alone.
+  const RunPlan friction = plan_for("paper_4_4_crack_growth/scene.yaml", {});
+  EXPECT_TRUE(friction.float_copy);
+  EXPECT_NE(friction.factors_auto.find("GMRES"), std::string::npos) << friction.factors_auto;
+  EXPECT_FALSE(plan_for("running_crack/scene.yaml", {}).float_copy) << "no contact";
+  EXPECT_FALSE(plan_for("paper_4_4_crack_growth/scene.yaml", {"contact.friction=0"}).float_copy)
+      << "no friction";
+  EXPECT_FALSE(plan_for("paper_4_4_crack_growth/scene.yaml", {"solver.krylov.factors=double"}).float_copy);
+  EXPECT_FALSE(plan_for("paper_4_4_crack_growth/scene.yaml", {"solver.linear=umfpack"}).float_copy)
+      << "an assembled tangent has no action";
+  EXPECT_TRUE(plan_for(plate, {"solver.linear=matrix_free", "solver.krylov.factors=mixed"}).float_copy)
+      << "asked for without friction";
 }
 
-// `float` on a run that assembles its tangent cannot be honoured: refused, naming the key.
+// `float` or `mixed` on a run that assembles its tangent cannot be honoured: refused, naming the key.
 TEST(Preflight, FloatFactorsWithAnAssembledTangentAreRefused) {
-  for (const char* linear : {"solver.linear=cholmod", "solver.type=adr"}) {
-    Scene scene = case_scene("tension_plate/scene.yaml", {linear, "solver.krylov.factors=float"});
-    const RunPlan plan = resolve_run_plan(scene, 1);
-    try {
-      preflight(scene, plan, estimate_size(scene, plan));
-      ADD_FAILURE() << linear << ": not refused";
-    } catch (const InputError& e) {
-      EXPECT_NE(std::string(e.what()).find("solver.krylov.factors"), std::string::npos) << e.what();
-      EXPECT_NE(std::string(e.what()).find("matrix_free"), std::string::npos) << e.what();
+  for (const char* linear : {"solver.linear=cholmod", "solver.type=adr"})
+    for (const char* factors : {"solver.krylov.factors=float", "solver.krylov.factors=mixed"}) {
+      Scene scene = case_scene("tension_plate/scene.yaml", {linear, factors});
+      const RunPlan plan = resolve_run_plan(scene, 1);
+      try {
+        preflight(scene, plan, estimate_size(scene, plan));
+        ADD_FAILURE() << linear << ", " << factors << ": not refused";
+      } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("solver.krylov.factors"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("matrix_free"), std::string::npos) << e.what();
+      }
     }
-  }
 }
 
 // An explicit solver.linear always wins, and ADR needs no linear solver.
