@@ -97,7 +97,8 @@ void NewtonSolver::factorize(SolveReport& report) {
 void NewtonSolver::solve_linear(LinearSolver& lin, double rtol, SolveReport& report, double t0) {
   const double setup0 = lin.stats().setup_seconds;
   lin.configure({m_K_symmetric, rtol, m_problem.traits().preconditioner_state});
-  lin.solve(-m_r, m_dx);
+  m_rhs = -m_r;  // into kept storage: a temporary of the unknowns' size is an mmap per solve
+  lin.solve(m_rhs, m_dx);
   // Held unknowns (fragments) move by exactly nothing: their rows are decoupled, but a
   // preconditioner that mixes rows (an AMG hierarchy built before the fragment was cut loose)
   // leaves round-off there, which a fragment's stretched bonds turn into energy no force

@@ -120,7 +120,7 @@ class NewtonSolver final : public StepSolver {
     std::uint64_t problem_state = 0;  ///< traits().preconditioner_state: active set, broken bonds
     std::uint64_t x_bits = 0;         ///< bits_fingerprint(x)
   } m_prepared_r;
-  VectorXd m_r, m_dx, m_trial, m_trial_r;
+  VectorXd m_r, m_dx, m_trial, m_trial_r, m_rhs;
 };
 
 }  // namespace peristat

@@ -16,9 +16,10 @@ namespace peristat {
 class ZoneCorrection {
  public:
   /// From Pz, a square matrix whose non-empty rows are the zone's rows of a symmetric P:
-  /// keeps them and factors P_zz (Eigen's SimplicialLDLT, its symbolic analysis kept while
-  /// P_zz's pattern is the same). False, and no correction, when Pz has no row or P_zz's
-  /// factor fails.
+  /// keeps them and factors P_zz (Eigen's SimplicialLDLT). While Pz's pattern is the last
+  /// one's (the same zone at another contact state) its values are copied in place and only
+  /// the numeric factorisation is done again: no allocation, no symbolic analysis. False,
+  /// and no correction, when Pz has no row or P_zz's factor fails.
   bool set(const SparseMatrix& Pz);
   void clear() { m_rows.clear(); }
   bool active() const { return !m_rows.empty(); }
@@ -34,8 +35,16 @@ class ZoneCorrection {
   RowMatrix m_P;              ///< P's rows of the zone (all columns)
   SparseMatrix m_Pzz;
   Eigen::SimplicialLDLT<SparseMatrix, Eigen::Lower> m_ldlt;
-  std::vector<Index> m_outer, m_inner;  ///< the pattern m_ldlt analysed (empty: none)
+  /// The pattern of the last Pz built from (empty: none), and for each entry of m_P and
+  /// m_Pzz the position in Pz's values it copies.
+  std::vector<Index> m_pattern_outer, m_pattern_inner;
+  std::vector<std::size_t> m_P_from, m_Pzz_from;
   VectorXd m_r, m_d;
+  bool same_pattern(const SparseMatrix& Pz) const;
+  /// m_P's and m_Pzz's values from Pz's (same_pattern()).
+  void refill(const SparseMatrix& Pz);
+  /// The zone's rows, m_P, m_Pzz, the positions and P_zz's symbolic analysis from Pz.
+  void build(const SparseMatrix& Pz);
 };
 
 }  // namespace peristat

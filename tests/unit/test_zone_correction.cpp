@@ -87,6 +87,26 @@ TEST(ZoneCorrection, AnotherPatternOfTheSameSizeIsAnalysedAgain) {
   expect_exact_on(P2, zone, column_band);
 }
 
+// The same zone at another contact state: Pz's pattern is the last one's, its values others
+// (here P with a diagonal that varies row by row), copied in place into the zone's rows and
+// block. The correction must be exact for the new values and the same bits as a correction
+// built afresh from them.
+TEST(ZoneCorrection, NewValuesOnTheSamePatternAreCopiedInPlace) {
+  const SparseMatrix P = test::laplacian_2d(kM);
+  SparseMatrix Q = P;
+  for (Index i = 0; i < Q.rows(); ++i) Q.coeffRef(i, i) += 0.1 * static_cast<double>(i % 7);
+  ZoneCorrection kept, fresh;
+  ASSERT_TRUE(kept.set(rows_of(P, column_band)));
+  ASSERT_TRUE(kept.set(rows_of(Q, column_band)));
+  ASSERT_TRUE(fresh.set(rows_of(Q, column_band)));
+  expect_exact_on(Q, kept, column_band);
+  const VectorXd v = wavy(kM * kM, 0.0);
+  VectorXd z_kept = wavy(kM * kM, 1.0), z_fresh = z_kept;
+  kept.apply(v, z_kept);
+  fresh.apply(v, z_fresh);
+  EXPECT_EQ(z_kept, z_fresh);
+}
+
 TEST(ZoneCorrection, NoRowsNoCorrection) {
   ZoneCorrection zone;
   EXPECT_FALSE(zone.set(SparseMatrix(kM * kM, kM * kM)));
