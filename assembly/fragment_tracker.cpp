@@ -20,8 +20,32 @@ FragmentTracker::FragmentTracker(const Model& model, BondFailure* failure, const
   m_fragment.assign(model.particles.size(), 0);
 }
 
+void FragmentTracker::update_after_round(ContactSystem* contact,
+                                         const std::vector<std::pair<Index, Index>>& broken) {
+  if (!m_failure) return;
+  // On a part a rank holds some families only, and every rank must search alike: not there.
+  if (!m_graph_parts && std::all_of(broken.begin(), broken.end(), [&](const std::pair<Index, Index>& p) {
+        return joined_round(p.first, p.second);
+      }))
+    return;
+  update(contact);
+}
+
+bool FragmentTracker::joined_round(Index i, Index j) const {
+  const Bonds& bonds = m_model.bonds;
+  const std::span<const double> intact = m_failure->weights();
+  for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
+    if (intact[b] == 0.0) continue;
+    const Index k = bonds.neighbour[b];
+    for (Index c = bonds.start[j]; c < bonds.start[j + 1]; ++c)
+      if (bonds.neighbour[c] == k && intact[c] != 0.0) return true;
+  }
+  return false;
+}
+
 void FragmentTracker::update(ContactSystem* contact) {
   if (!m_failure) return;
+  ++m_graph_searches;
   find_unsupported(m_model, m_failure->weights(), m_unsupported, m_component, m_graph_parts.get());
   const Index n = m_model.particles.size();
   const std::vector<Index>& free = m_model.constraints.free_index;

@@ -35,6 +35,13 @@ class FragmentTracker {
   /// The fragments at the current bonds; the contact pairs (when modelled) exclude them, and
   /// the failure criterion leaves their bonds alone (BondFailure::set_held). On a part: collective.
   void update(ContactSystem* contact);
+  /// update() after a round of breaking that cut the pairs `broken`, unless the round cannot
+  /// have changed the bond graph's components: in one process, when each pair's two particles
+  /// still share a neighbour through intact bonds (any path through a cut pair then goes round
+  /// it), the fragments are those of before and the search over every bond is spared.
+  void update_after_round(ContactSystem* contact, const std::vector<std::pair<Index, Index>>& broken);
+  /// Searches of the whole bond graph so far (update() calls that did not skip).
+  long graph_searches() const { return m_graph_searches; }
   /// Takes the fragments' components out of the forces of an evaluation (zero), and records
   /// the net force they take from the rest of the model (reaction()). On a part with
   /// fragments: collective.
@@ -71,6 +78,9 @@ class FragmentTracker {
   std::vector<char> m_fragment_unknown;  ///< per unknown: 1 for a fragment's
   Index m_fragment_particles = 0, m_fragments = 0;
   double m_fragment_reaction = 0.0;
+  long m_graph_searches = 0;
+  /// i and j share a neighbour k with the bonds i-k and k-j intact.
+  bool joined_round(Index i, Index j) const;
 };
 
 }  // namespace peristat

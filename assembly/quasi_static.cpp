@@ -493,7 +493,7 @@ Index QuasiStaticProblem::advance_irreversible_state(const VectorXd& x, Index at
   // The new faces are contact candidates at once (when the scene models contact).
   if (m_contact) m_contact->add_broken_bonds(broken, m_u);
   m_balance.set_bonds_changed(true);
-  m_fragments.update(m_contact.get());
+  m_fragments.update_after_round(m_contact.get(), broken);
   return count;
 }
 

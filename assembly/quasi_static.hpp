@@ -231,6 +231,8 @@ class QuasiStaticProblem final : public Problem,
   /// breaking, held where they were (docs/theory/failure.md, "Fragments").
   Index fragment_particles() const { return m_fragments.particles(); }
   Index fragments() const { return m_fragments.count(); }
+  /// Searches of the whole bond graph for fragments so far (FragmentTracker::graph_searches()).
+  long fragment_graph_searches() const { return m_fragments.graph_searches(); }
   /// FragmentTracker::contacts() and reaction() at the last evaluation.
   Index fragment_contacts() const { return m_fragments.contacts(m_contact.get()); }
   double fragment_reaction() const { return m_fragments.reaction(); }

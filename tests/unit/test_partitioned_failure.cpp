@@ -36,6 +36,7 @@ struct Record {
   std::vector<std::vector<std::pair<Index, Index>>> rounds;
   std::vector<BondFailure::Peak> peaks;
   Index broken = 0, fragment_particles = 0, fragments = 0;
+  long graph_searches = 0;  ///< after the rounds (the construction's included)
   VectorXd damage;
   StateArchive saved;
   Index restored_broken = 0, restored_fragment_particles = 0;
@@ -68,6 +69,7 @@ Record break_save_restore(
   rec.damage = problem.damage();
   rec.fragment_particles = problem.fragment_particles();
   rec.fragments = problem.fragments();
+  rec.graph_searches = problem.fragment_graph_searches();
   rec.saved.arrays.clear();
   problem.save_state(rec.saved);
   QuasiStaticProblem fresh(model, options, ranks);
@@ -219,6 +221,12 @@ void expect_ranks_break_as_one_process(const Scene& scene, double stretch, doubl
   ASSERT_GE(whole.rounds.size(), 4u);
   ASSERT_GT(whole.broken, 2 * at_most);
   ASSERT_EQ(whole.fragment_particles, 1) << "the moved particle is cut loose";
+  // One process searches the bond graph only after rounds whose pairs may split it (a pair's
+  // particles without a common intact neighbour): fewer searches than rounds, and still the
+  // fragment the parts find, which search after every round.
+  EXPECT_GE(whole.graph_searches, 2) << "at the start, and after the round that cut the particle loose";
+  EXPECT_LT(whole.graph_searches, static_cast<long>(whole.rounds.size()))
+      << "rounds that cannot split skip it";
   EXPECT_EQ(whole.restored_broken, whole.broken);
   EXPECT_TRUE((whole.restored_damage.array() == whole.damage.array()).all());
   ASSERT_GT(whole.undone_round, 0) << "the round to undo must break bonds";
