@@ -384,6 +384,7 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   // of them) depend on the bonds alone: a tangent evaluation at the bonds of the last one keeps
   // them, bit for bit what the kernel would write again.
   const bool factors_kept = K && factors_current();
+  const bool patch = K && !factors_kept && can_patch_factors();
   if (K) {
     m_tangent_evaluation = m_evaluations;
     m_tangent_broken = m_failure ? m_failure->broken() : 0;
@@ -395,12 +396,16 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   expand_state(x);
   if (m_own_rows_only && K)
     throw std::logic_error("QuasiStaticProblem::evaluate: own rows only, with a tangent");
+  // Patched factors: the forces still from the families' kernels, as making the factors
+  // would give them, so that the run's path is the same bits either way.
+  if (patch) patch_factors();
   if ((!K || factors_kept) && linear_forces()) {
     m_action.bond_forces(hessians(), m_options.rows, m_u, m_force);
     m_laws_current = false;
     ++m_linear_force_evaluations;
   } else {
-    bond_forces(K != nullptr && !factors_kept);
+    bond_forces(K != nullptr && !factors_kept && !patch);
+    m_laws_current = true;  // the kernels' laws and energy at m_u: ensure_laws() has nothing to do
   }
   if (m_contact) {
     const double t0 = wall_seconds();
@@ -414,9 +419,12 @@ void QuasiStaticProblem::evaluate(const VectorXd& x, VectorXd& r, SparseMatrix* 
   if (m_own_rows_only)
     for (const Index f : m_share.other_unknowns()) r[f] = 0.0;
   if (K && m_options.matrix_free) {
-    m_action.prepare(hessians(), m_contact.get(), !m_fragments.unknowns().empty(), !factors_kept);
+    m_action.prepare(hessians(), m_contact.get(), !m_fragments.unknowns().empty(), !factors_kept && !patch);
     m_factors_version = m_bonds_version;
-    if (!factors_kept) ++m_factor_evaluations;
+    if (!factors_kept && !patch) {
+      ++m_factor_evaluations;
+      m_dirty_families.clear();
+    }
   } else if (K) {
     gather_tangent(*K);
     m_fragments.decouple(*K);
@@ -543,6 +551,7 @@ void QuasiStaticProblem::collect_changed_families(const std::vector<std::pair<In
   std::sort(m_changed_families.begin(), m_changed_families.end());
   m_changed_families.erase(std::unique(m_changed_families.begin(), m_changed_families.end()),
                            m_changed_families.end());
+  m_dirty_families.insert(m_dirty_families.end(), m_changed_families.begin(), m_changed_families.end());
 }
 
 std::size_t QuasiStaticProblem::memory_bytes() const {

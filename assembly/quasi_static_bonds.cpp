@@ -115,6 +115,85 @@ void QuasiStaticProblem::keep_factors(Index i, Index b0, Index nb, std::size_t m
   m_beta_volume[i] = beta * m_model.particles.volume[i] * scale2;
 }
 
+FamilyResult QuasiStaticProblem::family_tangent(Index i, std::span<Vec2> s, std::span<BondStiffness> k,
+                                                Vec2* eta, double* extension, Vec2* force) const {
+  const Index nb = m_model.bonds.family_size(i);
+  const auto size = static_cast<std::size_t>(nb);
+  family_displacements(i, eta);
+  const FamilyOutputs out{std::span(force, size), std::span(extension, size), s, k};
+  return m_kernels[m_model.particles.body[i]]->evaluate(m_correction.weighted_volume()[i],
+                                                        m_model.family_xi(i), m_correction.family_weights(i),
+                                                        std::span<const Vec2>(eta, size), out, true);
+}
+
+bool QuasiStaticProblem::can_patch_factors() const {
+  return m_options.matrix_free && m_small_kinematics && !m_options.float_factors && m_options.rows.whole() &&
+         !m_own_rows_only && !m_action_suspended && m_factors_version != ~std::uint64_t{0} &&
+         m_factors_version != m_bonds_version && !m_dirty_families.empty() &&
+         8 * m_dirty_families.size() <= static_cast<std::size_t>(m_model.particles.size());
+}
+
+void QuasiStaticProblem::patch_factors() {
+  const Bonds& bonds = m_model.bonds;
+  const Particles& p = m_model.particles;
+  std::vector<Index>& dirty = m_dirty_families;
+  std::sort(dirty.begin(), dirty.end());
+  dirty.erase(std::unique(dirty.begin(), dirty.end()), dirty.end());
+  const std::size_t most = m_largest_family;
+  std::vector<Vec2> eta(most), force(most), s(most);
+  std::vector<double> extension(most);
+  std::vector<BondStiffness> k(most);
+  // The changed families' kernel factors, raw (before the pairs' sums), where a full
+  // evaluation puts them; their reverse bonds' raw k from the neighbours' kernels, whose own
+  // factors stay. Kept aside by bond until every pair is summed.
+  std::vector<std::pair<Index, BondStiffness>> raw;  // (bond, k_b) of both ends of every changed pair
+  std::vector<Index> touched = dirty;                // families whose pairs' stiffnesses change
+  for (const Index i : dirty) {
+    const Index b0 = bonds.start[i], nb = bonds.family_size(i);
+    const FamilyResult res =
+        family_tangent(i, std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb), eta.data(),
+                       extension.data(), force.data());
+    keep_factors(i, b0, nb, 0, res.beta);
+    for (Index b = b0; b < b0 + nb; ++b) raw.emplace_back(b, m_kbond[b]);
+  }
+  const auto is_dirty = [&](Index j) { return std::binary_search(dirty.begin(), dirty.end(), j); };
+  for (const Index i : dirty)
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) touched.push_back(bonds.neighbour[b]);
+  std::sort(touched.begin(), touched.end());
+  touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+  for (const Index j : touched) {
+    if (is_dirty(j)) continue;
+    const Index b0 = bonds.start[j], nb = bonds.family_size(j);
+    const auto size = static_cast<std::size_t>(nb);
+    family_tangent(j, std::span(s.data(), size), std::span(k.data(), size), eta.data(), extension.data(),
+                   force.data());
+    for (Index b = b0; b < b0 + nb; ++b)
+      if (is_dirty(bonds.neighbour[b])) raw.emplace_back(b, k[static_cast<std::size_t>(b - b0)]);
+  }
+  std::sort(raw.begin(), raw.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  const auto raw_k = [&](Index b) {
+    const auto it =
+        std::lower_bound(raw.begin(), raw.end(), b, [](const auto& e, Index v) { return e.first < v; });
+    return Vec2((*it).second[0], (*it).second[1]);
+  };
+  // Each changed pair's stiffnesses as TangentAction::pair_stiffness() makes them, from the
+  // family of its lower bond index.
+  for (const Index i : dirty)
+    for (Index b = bonds.start[i]; b < bonds.start[i + 1]; ++b) {
+      const Index r = bonds.reverse(i, b), j = bonds.neighbour[b];
+      const Index lo = std::min(b, r), hi = std::max(b, r);
+      const Index q = lo == b ? i : j, other = lo == b ? j : i;
+      const TangentAction::PairForm f = TangentAction::pair_form(
+          p.volume[q], p.volume[other], raw_k(lo), raw_k(hi), m_s[lo].squaredNorm(), m_s[hi].squaredNorm());
+      m_kbond[lo] = BondStiffness{f.c_lower, f.g};
+      m_kbond[hi] = BondStiffness{f.c_upper, f.g};
+    }
+  m_action.patch_float_copy(hessians(), touched);
+  m_factors_version = m_bonds_version;
+  m_dirty_families.clear();
+  ++m_factor_patches;
+}
+
 void QuasiStaticProblem::bond_forces(bool want_tangent) {
   compute_families(want_tangent);
   gather_forces();

@@ -139,27 +139,39 @@ void TangentAction::make_float_copy(const FamilyHessians& h) {
   m_s_self32.resize(static_cast<std::size_t>(n));
   m_beta_volume32.resize(static_cast<std::size_t>(n));
 #pragma omp parallel for schedule(static)
-  for (Index i = 0; i < n; ++i) {
-    const Index b0 = bonds.start[i], b1 = bonds.start[i + 1];
-    double largest = 0.0;
-    for (Index b = b0; b < b1; ++b) largest = std::max(largest, h.s[b].cwiseAbs().maxCoeff());
-    const int e = largest > 0.0 ? std::ilogb(largest) : 0;
-    const double inverse = std::ldexp(1.0, -e);
-    for (Index b = b0; b < b1; ++b)
-      m_s32[b] = Float2{static_cast<float>(inverse * h.s[b].x()), static_cast<float>(inverse * h.s[b].y())};
-    // Reading the floats back, in loops of their own (keep_factors(): GCC 12.2 at -O3 once
-    // summed the unrounded doubles of a fused loop).
-    Vec2 s = Vec2::Zero();
-    for (Index b = b0; b < b1; ++b) s -= widened(m_s32[b]);
-    for (Index b = b0; b < b1; ++b) {
-      const double full = h.s[b].squaredNorm(), kept = widened(m_s32[b]).squaredNorm();
-      m_k32[b] = Float2{static_cast<float>(kept > 0.0 ? h.kbond[b][0] * full / kept : 0.0),
-                        static_cast<float>(h.kbond[b][1])};
-    }
-    m_s_self32[static_cast<std::size_t>(i)] = s;
-    m_beta_volume32[static_cast<std::size_t>(i)] = h.beta_volume[i] * std::ldexp(1.0, 2 * e);
-  }
+  for (Index i = 0; i < n; ++i) copy_family(h, i);
   m_have_copy = true;
+}
+
+void TangentAction::patch_float_copy(const FamilyHessians& h, std::span<const Index> families) {
+  if (!m_float_copy || h.single) return;
+  if (!m_have_copy) {
+    make_float_copy(h);
+    return;
+  }
+  for (const Index i : families) copy_family(h, i);
+}
+
+void TangentAction::copy_family(const FamilyHessians& h, Index i) {
+  const Bonds& bonds = m_model.bonds;
+  const Index b0 = bonds.start[i], b1 = bonds.start[i + 1];
+  double largest = 0.0;
+  for (Index b = b0; b < b1; ++b) largest = std::max(largest, h.s[b].cwiseAbs().maxCoeff());
+  const int e = largest > 0.0 ? std::ilogb(largest) : 0;
+  const double inverse = std::ldexp(1.0, -e);
+  for (Index b = b0; b < b1; ++b)
+    m_s32[b] = Float2{static_cast<float>(inverse * h.s[b].x()), static_cast<float>(inverse * h.s[b].y())};
+  // Reading the floats back, in loops of their own (keep_factors(): GCC 12.2 at -O3 once
+  // summed the unrounded doubles of a fused loop).
+  Vec2 s = Vec2::Zero();
+  for (Index b = b0; b < b1; ++b) s -= widened(m_s32[b]);
+  for (Index b = b0; b < b1; ++b) {
+    const double full = h.s[b].squaredNorm(), kept = widened(m_s32[b]).squaredNorm();
+    m_k32[b] = Float2{static_cast<float>(kept > 0.0 ? h.kbond[b][0] * full / kept : 0.0),
+                      static_cast<float>(h.kbond[b][1])};
+  }
+  m_s_self32[static_cast<std::size_t>(i)] = s;
+  m_beta_volume32[static_cast<std::size_t>(i)] = h.beta_volume[i] * std::ldexp(1.0, 2 * e);
 }
 
 FamilyHessians TangentAction::float_copy() const {
@@ -320,13 +332,11 @@ void TangentAction::pair_stiffness_on(std::span<const S> s, std::span<K> kbond) 
     for (Index b = bonds.start[q]; b < bonds.start[q + 1]; ++b) {
       const Index r = bonds.reverse(q, b);
       if (r < b) continue;
-      const double Vq = part.volume[q], Vj = part.volume[bonds.neighbour[b]];
-      const Vec2 kb = widened(kbond[b]), kr = widened(kbond[r]);
-      // V_q k_b + V_j k_r = g I + (a - g) M M^T, M M^T = s_b s_b^T / |s_b|^2 = s_r s_r^T / |s_r|^2.
-      const double a = Vq * kb[0] + Vj * kr[0], g = Vq * kb[1] + Vj * kr[1];
-      const double sb = widened(s[b]).squaredNorm(), sr = widened(s[r]).squaredNorm();
-      kbond[b] = K{static_cast<Kept>(sb > 0.0 ? (a - g) / sb : 0.0), static_cast<Kept>(g)};
-      kbond[r] = K{static_cast<Kept>(sr > 0.0 ? (a - g) / sr : 0.0), static_cast<Kept>(g)};
+      const PairForm f =
+          pair_form(part.volume[q], part.volume[bonds.neighbour[b]], widened(kbond[b]), widened(kbond[r]),
+                    widened(s[b]).squaredNorm(), widened(s[r]).squaredNorm());
+      kbond[b] = K{static_cast<Kept>(f.c_lower), static_cast<Kept>(f.g)};
+      kbond[r] = K{static_cast<Kept>(f.c_upper), static_cast<Kept>(f.g)};
     }
 }
 

@@ -89,8 +89,26 @@ class TangentAction {
   /// Frees the copy (the factors are dropped while a preconditioner is set up); the next
   /// prepare() or prepare_families() makes it again.
   void release_float_copy();
+  /// The float copy of the families `families` made again from h (QuasiStaticProblem::
+  /// patch_factors(): the factors of those families or of their pairs changed); all of it
+  /// when there is none yet. Nothing without a copy.
+  void patch_float_copy(const FamilyHessians& h, std::span<const Index> families);
+
+  /// A pair's stiffnesses in the action's form (FamilyHessians) from its two bonds' kernel
+  /// factors: b the lower bond index, in family q (volume V_q), r its reverse (V_j); |s_b|^2
+  /// and |s_r|^2. c_b for b, c_r for r, and their common g.
+  struct PairForm {
+    double c_lower, c_upper, g;
+  };
+  static PairForm pair_form(double Vq, double Vj, const Vec2& kb, const Vec2& kr, double sb, double sr) {
+    // V_q k_b + V_j k_r = g I + (a - g) M M^T, M M^T = s_b s_b^T / |s_b|^2 = s_r s_r^T / |s_r|^2.
+    const double a = Vq * kb[0] + Vj * kr[0], g = Vq * kb[1] + Vj * kr[1];
+    return {sb > 0.0 ? (a - g) / sb : 0.0, sr > 0.0 ? (a - g) / sr : 0.0, g};
+  }
 
  private:
+  /// make_float_copy()'s work on the family of particle i.
+  void copy_family(const FamilyHessians& h, Index i);
   /// The float copy of h's double factors, scaled by each family's power of two as
   /// QuasiStaticProblem::keep_factors() scales single-precision ones: s_b / sigma_i rounded,
   /// s_self the sum of the rounded s_b (no action on a rigid translation), the pair

@@ -150,6 +150,43 @@ TEST(MatrixFree, KeptFactorsAreTheKernelsBitForBit) {
   EXPECT_EQ(finite->matrix_free->factor_evaluations(), 2) << "finite kinematics: made at every evaluation";
 }
 
+// A round that breaks a few pairs changes a few families: an evaluation with a tangent then
+// makes the factors of those families and the stiffnesses of their pairs only
+// (factor_patches()), bit for bit what a problem that made them all at the same bonds applies,
+// with double factors and with their float copy; a further round, and its undoing, alike.
+TEST(MatrixFree, PatchedFactorsAreTheKernelsBitForBit) {
+  for (const bool copy : {false, true}) {
+    SCOPED_TRACE(copy ? "float copy" : "double");
+    auto p = both(cracked_plate("small") + "failure: {criterion: stretch, G_c: 1.0e-3}\n", false, copy);
+    QuasiStaticProblem& kept = *p->matrix_free;
+    const double dx = p->scene.discretization.spacing;
+    const Index n = kept.n_unknowns();
+    SparseMatrix none = kept.make_tangent();
+    VectorXd r;
+    const VectorXd x = random_vector(n, 0.05 * dx, 2u), x0 = random_vector(n, 0.05 * dx, 11u);
+    kept.evaluate(x, r, &none);
+    ProblemOptions options = problem_options(p->scene);
+    options.matrix_free = true;
+    options.float_copy = copy;
+    for (const Index rounds : {1, 2}) {
+      ASSERT_EQ(kept.advance_irreversible_state(x0, 3), 3);
+      kept.evaluate(x, r, &none);
+      EXPECT_EQ(kept.factor_evaluations(), 1) << rounds << " rounds of 3 pairs: patched, not made again";
+      EXPECT_EQ(kept.factor_patches(), rounds);
+      QuasiStaticProblem fresh(p->model, options);
+      fresh.set_load_factor(1.0);
+      for (Index k = 0; k < rounds; ++k) ASSERT_EQ(fresh.advance_irreversible_state(x0, 3), 3);
+      fresh.evaluate(x, r, &none);
+      EXPECT_EQ(fresh.factor_patches(), 0);
+      expect_same_action(kept, fresh, rounds == 1 ? "after one round" : "after two rounds");
+      if (rounds == 1) kept.commit(x0);
+    }
+    kept.revert_irreversible_state();
+    kept.evaluate(x, r, &none);
+    EXPECT_EQ(kept.factor_patches(), 3) << "the round undone: patched again";
+  }
+}
+
 /// A plate held by mirror grips on both ends, one of them pulled.
 std::string mirror_gripped_plate() {
   test::PlateSpec spec;
