@@ -551,7 +551,8 @@ void QuasiStaticProblem::collect_changed_families(const std::vector<std::pair<In
   std::sort(m_changed_families.begin(), m_changed_families.end());
   m_changed_families.erase(std::unique(m_changed_families.begin(), m_changed_families.end()),
                            m_changed_families.end());
-  m_dirty_families.insert(m_dirty_families.end(), m_changed_families.begin(), m_changed_families.end());
+  if (m_options.matrix_free && m_small_kinematics)  // the only factors kept across changes (patch_factors())
+    m_dirty_families.insert(m_dirty_families.end(), m_changed_families.begin(), m_changed_families.end());
 }
 
 std::size_t QuasiStaticProblem::memory_bytes() const {

@@ -174,10 +174,10 @@ void TangentAction::copy_family(const FamilyHessians& h, Index i) {
   m_beta_volume32[static_cast<std::size_t>(i)] = h.beta_volume[i] * std::ldexp(1.0, 2 * e);
 }
 
-FamilyHessians TangentAction::float_copy() const {
+FamilyHessians TangentAction::float_copy() {
   FamilyHessians f;
   f.s32 = m_s32;
-  f.kbond32 = std::span<Float2>(const_cast<Float2*>(m_k32.data()), m_k32.size());
+  f.kbond32 = m_k32;
   f.single = true;
   f.s_self = m_s_self32;
   f.beta_volume = m_beta_volume32;

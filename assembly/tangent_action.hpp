@@ -115,7 +115,7 @@ class TangentAction {
   /// coefficient c_b |s_b|^2 / |s_b rounded|^2 (the same (a - g)), beta_i V_i sigma_i^2.
   void make_float_copy(const FamilyHessians& h);
   /// The copy as FamilyHessians (single), for multiply().
-  FamilyHessians float_copy() const;
+  FamilyHessians float_copy();
   /// m_y_full += H m_v_full over the families and contact pairs (with `share`, those of this
   /// rank's rows), colour by colour.
   void multiply(const FamilyHessians& h, const ContactSystem* contact, const OwnedRows& rows, const RankShare* share);
