@@ -319,10 +319,12 @@ std::vector<std::string> preflight(const Scene& scene, const RunPlan& plan, cons
        scene.solver.action_factors == ActionFactors::mixed) &&
       !plan.matrix_free()) {
     const std::string why = plan.newton() ? "solver.linear " + std::string(to_string(plan.linear)) : "ADR";
-    std::snprintf(buf, sizeof buf,
-                  "%s keeps the matrix-free action's factors in single precision, but this run assembles its "
-                  "tangent (%s); set solver.linear=matrix_free, or remove the key",
-                  std::string(to_string(scene.solver.action_factors)).c_str(), why.c_str());
+    std::snprintf(
+        buf, sizeof buf,
+        "%s keeps the matrix-free action's factors (or a copy of them) in single precision, but this run "
+        "assembles its "
+        "tangent (%s); set solver.linear=matrix_free, or remove the key",
+        std::string(to_string(scene.solver.action_factors)).c_str(), why.c_str());
     throw InputError(scene.solver.factors_where, buf);
   }
   check_memory(scene, plan, e);
