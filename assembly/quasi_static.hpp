@@ -323,10 +323,9 @@ class QuasiStaticProblem final : public Problem,
   /// the neighbours' families) and the float copy of both sides: bit for bit what making them
   /// all would give, for a few hundred families instead of every one.
   void patch_factors();
-  /// One family's kernel at m_u with its tangent: the factors into `s` and `k` (the family's
-  /// bonds), `eta`, `extension` and `force` scratch of the family's size.
-  FamilyResult family_tangent(Index i, std::span<Vec2> s, std::span<BondStiffness> k, Vec2* eta,
-                              double* extension, Vec2* force) const;
+  /// The kernel of particle i's family at m_u into `out` (eta: scratch of the family's size
+  /// for its relative displacements): compute_families()'s and patch_factors()'s.
+  FamilyResult run_kernel(Index i, Vec2* eta, const FamilyOutputs& out, bool want_tangent) const;
 
   const Model& m_model;
   ProblemOptions m_options;

@@ -47,7 +47,6 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
     for (Index i = 0; i < n; ++i) {
       if (!m_share.family_needed(i)) continue;
       const Index b0 = bonds.start[i], nb = bonds.family_size(i);
-      family_displacements(i, eta);
       // The bond forces are gathered from the laws: the kernel writes them only as the scratch
       // of its tangent's directions.
       const auto size = static_cast<std::size_t>(nb);
@@ -61,9 +60,7 @@ void QuasiStaticProblem::compute_families(bool want_tangent) {
           !want_tangent ? std::span<BondStiffness>()
           : single      ? std::span(m_kbond_scratch.data() + mine, size)
                         : std::span(m_kbond).subspan(b0, nb)};
-      const FamilyResult res = m_kernels[p.body[i]]->evaluate(
-          m_correction.weighted_volume()[i], m_model.family_xi(i), m_correction.family_weights(i),
-          std::span<const Vec2>(eta, static_cast<std::size_t>(nb)), out, want_tangent);
+      const FamilyResult res = run_kernel(i, eta, out, want_tangent);
       m_law[i] = res.law;
       const double e = p.volume[i] * res.energy_density;
       if (rows.contains(i))
@@ -115,15 +112,12 @@ void QuasiStaticProblem::keep_factors(Index i, Index b0, Index nb, std::size_t m
   m_beta_volume[i] = beta * m_model.particles.volume[i] * scale2;
 }
 
-FamilyResult QuasiStaticProblem::family_tangent(Index i, std::span<Vec2> s, std::span<BondStiffness> k,
-                                                Vec2* eta, double* extension, Vec2* force) const {
-  const Index nb = m_model.bonds.family_size(i);
-  const auto size = static_cast<std::size_t>(nb);
+FamilyResult QuasiStaticProblem::run_kernel(Index i, Vec2* eta, const FamilyOutputs& out,
+                                            bool want_tangent) const {
   family_displacements(i, eta);
-  const FamilyOutputs out{std::span(force, size), std::span(extension, size), s, k};
-  return m_kernels[m_model.particles.body[i]]->evaluate(m_correction.weighted_volume()[i],
-                                                        m_model.family_xi(i), m_correction.family_weights(i),
-                                                        std::span<const Vec2>(eta, size), out, true);
+  return m_kernels[m_model.particles.body[i]]->evaluate(
+      m_correction.weighted_volume()[i], m_model.family_xi(i), m_correction.family_weights(i),
+      std::span<const Vec2>(eta, static_cast<std::size_t>(m_model.bonds.family_size(i))), out, want_tangent);
 }
 
 bool QuasiStaticProblem::can_patch_factors() const {
@@ -150,9 +144,11 @@ void QuasiStaticProblem::patch_factors() {
   std::vector<Index> touched = dirty;                // families whose pairs' stiffnesses change
   for (const Index i : dirty) {
     const Index b0 = bonds.start[i], nb = bonds.family_size(i);
-    const FamilyResult res =
-        family_tangent(i, std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb), eta.data(),
-                       extension.data(), force.data());
+    const auto size = static_cast<std::size_t>(nb);
+    const FamilyResult res = run_kernel(i, eta.data(),
+                                        {std::span(force.data(), size), std::span(extension.data(), size),
+                                         std::span(m_s).subspan(b0, nb), std::span(m_kbond).subspan(b0, nb)},
+                                        true);
     keep_factors(i, b0, nb, 0, res.beta);
     for (Index b = b0; b < b0 + nb; ++b) raw.emplace_back(b, m_kbond[b]);
   }
@@ -165,8 +161,10 @@ void QuasiStaticProblem::patch_factors() {
     if (is_dirty(j)) continue;
     const Index b0 = bonds.start[j], nb = bonds.family_size(j);
     const auto size = static_cast<std::size_t>(nb);
-    family_tangent(j, std::span(s.data(), size), std::span(k.data(), size), eta.data(), extension.data(),
-                   force.data());
+    run_kernel(j, eta.data(),
+               {std::span(force.data(), size), std::span(extension.data(), size), std::span(s.data(), size),
+                std::span(k.data(), size)},
+               true);
     for (Index b = b0; b < b0 + nb; ++b)
       if (is_dirty(bonds.neighbour[b])) raw.emplace_back(b, k[static_cast<std::size_t>(b - b0)]);
   }

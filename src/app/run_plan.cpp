@@ -70,8 +70,8 @@ bool picks_linear_solver(const Scene& scene) {
 void resolve_action_factors(const Scene& scene, RunPlan& plan, double unknowns) {
   if (scene.solver.action_factors != ActionFactors::automatic) return;  // plan_with_linear() took it
   plan.float_factors = plan.matrix_free() && unknowns > kFloatFactorsAbove && !scene.failure.enabled;
-  // GMRES (slipping pairs) on the double factors' float copy: case 4.4 at dx = 0.01 m, 4.6
-  // against 5.0 ms an action and 1,260 against 1,282 Krylov iterations; CG (the running crack)
+  // GMRES (slipping pairs) on the double factors' float copy: case 4.4 at dx = 0.01 m, 4.9
+  // against 5.2 ms an action and 1,260 against 1,282 Krylov iterations; CG (the running crack)
   // took 6 % more iterations on it (docs/performance.md, "Mixed factors").
   plan.float_copy =
       !plan.float_factors && plan.matrix_free() && scene.contact.enabled && scene.contact.friction > 0.0;
